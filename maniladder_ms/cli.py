@@ -1,0 +1,139 @@
+"""`maniladder`: list the ladder, render a task, benchmark steps/s."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from collections import Counter
+from pathlib import Path
+
+from maniladder_ms.catalog import EMBODIMENTS, LEVELS, OBJECT_CLASSES, OBJECT_PROPERTIES, SKILLS, CatalogError, UnknownTaskError
+
+
+def _catalog():
+    import maniladder_ms  # registers the implemented envs
+
+    return maniladder_ms.default_catalog()
+
+
+def cmd_list(args) -> int:
+    cat = _catalog()
+    tasks = cat.filter(
+        level=args.level, suite=args.suite, embodiment=args.embodiment, skill=args.skill,
+        object_class=args.object_class, implemented=True if args.implemented else None,
+    )
+    if args.summary:
+        return _print_summary(cat, tasks, args.json)
+    if args.json:
+        print(json.dumps([t.as_dict() for t in tasks], indent=2))
+        return 0
+    header = ("", "task", "level", "suite", "object", "skills", "horizon", "Cg/Cp/Cv")
+    rows = [
+        ("*" if t.implemented else " ", t.id, str(t.level), t.suite, t.object_class, ",".join(t.skills),
+         str(t.horizon), "{C_geom}/{C_proc}/{C_perc}".format(**t.scores))
+        for t in tasks
+    ]
+    _print_table(header, rows)
+    print(f"\n{len(tasks)} tasks, {sum(t.implemented for t in tasks)} implemented (*)")
+    return 0
+
+
+def _print_summary(cat, tasks, as_json: bool) -> int:
+    per_suite = Counter(t.suite for t in tasks)
+    done_suite = Counter(t.suite for t in tasks if t.implemented)
+    if as_json:
+        out = {
+            "catalog": len(tasks), "implemented": sum(done_suite.values()),
+            "suites": {s: {"catalog": per_suite[s], "implemented": done_suite[s]} for s in cat.suites() if per_suite[s]},
+        }
+        print(json.dumps(out, indent=2))
+        return 0
+    cols = [f"{p[:3]}-{e}" for p in OBJECT_PROPERTIES for e in EMBODIMENTS]
+    rows = []
+    for level in LEVELS:
+        cells = []
+        for p in OBJECT_PROPERTIES:
+            for e in EMBODIMENTS:
+                s = f"L{level}-{p}-{e}"
+                cells.append(f"{done_suite[s]}/{per_suite[s]}" if per_suite[s] else "-")
+        lv = [t for t in tasks if t.level == level]
+        rows.append((f"L{level}", *cells, f"{sum(t.implemented for t in lv)}/{len(lv)}"))
+    _print_table(("level", *cols, "total"), rows)
+    print(f"\nimplemented / catalog: {sum(done_suite.values())} / {len(tasks)} tasks")
+    return 0
+
+
+def _print_table(header, rows):
+    widths = [max(len(str(x)) for x in col) for col in zip(header, *rows)]
+    for line in (header, tuple("-" * w for w in widths), *rows):
+        print("  ".join(str(x).ljust(w) for x, w in zip(line, widths)).rstrip())
+
+
+def cmd_render(args) -> int:
+    from maniladder_ms.render import render_task
+
+    spec = _catalog().get(args.task)
+    out = args.out or Path(f"{spec.id}_seed{args.seed}.png")
+    path = render_task(spec.id, args.seed, out, domain_randomization=args.domain_randomization, size=args.size)
+    print(f"wrote {path}")
+    return 0
+
+
+def cmd_bench(args) -> int:
+    from maniladder_ms.bench import bench
+
+    cat = _catalog()
+    specs = [cat.get(t) for t in args.tasks] if args.tasks else cat.filter(implemented=True)
+    for spec in specs:
+        if not spec.implemented:
+            raise CatalogError(f"task {spec.id} is not implemented yet")
+    rows = bench([s.env_id for s in specs], steps=args.steps, obs_mode=args.obs_mode,
+                 progress=lambda e: print(f"  measuring {e} ...", file=sys.stderr))
+    _print_table(("env", "steps/s", "ratio to PickCube-v1"),
+                 [(r["env_id"], f"{r['steps_per_s']:.0f}", f"{r['ratio']:.2f}") for r in rows])
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="maniladder", description=__doc__)
+    sub = p.add_subparsers(dest="command", required=True)
+
+    ls = sub.add_parser("list", help="the catalog as a table (* = implemented)")
+    ls.add_argument("--level", type=int, choices=LEVELS)
+    ls.add_argument("--suite", help="e.g. L1-rigid-SG")
+    ls.add_argument("--embodiment", choices=EMBODIMENTS)
+    ls.add_argument("--skill", choices=SKILLS)
+    ls.add_argument("--object-class", choices=OBJECT_CLASSES)
+    ls.add_argument("--implemented", action="store_true", help="only implemented tasks")
+    ls.add_argument("--json", action="store_true", help="machine-readable output")
+    ls.add_argument("--summary", action="store_true", help="implemented vs catalog counts per level and suite")
+    ls.set_defaults(func=cmd_list)
+
+    rd = sub.add_parser("render", help="one PNG of a task from all its cameras")
+    rd.add_argument("task", help="task id, e.g. PickPlacePen")
+    rd.add_argument("--seed", type=int, default=0)
+    rd.add_argument("--out", type=Path, help="PNG path (default: <task>_seed<seed>.png)")
+    rd.add_argument("--size", type=int, default=256, help="pixels per camera image")
+    rd.add_argument("--domain-randomization", "--dr", action="store_true")
+    rd.set_defaults(func=cmd_render)
+
+    bn = sub.add_parser("bench", help="control steps/s of tasks as ratios to PickCube-v1 (same process)")
+    bn.add_argument("tasks", nargs="*", help="task ids (default: all implemented)")
+    bn.add_argument("--steps", type=int, default=300)
+    bn.add_argument("--obs-mode", default="state")
+    bn.set_defaults(func=cmd_bench)
+    return p
+
+
+def main(argv=None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return args.func(args)
+    except (UnknownTaskError, CatalogError) as e:
+        print(f"maniladder: error: {e}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,144 @@
+"""`ManiLadderEnv`: the base every ManiLadder task subclasses.
+
+It owns what all tasks share: the catalog metadata of the task, the table-top scene (with optional
+domain randomisation), the camera rig (front, left and top third-view cameras plus the robot's
+wrist cameras), robot placement and rest pose, supported-robot checks and the render-backend choice.
+Tasks add their objects in `_load_scene`, randomise them in `_initialize_episode` (after calling
+super), and define `evaluate` and the dense rewards, as ManiSkill tasks do.
+"""
+
+from __future__ import annotations
+
+import glob
+import os
+from typing import ClassVar, Optional
+
+import numpy as np
+import sapien
+import torch
+
+from mani_skill.envs.sapien_env import BaseEnv
+from mani_skill.sensors.camera import CameraConfig
+from mani_skill.utils import sapien_utils
+
+from maniladder_ms.catalog import TaskSpec, default_catalog
+
+from .scene import LadderScene
+
+ROBOT_BASE_POSE = sapien.Pose(p=[-0.615, 0, 0])
+CAMERA_SIZE = 128
+VISUAL_OBS_MODES = ("rgb", "rgbd", "depth", "pointcloud", "sensor_data", "segmentation")
+LAVAPIPE_ICD_GLOB = "/usr/share/vulkan/icd.d/lvp_icd*.json"
+
+
+class UnsupportedRobotError(ValueError):
+    """A robot uid the task was not built for."""
+
+
+def _needs_rendering(obs_mode: Optional[str], render_mode: Optional[str]) -> bool:
+    return render_mode is not None or any(m in (obs_mode or "") for m in VISUAL_OBS_MODES)
+
+
+def resolve_render_backend(requested: Optional[str], obs_mode: Optional[str], render_mode: Optional[str]) -> str:
+    """GPU if there is one, else CPU lavapipe if installed, else none (state obs only).
+
+    `requested` (the env kwarg) or `$MANILADDER_RENDER_BACKEND` override the choice.
+    """
+    backend = requested or os.environ.get("MANILADDER_RENDER_BACKEND")
+    if backend is None:
+        if torch.cuda.is_available():
+            backend = "gpu"
+        elif glob.glob(LAVAPIPE_ICD_GLOB):
+            backend = "cpu"
+        else:
+            backend = "none"
+    if backend in ("none", "sapien_none") and _needs_rendering(obs_mode, render_mode):
+        raise RuntimeError(
+            f"obs_mode={obs_mode!r} / render_mode={render_mode!r} need a renderer, but no GPU and no software "
+            "Vulkan (Mesa lavapipe >= 24.3) was found. Run scripts/setup.sh, or pass render_backend='cpu'/'gpu'."
+        )
+    return backend
+
+
+class ManiLadderEnv(BaseEnv):
+    """Base class of all ManiLadder tasks (see the module docstring).
+
+    Keyword args beyond ManiSkill's BaseEnv:
+        task_id: catalog id, fixed by the registration of each env id.
+        domain_randomization: randomise lighting, table/backdrop textures and 0-3 distractors; the
+            scene is then rebuilt at every reset (reconfiguration_freq=1).
+        robot_init_qpos_noise: std of the noise added to the robot's rest pose at reset.
+    """
+
+    SUPPORTED_ROBOTS: ClassVar[list[str]] = ["panda_wristcam"]
+    # (xmin, xmax, ymin, ymax) of the table area task objects and goals use; distractors stay out of it
+    TASK_REGION: ClassVar[tuple[float, float, float, float]] = (-0.25, 0.25, -0.3, 0.3)
+    task_spec: TaskSpec
+
+    def __init__(
+        self,
+        *args,
+        task_id: str,
+        robot_uids: Optional[str] = None,
+        domain_randomization: bool = False,
+        robot_init_qpos_noise: float = 0.02,
+        render_backend: Optional[str] = None,
+        **kwargs,
+    ):
+        self.task_spec = default_catalog().get(task_id)
+        robot_uids = self.SUPPORTED_ROBOTS[0] if robot_uids is None else robot_uids
+        if robot_uids not in self.SUPPORTED_ROBOTS:
+            raise UnsupportedRobotError(
+                f"task {task_id} does not support robot {robot_uids!r}; supported: {', '.join(map(str, self.SUPPORTED_ROBOTS))}"
+            )
+        self.domain_randomization = domain_randomization
+        self.robot_init_qpos_noise = robot_init_qpos_noise
+        if domain_randomization:
+            kwargs.setdefault("reconfiguration_freq", 1)
+        render_backend = resolve_render_backend(render_backend, kwargs.get("obs_mode"), kwargs.get("render_mode"))
+        super().__init__(*args, robot_uids=robot_uids, render_backend=render_backend, **kwargs)
+
+    # ---- cameras ------------------------------------------------------------------------------
+    @property
+    def _default_sensor_configs(self):
+        target = [-0.1, 0, 0.05]
+        views = {
+            "front_camera": ([0.55, 0, 0.45], target),
+            "left_camera": ([-0.1, 0.7, 0.45], target),
+            "top_camera": ([-0.05, 0, 0.95], [-0.0, 0, 0]),
+        }
+        return [
+            CameraConfig(uid, sapien_utils.look_at(eye=eye, target=tgt), CAMERA_SIZE, CAMERA_SIZE, 1.1, 0.01, 10)
+            for uid, (eye, tgt) in views.items()
+        ]
+
+    @property
+    def _default_human_render_camera_configs(self):
+        pose = sapien_utils.look_at(eye=[0.5, 0.6, 0.55], target=[-0.15, 0, 0.05])
+        return CameraConfig("render_camera", pose, 512, 512, 1.0, 0.01, 10)
+
+    # ---- scene --------------------------------------------------------------------------------
+    def _load_agent(self, options: dict):
+        super()._load_agent(options, ROBOT_BASE_POSE)
+
+    def _load_scene(self, options: dict):
+        self.ladder_scene = LadderScene(self, randomize=self.domain_randomization)
+        self.ladder_scene.build()
+
+    def _load_lighting(self, options: dict):
+        self.ladder_scene.load_lighting()
+
+    def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
+        """Robot to its rest pose (plus noise) and distractors clear of the task; tasks call this first."""
+        b = len(env_idx)
+        qpos = torch.as_tensor(self.agent.keyframes["rest"].qpos, dtype=torch.float32).repeat(b, 1)
+        n_arm = len(self.agent.arm_joint_names)  # noise on the arm only; the gripper starts open
+        qpos[:, :n_arm] += torch.randn(b, n_arm) * self.robot_init_qpos_noise
+        self.agent.reset(qpos)
+        self.agent.robot.set_pose(ROBOT_BASE_POSE)
+        self.ladder_scene.initialize(env_idx, keep_out=self.TASK_REGION)
+
+    # ---- helpers for tasks --------------------------------------------------------------------
+    def is_gripper_open(self, min_width: float = 0.06) -> torch.Tensor:
+        """Whether the parallel gripper's finger gap is at least `min_width` metres (Panda fingers)."""
+        return self.agent.robot.get_qpos()[:, -2:].sum(dim=1) >= min_width

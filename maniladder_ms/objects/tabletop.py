@@ -1,0 +1,58 @@
+"""Small rigid table-top objects made from primitives: pen, tray."""
+
+from __future__ import annotations
+
+import sapien
+import sapien.render
+
+from mani_skill.envs.scene import ManiSkillScene
+
+WOOD_DENSITY = 600.0
+
+
+def build_pen(
+    scene: ManiSkillScene, name: str, length: float, radius: float, body_color, cap_color
+) -> "Actor":
+    """A pen lying along its local x axis: capsule collision, cylinder body and a coloured cap."""
+    builder = scene.create_actor_builder()
+    half = length / 2 - radius
+    builder.add_capsule_collision(radius=radius, half_length=half, density=WOOD_DENSITY)
+    body = sapien.render.RenderMaterial(base_color=list(body_color), roughness=0.4)
+    cap = sapien.render.RenderMaterial(base_color=list(cap_color), roughness=0.4)
+    cap_len = 0.2 * length
+    builder.add_cylinder_visual(
+        pose=sapien.Pose(p=[-cap_len / 2, 0, 0]), radius=radius, half_length=half - cap_len / 2, material=body
+    )
+    builder.add_cylinder_visual(
+        pose=sapien.Pose(p=[half - cap_len / 2, 0, 0]), radius=radius * 1.08, half_length=cap_len / 2, material=cap
+    )
+    builder.add_sphere_visual(pose=sapien.Pose(p=[half, 0, 0]), radius=radius * 1.08, material=cap)
+    builder.add_sphere_visual(pose=sapien.Pose(p=[-half, 0, 0]), radius=radius, material=body)
+    builder.initial_pose = sapien.Pose(p=[0, 0, radius])
+    return builder.build(name=name)
+
+
+def build_tray(
+    scene: ManiSkillScene, name: str, inner_half_size: tuple[float, float], wall_height: float,
+    wall_thickness: float, base_thickness: float, color,
+) -> "Actor":
+    """An open rectangular tray (base plate + four walls) with its long side along local x.
+
+    The actor origin is the centre of the base plate's bottom face, so it rests on the table at z = 0.
+    """
+    builder = scene.create_actor_builder()
+    mat = sapien.render.RenderMaterial(base_color=list(color), roughness=0.6)
+    ix, iy = inner_half_size
+    t = wall_thickness
+    parts = [  # (centre, half size)
+        ([0, 0, base_thickness / 2], [ix + t, iy + t, base_thickness / 2]),
+        ([ix + t / 2, 0, wall_height / 2], [t / 2, iy + t, wall_height / 2]),
+        ([-ix - t / 2, 0, wall_height / 2], [t / 2, iy + t, wall_height / 2]),
+        ([0, iy + t / 2, wall_height / 2], [ix, t / 2, wall_height / 2]),
+        ([0, -iy - t / 2, wall_height / 2], [ix, t / 2, wall_height / 2]),
+    ]
+    for centre, half in parts:
+        builder.add_box_collision(pose=sapien.Pose(p=centre), half_size=half, density=WOOD_DENSITY)
+        builder.add_box_visual(pose=sapien.Pose(p=centre), half_size=half, material=mat)
+    builder.initial_pose = sapien.Pose()
+    return builder.build(name=name)

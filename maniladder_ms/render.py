@@ -1,0 +1,56 @@
+"""One picture of a task: every camera of the env side by side, labelled."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from PIL import Image, ImageDraw
+
+RENDER_CAMERA_SIZE = 256
+
+
+def camera_images(env) -> dict[str, np.ndarray]:
+    """RGB uint8 image of every sensor camera of the (first) sub-env, in rig order."""
+    base = env.unwrapped
+    base.scene.update_render()
+    base.capture_sensor_data()
+    images = base.get_sensor_images()
+    return {uid: data["rgb"][0].cpu().numpy() for uid, data in images.items() if "rgb" in data}
+
+
+def tile(images: dict[str, np.ndarray], title: str = "") -> Image.Image:
+    """Lay the images out in one row with their names underneath."""
+    label_h, title_h = 18, (22 if title else 0)
+    h = max(im.shape[0] for im in images.values())
+    w = sum(im.shape[1] for im in images.values())
+    canvas = Image.new("RGB", (w, h + label_h + title_h), "white")
+    draw = ImageDraw.Draw(canvas)
+    if title:
+        draw.text((6, 4), title, fill="black")
+    x = 0
+    for name, im in images.items():
+        canvas.paste(Image.fromarray(im), (x, title_h))
+        draw.text((x + 6, title_h + h + 3), name, fill="black")
+        x += im.shape[1]
+    return canvas
+
+
+def render_task(task_id: str, seed: int, out: Path, domain_randomization: bool = False,
+                size: int = RENDER_CAMERA_SIZE) -> Path:
+    import maniladder_ms
+
+    env = maniladder_ms.make(
+        task_id, obs_mode="rgb", domain_randomization=domain_randomization,
+        sensor_configs=dict(width=size, height=size),
+    )
+    try:
+        env.reset(seed=seed)
+        spec = env.unwrapped.task_spec
+        title = f"{spec.id}  ({spec.suite}, seed {seed}{', domain randomisation' if domain_randomization else ''})"
+        out = Path(out)
+        out.parent.mkdir(parents=True, exist_ok=True)
+        tile(camera_images(env), title).save(out)
+        return out
+    finally:
+        env.close()

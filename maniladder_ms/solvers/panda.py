@@ -1,0 +1,89 @@
+"""Motion helpers for a single Panda with a parallel gripper (mplib motion planning).
+
+Wraps ManiSkill's `PandaArmMotionPlanningSolver` (mplib 0.1.1), which drives the env in
+`pd_joint_pos`, with top-down grasp poses and pick/place phases the task solvers compose.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import sapien
+
+from mani_skill.examples.motionplanning.panda.motionplanner import PandaArmMotionPlanningSolver
+
+# joint speed/acceleration limits for planned paths (rad/s, rad/s^2); the Panda's own are ~2.2 rad/s
+JOINT_VEL_LIMIT = 2.0
+JOINT_ACC_LIMIT = 4.0
+
+
+class PlanningFailed(RuntimeError):
+    """The planner found no path to a requested pose."""
+
+
+class PandaSolver:
+    """Pick/place primitives for the single-arm Panda; all poses are TCP poses in the world frame."""
+
+    def __init__(self, env):
+        self.env = env
+        base = env.unwrapped
+        if base.control_mode != "pd_joint_pos":
+            raise ValueError(f"the Panda solver drives pd_joint_pos; the env uses {base.control_mode!r}")
+        self.planner = PandaArmMotionPlanningSolver(
+            env,
+            debug=False,
+            vis=False,
+            base_pose=base.agent.robot.pose,
+            visualize_target_grasp_pose=False,
+            print_env_info=False,
+            joint_vel_limits=JOINT_VEL_LIMIT,
+            joint_acc_limits=JOINT_ACC_LIMIT,
+        )
+        self.info = {}
+
+    def close(self):
+        self.planner.close()
+
+    def top_down_pose(self, center, yaw: float) -> sapien.Pose:
+        """TCP pointing straight down at `center`, fingers closing along the horizontal direction `yaw`."""
+        closing = np.array([np.cos(yaw), np.sin(yaw), 0.0])
+        return self.env.unwrapped.agent.build_grasp_pose(np.array([0, 0, -1.0]), closing, np.asarray(center, float))
+
+    def current_yaw(self) -> float:
+        m = self.env.unwrapped.agent.tcp.pose.to_transformation_matrix()[0, :3, :3].cpu().numpy()
+        return float(np.arctan2(m[1, 1], m[0, 1]))
+
+    def closest_grasp_yaw(self, yaw: float, period: float = np.pi) -> float:
+        """Of the yaws equivalent to `yaw` modulo `period` (a symmetric grasp), the one nearest the current TCP."""
+        cur = self.current_yaw()
+        return cur + (yaw - cur + period / 2) % period - period / 2
+
+    def move(self, pose: sapien.Pose):
+        result = self.planner.move_to_pose_with_screw(pose)
+        if result == -1:
+            result = self.planner.move_to_pose_with_RRTConnect(pose)
+        if result == -1:
+            raise PlanningFailed(f"no path to {pose}")
+        self.info = result[-1]
+
+    def grip(self, closed: bool, steps: int = 6):
+        result = self.planner.close_gripper(t=steps) if closed else self.planner.open_gripper(t=steps)
+        self.info = result[-1]
+
+    def hold(self, max_steps: int, until_success: bool = True):
+        """Keep the arm and gripper where they are for up to `max_steps` (e.g. to let objects come to rest)."""
+        for _ in range(max_steps):
+            if until_success and bool(self.info.get("success", False)):
+                return
+            self.grip(closed=self.planner.gripper_state == self.planner.CLOSED, steps=1)
+
+    def pick(self, grasp: sapien.Pose, approach_height: float = 0.08, lift_height: float = 0.1):
+        self.move(sapien.Pose([0, 0, approach_height]) * grasp)
+        self.move(grasp)
+        self.grip(closed=True)
+        self.move(sapien.Pose([0, 0, lift_height]) * grasp)
+
+    def place(self, release: sapien.Pose, approach_height: float = 0.08, retreat_height: float = 0.06):
+        self.move(sapien.Pose([0, 0, approach_height]) * release)
+        self.move(release)
+        self.grip(closed=False)
+        self.move(sapien.Pose([0, 0, retreat_height]) * release)

@@ -1,0 +1,143 @@
+"""PickPlacePen (L1 rigid SG): pick a pen lying on the table and place it inside a tray."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import torch
+
+from mani_skill.utils.structs.pose import Pose
+
+from maniladder_ms.envs import ManiLadderEnv, register_task
+from maniladder_ms.objects import build_pen, build_tray
+from maniladder_ms.solvers import register_solver
+from maniladder_ms.solvers.panda import PandaSolver
+
+
+def _yaw_quat(yaw: torch.Tensor) -> torch.Tensor:
+    zeros = torch.zeros_like(yaw)
+    return torch.stack([torch.cos(yaw / 2), zeros, zeros, torch.sin(yaw / 2)], dim=1)
+
+
+def _yaw_of(q: torch.Tensor) -> torch.Tensor:
+    """Yaw of (wxyz) quaternions that rotate about z only."""
+    return 2 * torch.atan2(q[:, 3], q[:, 0])
+
+
+@register_task("PickPlacePen")
+class PickPlacePenEnv(ManiLadderEnv):
+    """**Task:** pick up a pen lying on the table and put it down inside an open tray.
+
+    **Randomisation:**
+    - the pen (14 cm long, 1.6 cm diameter) lies flat with a uniform random yaw, its centre uniform in
+      x in [-0.12, 0.08], |y| in [0.06, 0.2] on a random side of the robot's centre line;
+    - the tray (inner 22 x 11 cm, walls 3 cm high) stands on the other side, centre x in [-0.1, 0.1],
+      |y| in [0.1, 0.2], yaw uniform in [-pi/4, pi/4].
+
+    **Success:** the pen centre, in the tray's frame, lies inside the tray's inner footprint shrunk by
+    `margin` = 2 cm on every side; the pen centre is below the rim (top of the walls); and the gripper
+    has released it (not grasping it).
+    """
+
+    TASK_REGION = (-0.25, 0.2, -0.32, 0.32)
+    pen_length = 0.14
+    pen_radius = 0.008
+    tray_inner_half = (0.11, 0.055)
+    tray_wall_height = 0.03
+    tray_wall_thickness = 0.008
+    tray_base_thickness = 0.006
+    margin = 0.02
+
+    def _load_scene(self, options: dict):
+        super()._load_scene(options)
+        self.pen = build_pen(
+            self.scene, "pen", self.pen_length, self.pen_radius, body_color=(0.1, 0.25, 0.75, 1), cap_color=(0.9, 0.9, 0.9, 1)
+        )
+        self.tray = build_tray(
+            self.scene, "tray", self.tray_inner_half, self.tray_wall_height, self.tray_wall_thickness,
+            self.tray_base_thickness, color=(0.85, 0.55, 0.2, 1),
+        )
+
+    def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
+        super()._initialize_episode(env_idx, options)
+        with torch.device(self.device):
+            b = len(env_idx)
+            side = torch.where(torch.rand(b) < 0.5, -1.0, 1.0)
+            pen_xyz = torch.stack(
+                [torch.rand(b) * 0.2 - 0.12, side * (0.06 + torch.rand(b) * 0.14), torch.full((b,), self.pen_radius)],
+                dim=1,
+            )
+            self.pen.set_pose(Pose.create_from_pq(pen_xyz, _yaw_quat(torch.rand(b) * np.pi)))
+            tray_xyz = torch.stack(
+                [torch.rand(b) * 0.2 - 0.1, -side * (0.1 + torch.rand(b) * 0.1), torch.zeros(b)], dim=1
+            )
+            self.tray.set_pose(Pose.create_from_pq(tray_xyz, _yaw_quat((torch.rand(b) - 0.5) * np.pi / 2)))
+
+    def _pen_in_tray_frame(self) -> torch.Tensor:
+        return (self.tray.pose.inv() * self.pen.pose).p
+
+    def _get_obs_extra(self, info: dict):
+        obs = dict(tcp_pose=self.agent.tcp_pose.raw_pose, is_grasped=info["is_grasped"])
+        if "state" in self.obs_mode:
+            obs.update(
+                pen_pose=self.pen.pose.raw_pose,
+                tray_pose=self.tray.pose.raw_pose,
+                tcp_to_pen_pos=self.pen.pose.p - self.agent.tcp_pose.p,
+                pen_to_tray_pos=self.tray.pose.p - self.pen.pose.p,
+            )
+        return obs
+
+    def evaluate(self):
+        local = self._pen_in_tray_frame()
+        limit = torch.tensor(self.tray_inner_half, device=self.device) - self.margin
+        is_over_tray = (local[:, :2].abs() <= limit).all(dim=1)
+        is_below_rim = local[:, 2] < self.tray_wall_height
+        is_grasped = self.agent.is_grasping(self.pen)
+        is_placed = is_over_tray & is_below_rim
+        return {
+            "success": is_placed & ~is_grasped,
+            "is_placed": is_placed,
+            "is_over_tray": is_over_tray,
+            "is_below_rim": is_below_rim,
+            "is_grasped": is_grasped,
+        }
+
+    def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
+        tcp_to_pen = torch.linalg.norm(self.pen.pose.p - self.agent.tcp_pose.p, dim=1)
+        reward = 1 - torch.tanh(5 * tcp_to_pen)
+        is_grasped = info["is_grasped"]
+        reward += is_grasped
+        # carry: bring the pen above the tray centre, then down into it
+        above_tray = self.tray.pose.p + torch.tensor([0, 0, self.tray_wall_height + 0.03], device=self.device)
+        carry = 1 - torch.tanh(5 * torch.linalg.norm(above_tray - self.pen.pose.p, dim=1))
+        reward += carry * is_grasped
+        reward += 2 * info["is_placed"]
+        reward += (info["is_placed"] & ~is_grasped).float()
+        reward[info["success"]] = 6
+        return reward
+
+    def compute_normalized_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
+        return self.compute_dense_reward(obs, action, info) / 6
+
+
+@register_solver("PickPlacePen")
+def solve_pick_place_pen(env, seed: int) -> dict:
+    """Grasp the pen at its centre from above, lift, turn it along the tray's long side, lower, release."""
+    env.reset(seed=seed)
+    task: PickPlacePenEnv = env.unwrapped
+    robot = PandaSolver(env)
+    try:
+        pen_p = task.pen.pose.p[0].cpu().numpy()
+        pen_yaw = float(_yaw_of(task.pen.pose.q)[0])
+        grasp_yaw = robot.closest_grasp_yaw(pen_yaw + np.pi / 2)
+        robot.pick(robot.top_down_pose([pen_p[0], pen_p[1], task.pen_radius], grasp_yaw))
+        # rotate the pen axis onto the tray's long axis: the grasp yaw follows by the same angle
+        tray_p = task.tray.pose.p[0].cpu().numpy()
+        tray_yaw = float(_yaw_of(task.tray.pose.q)[0])
+        turn = (tray_yaw - pen_yaw + np.pi / 2) % np.pi - np.pi / 2
+        release_z = task.tray_base_thickness + task.pen_radius + 0.01
+        robot.place(robot.top_down_pose([tray_p[0], tray_p[1], release_z], grasp_yaw + turn))
+        return robot.info
+    finally:
+        robot.close()

@@ -1,0 +1,158 @@
+"""StackBlocks family (Stack6Blocks, L2 rigid SG): stack N cubes into one tower."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import torch
+
+from mani_skill.utils.building import actors
+from mani_skill.utils.structs.pose import Pose
+
+from maniladder_ms.envs import ManiLadderEnv, register_task
+from maniladder_ms.solvers import register_solver
+from maniladder_ms.solvers.panda import PandaSolver
+
+BLOCK_COLORS = [
+    (0.85, 0.15, 0.15, 1), (0.15, 0.6, 0.2, 1), (0.15, 0.35, 0.85, 1),
+    (0.9, 0.75, 0.1, 1), (0.6, 0.2, 0.7, 1), (0.1, 0.7, 0.75, 1),
+]
+
+
+@register_task("Stack6Blocks", num_blocks=6)
+class StackBlocksEnv(ManiLadderEnv):
+    """**Task:** stack `num_blocks` 4 cm cubes into a single tower (any order).
+
+    **Randomisation:** block centres are sampled uniformly in x in [-0.15, 0.15], y in [-0.25, 0.25]
+    with at least 8 cm between any two, each with a uniform random yaw.
+
+    **Success:** with the blocks sorted by height, the lowest rests on the table (centre within
+    `z_tol` = 5 mm of one half-size) and each next block's centre is within `xy_tol` = 2 cm of the one
+    below horizontally and one block size (+- `z_tol`) above it; every block is static (linear speed
+    < 1 cm/s, angular < 0.2 rad/s) and none is grasped.
+    """
+
+    TASK_REGION = (-0.2, 0.2, -0.3, 0.3)
+    half_size = 0.02
+    xy_tol = 0.02
+    z_tol = 0.005
+    min_spacing = 0.08
+
+    def __init__(self, *args, num_blocks: int = 6, **kwargs):
+        if not 2 <= num_blocks <= len(BLOCK_COLORS):
+            raise ValueError(f"num_blocks must be in [2, {len(BLOCK_COLORS)}], got {num_blocks}")
+        self.num_blocks = num_blocks
+        super().__init__(*args, **kwargs)
+
+    def _load_scene(self, options: dict):
+        super()._load_scene(options)
+        self.blocks = [
+            actors.build_cube(self.scene, half_size=self.half_size, color=BLOCK_COLORS[i], name=f"block_{i}",
+                              initial_pose=Pose.create_from_pq([0, 0.1 * i, self.half_size]).sp)
+            for i in range(self.num_blocks)
+        ]
+
+    def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
+        super()._initialize_episode(env_idx, options)
+        with torch.device(self.device):
+            b = len(env_idx)
+            xy = self._sample_spaced_xy(b)
+            for i, block in enumerate(self.blocks):
+                xyz = torch.cat([xy[:, i], torch.full((b, 1), self.half_size)], dim=1)
+                yaw = torch.rand(b) * np.pi / 2
+                q = torch.stack([torch.cos(yaw / 2), torch.zeros(b), torch.zeros(b), torch.sin(yaw / 2)], dim=1)
+                block.set_pose(Pose.create_from_pq(xyz, q))
+
+    def _sample_spaced_xy(self, b: int, tries: int = 1000) -> torch.Tensor:
+        """(b, num_blocks, 2) positions, pairwise at least `min_spacing` apart (rejection, per env)."""
+        lo, hi = torch.tensor([-0.15, -0.25]), torch.tensor([0.15, 0.25])
+        xy = lo + torch.rand(b, self.num_blocks, 2) * (hi - lo)
+        for _ in range(tries):
+            d = torch.cdist(xy, xy) + torch.eye(self.num_blocks) * 1e3
+            bad = (d < self.min_spacing).any(dim=2)  # (b, n) blocks too close to another
+            if not bad.any():
+                return xy
+            first_bad = bad.float().argmax(dim=1)  # re-draw one offending block per env
+            rows = bad.any(dim=1).nonzero(as_tuple=True)[0]
+            xy[rows, first_bad[rows]] = lo + torch.rand(len(rows), 2) * (hi - lo)
+        raise RuntimeError("could not place blocks apart; the spawn region is too small")
+
+    def _block_positions(self) -> torch.Tensor:
+        return torch.stack([blk.pose.p for blk in self.blocks], dim=1)  # (b, n, 3)
+
+    def _get_obs_extra(self, info: dict):
+        obs = dict(tcp_pose=self.agent.tcp_pose.raw_pose)
+        if "state" in self.obs_mode:
+            obs.update(block_poses=torch.cat([blk.pose.raw_pose for blk in self.blocks], dim=1))
+        return obs
+
+    def evaluate(self):
+        pos = self._block_positions()
+        order = torch.argsort(pos[..., 2], dim=1)
+        tower = torch.gather(pos, 1, order[..., None].expand(-1, -1, 3))
+        size = 2 * self.half_size
+        on_table = (tower[:, 0, 2] - self.half_size).abs() <= self.z_tol
+        xy_off = torch.linalg.norm(tower[:, 1:, :2] - tower[:, :-1, :2], dim=2)
+        dz = tower[:, 1:, 2] - tower[:, :-1, 2]
+        stacked_pairs = (xy_off <= self.xy_tol) & ((dz - size).abs() <= self.z_tol)  # (b, n-1)
+        # progress for rewards and people: the most blocks in one column over a block on the table
+        resting = (pos[..., 2] - self.half_size).abs() <= self.z_tol
+        near = torch.cdist(pos[..., :2], pos[..., :2]) <= 2 * self.xy_tol
+        column_size = torch.where(resting, near.sum(dim=2), torch.zeros_like(resting, dtype=torch.long)).max(dim=1).values
+        is_static = torch.stack([blk.is_static(lin_thresh=0.01, ang_thresh=0.2) for blk in self.blocks], dim=1).all(1)
+        any_grasped = torch.stack([self.agent.is_grasping(blk) for blk in self.blocks], dim=1).any(1)
+        is_stacked = on_table & stacked_pairs.all(dim=1)
+        return {
+            "success": is_stacked & is_static & ~any_grasped,
+            "is_stacked": is_stacked,
+            "column_size": column_size,
+            "is_static": is_static,
+            "any_grasped": any_grasped,
+        }
+
+    def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
+        # progress = blocks in the tallest column; shaping pulls the TCP to the nearest block still on the table
+        n = self.num_blocks
+        progress = info["column_size"].float()
+        pos = self._block_positions()
+        loose = (pos[..., 2] - self.half_size).abs() <= self.z_tol
+        dist = torch.linalg.norm(pos - self.agent.tcp_pose.p[:, None], dim=2)
+        reach = 1 - torch.tanh(5 * torch.where(loose, dist, torch.full_like(dist, 10)).min(dim=1).values)
+        reward = 2 * progress + reach
+        reward[info["success"]] = 2 * n + 2
+        return reward
+
+    def compute_normalized_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
+        return self.compute_dense_reward(obs, action, info) / (2 * self.num_blocks + 2)
+
+
+@register_solver("Stack6Blocks")
+def solve_stack_blocks(env, seed: int) -> dict:
+    """Keep the block nearest the table centre as the base; pick each other block and put it on top."""
+    env.reset(seed=seed)
+    task: StackBlocksEnv = env.unwrapped
+    robot = PandaSolver(env)
+    try:
+        pos = task._block_positions()[0].cpu().numpy()
+        base = int(np.argmin(np.linalg.norm(pos[:, :2] - np.array([0.0, 0.0]), axis=1)))
+        others = sorted((i for i in range(task.num_blocks) if i != base), key=lambda i: np.linalg.norm(pos[i, :2] - pos[base, :2]))
+        size = 2 * task.half_size
+        base_pose = task.blocks[base].pose
+        place_yaw = robot.closest_grasp_yaw(float(2 * torch.atan2(base_pose.q[0, 3], base_pose.q[0, 0])), np.pi / 2)
+        for level, i in enumerate(others, start=1):
+            block = task.blocks[i]
+            p = block.pose.p[0].cpu().numpy()
+            yaw = float(2 * torch.atan2(block.pose.q[0, 3], block.pose.q[0, 0]))
+            # travel between the tower and the blocks at a height that clears the tower's top
+            carry_z = task.half_size + size * level + 0.05
+            robot.pick(robot.top_down_pose(p, robot.closest_grasp_yaw(yaw, np.pi / 2)),
+                       approach_height=carry_z - p[2], lift_height=carry_z - p[2])
+            top = base_pose.p[0].cpu().numpy()
+            release_z = task.half_size + size * level + 0.004
+            robot.place(robot.top_down_pose([top[0], top[1], release_z], place_yaw),
+                        approach_height=carry_z - release_z, retreat_height=carry_z + size - release_z)
+        robot.hold(max_steps=20)  # let the tower come to rest
+        return robot.info
+    finally:
+        robot.close()
