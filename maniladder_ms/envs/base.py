@@ -114,7 +114,7 @@ class ManiLadderEnv(BaseEnv):
 
     @property
     def _default_human_render_camera_configs(self):
-        pose = sapien_utils.look_at(eye=[0.5, 0.6, 0.55], target=[-0.15, 0, 0.05])
+        pose = sapien_utils.look_at(eye=[0.6, 0.7, 0.6], target=[-0.1, 0.0, 0.1])
         return CameraConfig("render_camera", pose, 512, 512, 1.0, 0.01, 10)
 
     # ---- scene --------------------------------------------------------------------------------

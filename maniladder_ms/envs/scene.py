@@ -27,12 +27,11 @@ DEFAULT_TABLE_COLOR = (0.62, 0.47, 0.32, 1)
 DEFAULT_BACKDROP_COLOR = (0.82, 0.82, 0.82, 1)
 
 
-def _material(rng: np.random.RandomState | None, default_color, textures) -> sapien.render.RenderMaterial:
+def _material(rng: np.random.RandomState | None, default_color, texture) -> sapien.render.RenderMaterial:
+    """The default plain material, or (randomising) `texture` with a random roughness."""
     mat = sapien.render.RenderMaterial(base_color=list(default_color), roughness=0.7, metallic=0.0)
     if rng is not None:
-        mat.base_color_texture = sapien.render.RenderTexture2D(
-            filename=str(textures[rng.randint(len(textures))]), mipmap_levels=4
-        )
+        mat.base_color_texture = sapien.render.RenderTexture2D(filename=str(texture), mipmap_levels=4)
         mat.base_color = [1, 1, 1, 1]
         mat.roughness = float(rng.uniform(0.3, 0.9))
     return mat
@@ -54,26 +53,29 @@ class LadderScene:
 
     def build(self):
         scene = self.env.scene
-        textures = texture_files() if self.randomize and scene.can_render() else []
         rng = self._rng
+        table_texture = backdrop_texture = None
+        if rng is not None:  # drawn even without a renderer, so a seed gives the same scene either way
+            textures = texture_files()
+            table_texture, backdrop_texture = (textures[i] for i in rng.choice(len(textures), 2, replace=False))
         hx, hy, hz = TABLE_HALF_SIZE
         builder = scene.create_actor_builder()
         builder.add_box_collision(half_size=[hx, hy, hz])
         if scene.can_render():
-            builder.add_box_visual(half_size=[hx, hy, hz], material=_material(rng, DEFAULT_TABLE_COLOR, textures))
+            builder.add_box_visual(half_size=[hx, hy, hz], material=_material(rng, DEFAULT_TABLE_COLOR, table_texture))
         builder.initial_pose = sapien.Pose(p=[TABLE_CENTER_X, 0, -hz])
         self.table = builder.build_kinematic(name="table")
         self.ground = build_ground(scene, altitude=-2 * hz)
         if scene.can_render():
-            self._build_backdrop(rng, textures)
+            self._build_backdrop(rng, backdrop_texture)
         n = 0 if rng is None else int(rng.randint(0, MAX_DISTRACTORS + 1))
         built = [self._build_distractor(i, rng) for i in range(n)]
         self.distractors = [actor for actor, _ in built]
         self.distractor_heights = [height for _, height in built]
 
-    def _build_backdrop(self, rng, textures):
+    def _build_backdrop(self, rng, texture):
         # Four walls around the table so every third-view camera sees a controlled background.
-        mat = _material(rng, DEFAULT_BACKDROP_COLOR, textures)
+        mat = _material(rng, DEFAULT_BACKDROP_COLOR, texture)
         builder = self.env.scene.create_actor_builder()
         d = BACKDROP_DISTANCE
         for centre, half in (

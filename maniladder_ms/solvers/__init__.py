@@ -26,3 +26,25 @@ def solve(env, seed: int) -> dict:
     if task_id not in SOLVERS:
         raise KeyError(f"no scripted solver registered for task {task_id}")
     return SOLVERS[task_id](env, seed)
+
+
+def sweep(task_id: str, seeds, progress: bool = False, **make_kwargs) -> list[dict]:
+    """Run the task's solver on each seed in one env; rows of {seed, success, steps}.
+
+    An episode counts as a success only if it succeeds within the task's horizon.
+    """
+    import maniladder_ms
+    from tqdm import tqdm
+
+    make_kwargs.setdefault("obs_mode", "state")
+    env = maniladder_ms.make(task_id, control_mode="pd_joint_pos", **make_kwargs)
+    horizon = env.unwrapped.task_spec.horizon
+    rows = []
+    try:
+        for seed in tqdm(list(seeds), desc=f"{task_id} solver", disable=not progress):
+            info = solve(env, seed)
+            steps = int(info["elapsed_steps"][0])
+            rows.append(dict(seed=seed, success=bool(info["success"][0]) and steps <= horizon, steps=steps))
+    finally:
+        env.close()
+    return rows

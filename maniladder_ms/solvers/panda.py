@@ -14,6 +14,8 @@ from mani_skill.examples.motionplanning.panda.motionplanner import PandaArmMotio
 # joint speed/acceleration limits for planned paths (rad/s, rad/s^2); the Panda's own are ~2.2 rad/s
 JOINT_VEL_LIMIT = 2.0
 JOINT_ACC_LIMIT = 4.0
+# extra control steps at grasp and release poses, where the PD tracking lag matters
+PRECISE_SETTLE_STEPS = 2
 
 
 class PlanningFailed(RuntimeError):
@@ -57,10 +59,11 @@ class PandaSolver:
         cur = self.current_yaw()
         return cur + (yaw - cur + period / 2) % period - period / 2
 
-    def move(self, pose: sapien.Pose):
-        result = self.planner.move_to_pose_with_screw(pose)
+    def move(self, pose: sapien.Pose, settle_steps: int = 0):
+        """Plan and follow a path to `pose`; `settle_steps` more steps at the goal let the PD lag close."""
+        result = self.planner.move_to_pose_with_screw(pose, refine_steps=settle_steps)
         if result == -1:
-            result = self.planner.move_to_pose_with_RRTConnect(pose)
+            result = self.planner.move_to_pose_with_RRTConnect(pose, refine_steps=settle_steps)
         if result == -1:
             raise PlanningFailed(f"no path to {pose}")
         self.info = result[-1]
@@ -78,12 +81,12 @@ class PandaSolver:
 
     def pick(self, grasp: sapien.Pose, approach_height: float = 0.08, lift_height: float = 0.1):
         self.move(sapien.Pose([0, 0, approach_height]) * grasp)
-        self.move(grasp)
+        self.move(grasp, settle_steps=PRECISE_SETTLE_STEPS)
         self.grip(closed=True)
         self.move(sapien.Pose([0, 0, lift_height]) * grasp)
 
     def place(self, release: sapien.Pose, approach_height: float = 0.08, retreat_height: float = 0.06):
         self.move(sapien.Pose([0, 0, approach_height]) * release)
-        self.move(release)
+        self.move(release, settle_steps=PRECISE_SETTLE_STEPS)
         self.grip(closed=False)
         self.move(sapien.Pose([0, 0, retreat_height]) * release)

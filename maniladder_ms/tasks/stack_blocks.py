@@ -127,31 +127,39 @@ class StackBlocksEnv(ManiLadderEnv):
         return self.compute_dense_reward(obs, action, info) / (2 * self.num_blocks + 2)
 
 
+STACK_SITE = (-0.05, 0.0)  # the solver builds the tower on the block nearest this point
+
+
+def _yaw(actor) -> float:
+    q = actor.pose.q[0]
+    return float(2 * torch.atan2(q[3], q[0]))
+
+
 @register_solver("Stack6Blocks")
 def solve_stack_blocks(env, seed: int) -> dict:
-    """Keep the block nearest the table centre as the base; pick each other block and put it on top."""
+    """Keep the block nearest the workspace centre as the base; put every other block on the current top."""
     env.reset(seed=seed)
     task: StackBlocksEnv = env.unwrapped
     robot = PandaSolver(env)
     try:
         pos = task._block_positions()[0].cpu().numpy()
-        base = int(np.argmin(np.linalg.norm(pos[:, :2] - np.array([0.0, 0.0]), axis=1)))
+        base = int(np.argmin(np.linalg.norm(pos[:, :2] - np.array(STACK_SITE), axis=1)))
         others = sorted((i for i in range(task.num_blocks) if i != base), key=lambda i: np.linalg.norm(pos[i, :2] - pos[base, :2]))
         size = 2 * task.half_size
-        base_pose = task.blocks[base].pose
-        place_yaw = robot.closest_grasp_yaw(float(2 * torch.atan2(base_pose.q[0, 3], base_pose.q[0, 0])), np.pi / 2)
+        top = task.blocks[base]
         for level, i in enumerate(others, start=1):
             block = task.blocks[i]
             p = block.pose.p[0].cpu().numpy()
-            yaw = float(2 * torch.atan2(block.pose.q[0, 3], block.pose.q[0, 0]))
             # travel between the tower and the blocks at a height that clears the tower's top
             carry_z = task.half_size + size * level + 0.05
-            robot.pick(robot.top_down_pose(p, robot.closest_grasp_yaw(yaw, np.pi / 2)),
+            robot.pick(robot.top_down_pose(p, robot.closest_grasp_yaw(_yaw(block), np.pi / 2)),
                        approach_height=carry_z - p[2], lift_height=carry_z - p[2])
-            top = base_pose.p[0].cpu().numpy()
-            release_z = task.half_size + size * level + 0.004
-            robot.place(robot.top_down_pose([top[0], top[1], release_z], place_yaw),
+            # aim at the block actually on top, so small placement errors do not add up along the tower
+            top_p = top.pose.p[0].cpu().numpy()
+            release_z = top_p[2] + size + 0.004
+            robot.place(robot.top_down_pose([top_p[0], top_p[1], release_z], robot.closest_grasp_yaw(_yaw(top), np.pi / 2)),
                         approach_height=carry_z - release_z, retreat_height=carry_z + size - release_z)
+            top = block
         robot.hold(max_steps=20)  # let the tower come to rest
         return robot.info
     finally:

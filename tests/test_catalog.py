@@ -1,0 +1,89 @@
+import copy
+from pathlib import Path
+
+import pytest
+import yaml
+
+import maniladder_ms
+from maniladder_ms.catalog import SKILLS, Catalog, CatalogError, UnknownTaskError, load_catalog
+
+SHARED = Path(__file__).resolve().parents[2] / "shared" / "task_catalog.yaml"
+
+
+@pytest.fixture(scope="module")
+def raw():
+    return yaml.safe_load((Path(maniladder_ms.__file__).parent / "data" / "task_catalog.yaml").read_text())
+
+
+def test_packaged_catalog_is_the_full_ladder(catalog):
+    assert len(catalog) == 112
+    assert sorted({t.level for t in catalog}) == [1, 2, 3, 4]
+    assert len({t.suite for t in catalog}) == 32
+    for level in (1, 2, 3, 4):
+        assert len(catalog.filter(level=level)) == 28
+    assert len({t.id for t in catalog}) == 112
+    assert all(set(t.skills) <= set(SKILLS) for t in catalog)
+
+
+@pytest.mark.skipif(not SHARED.exists(), reason="../shared not beside the checkout")
+def test_project_catalog_keeps_the_shared_task_list(catalog):
+    shared = yaml.safe_load(SHARED.read_text())
+    assert [t["id"] for t in shared["tasks"]] == [t.id for t in catalog]
+
+
+def test_lookup_and_filters(catalog):
+    pen = catalog.get("PickPlacePen")
+    assert (pen.level, pen.suite, pen.embodiment, pen.skills) == (1, "L1-rigid-SG", "SG", ("prehensile",))
+    assert catalog.get("ManiLadder-PickPlacePen-v1") is pen
+    assert {t.id for t in catalog.filter(level=1, suite="L1-rigid-SG")} == {
+        "PickPlacePen", "HangMug", "OpenBoxRetrieval", "PivotBook"}
+    rope = catalog.filter(object_class="rope")
+    assert rope and all(t.object_class == "rope" for t in rope)
+    assert all("tool_use" in t.skills for t in catalog.filter(skill="tool_use"))
+    assert all(t.embodiment == "DX" for t in catalog.filter(embodiment="DX"))
+    assert {t.id for t in catalog.filter(implemented=True)} == {"PickPlacePen", "Stack6Blocks"}
+
+
+def test_unknown_task_and_bad_filter_values_are_clear_errors(catalog):
+    with pytest.raises(UnknownTaskError, match="Did you mean: PickPlacePen"):
+        catalog.get("PickPlacePem")
+    with pytest.raises(CatalogError, match="unknown skill 'juggling'"):
+        catalog.filter(skill="juggling")
+    with pytest.raises(CatalogError, match="unknown suite"):
+        catalog.filter(suite="L5-rigid-SG")
+
+
+def _broken(raw, edit):
+    data = copy.deepcopy(raw)
+    edit(data)
+    return data
+
+
+BREAKAGES = {
+    "duplicate task id": lambda d: d["tasks"][1].update(id=d["tasks"][0]["id"], env_id=d["tasks"][0]["env_id"]),
+    "unknown skill": lambda d: d["tasks"][0]["skills"].append("juggling"),
+    "expected exactly levels": lambda d: d["levels"].pop(4),
+    "missing field": lambda d: d["tasks"][0].pop("horizon"),
+    r"has 5 tasks, expected 3-4": lambda d: d["tasks"].append(
+        dict(copy.deepcopy(d["tasks"][0]), id="Extra", env_id="ManiLadder-Extra-v1")),
+    r"has 2 tasks, expected 3-4": lambda d: [d["tasks"].remove(t) for t in
+                                            [t for t in d["tasks"] if t["suite"] == "L1-rigid-SX"][:1]],
+    "disagrees with its level": lambda d: d["tasks"][0].update(suite="L2-rigid-SG"),
+    "env_id": lambda d: d["tasks"][0].update(env_id="PickPlacePen-v0"),
+}
+
+
+@pytest.mark.parametrize("message", list(BREAKAGES))
+def test_broken_catalogs_fail_loudly(raw, message):
+    with pytest.raises(CatalogError, match=message):
+        Catalog(_broken(raw, BREAKAGES[message]))
+
+
+def test_unparsable_catalog_file(tmp_path):
+    bad = tmp_path / "catalog.yaml"
+    bad.write_text("tasks: [unclosed\n")
+    with pytest.raises(CatalogError, match="not valid YAML"):
+        load_catalog(bad)
+    bad.write_text("- just a list\n")
+    with pytest.raises(CatalogError, match="expected a mapping"):
+        load_catalog(bad)

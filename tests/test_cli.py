@@ -1,0 +1,76 @@
+"""The `maniladder` command line: list, render, bench, and clear errors."""
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+from PIL import Image
+
+from maniladder_ms.cli import main
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def test_list_summary_counts(capsys):
+    assert main(["list", "--summary"]) == 0
+    out = capsys.readouterr().out
+    assert "implemented / catalog: 2 / 112 tasks" in out
+    assert "L1     1/4" in out and "L2     1/4" in out
+
+
+def test_list_filters_and_json(capsys):
+    assert main(["list", "--level", "1", "--suite", "L1-rigid-SG"]) == 0
+    out = capsys.readouterr().out
+    assert "*  PickPlacePen" in out and "HangMug" in out and "Stack6Blocks" not in out
+    assert main(["list", "--skill", "tool_use", "--embodiment", "DG", "--json"]) == 0
+    rows = json.loads(capsys.readouterr().out)
+    assert rows and all("tool_use" in r["skills"] and r["embodiment"] == "DG" for r in rows)
+    assert main(["list", "--implemented", "--json"]) == 0
+    assert {r["id"] for r in json.loads(capsys.readouterr().out)} == {"PickPlacePen", "Stack6Blocks"}
+
+
+def test_unknown_task_exits_2_with_message(capsys):
+    assert main(["render", "PickPlacePencil"]) == 2
+    assert "unknown ManiLadder task 'PickPlacePencil'" in capsys.readouterr().err
+    assert main(["list", "--suite", "L9-rigid-SG"]) == 2
+
+
+def test_render_writes_all_cameras(tmp_path, capsys):
+    out = tmp_path / "pen.png"
+    assert main(["render", "PickPlacePen", "--seed", "1", "--out", str(out), "--size", "128"]) == 0
+    img = np.asarray(Image.open(out))
+    assert img.shape[1] == 4 * 128  # front, left, top, wrist side by side
+    panels = [img[22:150, i * 128:(i + 1) * 128].astype(float) for i in range(4)]
+    assert all(p.std() > 10 for p in panels)
+
+
+def test_bench_prints_ratios(capsys):
+    assert main(["bench", "PickPlacePen", "--steps", "20"]) == 0
+    out = capsys.readouterr().out
+    line = next(l for l in out.splitlines() if l.startswith("ManiLadder-PickPlacePen-v1"))
+    assert float(line.split()[-1]) > 0
+
+
+def test_console_script_is_installed():
+    exe = Path(sys.executable).with_name("maniladder")
+    result = subprocess.run([str(exe), "list", "--level", "4", "--json"], capture_output=True, text=True, check=True)
+    assert len(json.loads(result.stdout)) == 28
+
+
+def test_wheel_install_carries_the_catalog(tmp_path):
+    """A non-editable wheel has the package data; imported from the wheel, the catalog loads."""
+    subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q", "-w",
+                    str(tmp_path / "dist"), str(REPO)], check=True)
+    wheel = next((tmp_path / "dist").glob("maniladder_ms-*.whl"))
+    target = tmp_path / "site"
+    subprocess.run([sys.executable, "-m", "pip", "install", "--no-deps", "-q", "--target", str(target), str(wheel)],
+                   check=True)
+    code = "import maniladder_ms; print(maniladder_ms.__file__); print(len(maniladder_ms.default_catalog()))"
+    env = dict(os.environ, PYTHONPATH=str(target))
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
+                         cwd=tmp_path, env=env).stdout.split()
+    assert out[0].startswith(str(target)) and out[1] == "112"
+    assert (target / "bin" / "maniladder").exists()
