@@ -137,8 +137,3 @@ class ManiLadderEnv(BaseEnv):
         self.agent.reset(qpos)
         self.agent.robot.set_pose(ROBOT_BASE_POSE)
         self.ladder_scene.initialize(env_idx, keep_out=self.TASK_REGION)
-
-    # ---- helpers for tasks --------------------------------------------------------------------
-    def is_gripper_open(self, min_width: float = 0.06) -> torch.Tensor:
-        """Whether the parallel gripper's finger gap is at least `min_width` metres (Panda fingers)."""
-        return self.agent.robot.get_qpos()[:, -2:].sum(dim=1) >= min_width

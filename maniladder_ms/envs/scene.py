@@ -16,6 +16,8 @@ import torch
 from mani_skill.utils.building.ground import build_ground
 from mani_skill.utils.structs.pose import Pose
 
+from maniladder_ms.geometry import yaw_quat
+
 from .textures import texture_files
 
 TABLE_HALF_SIZE = (0.6, 0.7, 0.4)  # x (depth, away from the robot), y (width), z (height) in metres
@@ -135,9 +137,7 @@ class LadderScene:
             xy = self._sample_clear_xy(b, keep_out, placed)
             placed.append(xy)
             xyz = torch.cat([xy, torch.full((b, 1), height)], dim=1)
-            yaw = torch.rand(b) * 2 * np.pi
-            q = torch.stack([torch.cos(yaw / 2), torch.zeros(b), torch.zeros(b), torch.sin(yaw / 2)], dim=1)
-            actor.set_pose(Pose.create_from_pq(xyz, q))
+            actor.set_pose(Pose.create_from_pq(xyz, yaw_quat(torch.rand(b) * 2 * np.pi)))
 
     def _sample_clear_xy(self, b: int, keep_out, placed: list[torch.Tensor], tries: int = 64) -> torch.Tensor:
         """Rejection-sample b table positions outside keep_out (+margin), the robot base and earlier distractors."""

@@ -6,6 +6,8 @@ Wraps ManiSkill's `PandaArmMotionPlanningSolver` (mplib 0.1.1), which drives the
 
 from __future__ import annotations
 
+from contextlib import contextmanager
+
 import numpy as np
 import sapien
 
@@ -44,6 +46,17 @@ class PandaSolver:
 
     def close(self):
         self.planner.close()
+
+    @classmethod
+    @contextmanager
+    def episode(cls, env, seed: int):
+        """Reset `env` with `seed` and yield a solver for it, closing the planner afterwards."""
+        env.reset(seed=seed)
+        solver = cls(env)
+        try:
+            yield solver
+        finally:
+            solver.close()
 
     def top_down_pose(self, center, yaw: float) -> sapien.Pose:
         """TCP pointing straight down at `center`, fingers closing along the horizontal direction `yaw`."""

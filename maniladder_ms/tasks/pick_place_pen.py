@@ -10,19 +10,10 @@ import torch
 from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.envs import ManiLadderEnv, register_task
+from maniladder_ms.geometry import yaw_of, yaw_quat
 from maniladder_ms.objects import build_pen, build_tray
 from maniladder_ms.solvers import register_solver
 from maniladder_ms.solvers.panda import PandaSolver
-
-
-def _yaw_quat(yaw: torch.Tensor) -> torch.Tensor:
-    zeros = torch.zeros_like(yaw)
-    return torch.stack([torch.cos(yaw / 2), zeros, zeros, torch.sin(yaw / 2)], dim=1)
-
-
-def _yaw_of(q: torch.Tensor) -> torch.Tensor:
-    """Yaw of (wxyz) quaternions that rotate about z only."""
-    return 2 * torch.atan2(q[:, 3], q[:, 0])
 
 
 @register_task("PickPlacePen")
@@ -68,11 +59,11 @@ class PickPlacePenEnv(ManiLadderEnv):
                 [torch.rand(b) * 0.2 - 0.12, side * (0.06 + torch.rand(b) * 0.14), torch.full((b,), self.pen_radius)],
                 dim=1,
             )
-            self.pen.set_pose(Pose.create_from_pq(pen_xyz, _yaw_quat(torch.rand(b) * np.pi)))
+            self.pen.set_pose(Pose.create_from_pq(pen_xyz, yaw_quat(torch.rand(b) * np.pi)))
             tray_xyz = torch.stack(
                 [torch.rand(b) * 0.2 - 0.1, -side * (0.1 + torch.rand(b) * 0.1), torch.zeros(b)], dim=1
             )
-            self.tray.set_pose(Pose.create_from_pq(tray_xyz, _yaw_quat((torch.rand(b) - 0.5) * np.pi / 2)))
+            self.tray.set_pose(Pose.create_from_pq(tray_xyz, yaw_quat((torch.rand(b) - 0.5) * np.pi / 2)))
 
     def _pen_in_tray_frame(self) -> torch.Tensor:
         return (self.tray.pose.inv() * self.pen.pose).p
@@ -124,20 +115,16 @@ class PickPlacePenEnv(ManiLadderEnv):
 @register_solver("PickPlacePen")
 def solve_pick_place_pen(env, seed: int) -> dict:
     """Grasp the pen at its centre from above, lift, turn it along the tray's long side, lower, release."""
-    env.reset(seed=seed)
-    task: PickPlacePenEnv = env.unwrapped
-    robot = PandaSolver(env)
-    try:
+    with PandaSolver.episode(env, seed) as robot:
+        task: PickPlacePenEnv = env.unwrapped
         pen_p = task.pen.pose.p[0].cpu().numpy()
-        pen_yaw = float(_yaw_of(task.pen.pose.q)[0])
+        pen_yaw = float(yaw_of(task.pen.pose.q)[0])
         grasp_yaw = robot.closest_grasp_yaw(pen_yaw + np.pi / 2)
         robot.pick(robot.top_down_pose([pen_p[0], pen_p[1], task.pen_radius], grasp_yaw))
         # rotate the pen axis onto the tray's long axis: the grasp yaw follows by the same angle
         tray_p = task.tray.pose.p[0].cpu().numpy()
-        tray_yaw = float(_yaw_of(task.tray.pose.q)[0])
+        tray_yaw = float(yaw_of(task.tray.pose.q)[0])
         turn = (tray_yaw - pen_yaw + np.pi / 2) % np.pi - np.pi / 2
         release_z = task.tray_base_thickness + task.pen_radius + 0.01
         robot.place(robot.top_down_pose([tray_p[0], tray_p[1], release_z], grasp_yaw + turn))
         return robot.info
-    finally:
-        robot.close()

@@ -11,6 +11,7 @@ from mani_skill.utils.building import actors
 from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.envs import ManiLadderEnv, register_task
+from maniladder_ms.geometry import yaw_of, yaw_quat
 from maniladder_ms.solvers import register_solver
 from maniladder_ms.solvers.panda import PandaSolver
 
@@ -61,9 +62,7 @@ class StackBlocksEnv(ManiLadderEnv):
             xy = self._sample_spaced_xy(b)
             for i, block in enumerate(self.blocks):
                 xyz = torch.cat([xy[:, i], torch.full((b, 1), self.half_size)], dim=1)
-                yaw = torch.rand(b) * np.pi / 2
-                q = torch.stack([torch.cos(yaw / 2), torch.zeros(b), torch.zeros(b), torch.sin(yaw / 2)], dim=1)
-                block.set_pose(Pose.create_from_pq(xyz, q))
+                block.set_pose(Pose.create_from_pq(xyz, yaw_quat(torch.rand(b) * np.pi / 2)))
 
     def _sample_spaced_xy(self, b: int, tries: int = 1000) -> torch.Tensor:
         """(b, num_blocks, 2) positions, pairwise at least `min_spacing` apart (rejection, per env)."""
@@ -141,17 +140,14 @@ STACK_SITE = (-0.05, 0.0)  # the solver builds the tower on the block nearest th
 
 
 def _yaw(actor) -> float:
-    q = actor.pose.q[0]
-    return float(2 * torch.atan2(q[3], q[0]))
+    return float(yaw_of(actor.pose.q)[0])
 
 
 @register_solver("Stack6Blocks")
 def solve_stack_blocks(env, seed: int) -> dict:
     """Keep the block nearest the workspace centre as the base; put every other block on the current top."""
-    env.reset(seed=seed)
-    task: StackBlocksEnv = env.unwrapped
-    robot = PandaSolver(env)
-    try:
+    with PandaSolver.episode(env, seed) as robot:
+        task: StackBlocksEnv = env.unwrapped
         pos = task._block_positions()[0].cpu().numpy()
         base = int(np.argmin(np.linalg.norm(pos[:, :2] - np.array(STACK_SITE), axis=1)))
         others = sorted((i for i in range(task.num_blocks) if i != base), key=lambda i: np.linalg.norm(pos[i, :2] - pos[base, :2]))
@@ -172,5 +168,3 @@ def solve_stack_blocks(env, seed: int) -> dict:
             top = block
         robot.hold(max_steps=20)  # let the tower come to rest
         return robot.info
-    finally:
-        robot.close()
