@@ -130,10 +130,11 @@ class ManiLadderEnv(BaseEnv):
 
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
         """Robot to its rest pose (plus noise) and distractors clear of the task; tasks call this first."""
-        b = len(env_idx)
-        qpos = torch.as_tensor(self.agent.keyframes["rest"].qpos, dtype=torch.float32).repeat(b, 1)
-        n_arm = len(self.agent.arm_joint_names)  # noise on the arm only; the gripper starts open
-        qpos[:, :n_arm] += torch.randn(b, n_arm) * self.robot_init_qpos_noise
-        self.agent.reset(qpos)
-        self.agent.robot.set_pose(ROBOT_BASE_POSE)
-        self.ladder_scene.initialize(env_idx, keep_out=self.TASK_REGION)
+        with torch.device(self.device):
+            b = len(env_idx)
+            qpos = torch.as_tensor(self.agent.keyframes["rest"].qpos, dtype=torch.float32).repeat(b, 1)
+            n_arm = len(self.agent.arm_joint_names)  # noise on the arm only; the gripper starts open
+            qpos[:, :n_arm] += torch.randn(b, n_arm) * self.robot_init_qpos_noise
+            self.agent.reset(qpos)
+            self.agent.robot.set_pose(ROBOT_BASE_POSE)
+            self.ladder_scene.initialize(env_idx, keep_out=self.TASK_REGION)
