@@ -10,6 +10,7 @@ __version__ = "0.1.0"
 
 from .catalog import Catalog, CatalogError, TaskSpec, UnknownTaskError, default_catalog, load_catalog
 from .envs import ManiLadderEnv, UnsupportedRobotError
+from . import agents  # noqa: F401  (registers the agents)
 from . import tasks  # noqa: F401  (registers the envs)
 
 

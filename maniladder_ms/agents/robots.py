@@ -1,0 +1,371 @@
+"""The five ManiLadder embodiments as ManiSkill agents (registered on import).
+
+| uid | suite | what |
+|---|---|---|
+| `ml_panda` | SG | Panda + parallel gripper + wrist camera (ManiSkill's bundled Panda description) |
+| `ml_panda_leap` | SX | Panda arm + 16-DoF right LEAP hand |
+| `ml_dual_panda` | DG | two Pandas with grippers, 0.3 m left / right of the robot frame, one articulation |
+| `ml_dual_panda_leap` | DX | two Panda arms with a left / right LEAP hand, one articulation |
+| `ml_tidybot` | mobile | holonomic base (x, y, yaw) + Panda + gripper |
+
+Every agent has the control modes `pd_joint_pos`, `pd_joint_delta_pos` and `pd_ee_delta_pose`, one flat
+action vector each (layouts in the class docstrings), a `rest` keyframe and wrist cameras. Arm gains are
+ManiSkill's Panda gains. The generated descriptions are in the repo's `agents/` folder
+(scripts/make_agents.py).
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from copy import deepcopy
+import xml.etree.ElementTree as ET
+
+import numpy as np
+import sapien
+import torch
+
+from mani_skill.agents.base_agent import BaseAgent, Keyframe
+from mani_skill.agents.controllers import (
+    PDBaseVelControllerConfig,
+    PDEEPoseControllerConfig,
+    PDJointPosControllerConfig,
+    PDJointPosMimicControllerConfig,
+    deepcopy_dict,
+)
+from mani_skill.agents.registration import register_agent
+from mani_skill.agents.robots.panda.panda_wristcam import PandaWristCam
+from mani_skill.sensors.camera import CameraConfig
+from mani_skill.utils import sapien_utils
+
+from .assets import source_urdf, urdf_path
+
+ARM_JOINTS = [f"panda_joint{i}" for i in range(1, 8)]
+GRIPPER_JOINTS = ["panda_finger_joint1", "panda_finger_joint2"]
+LEAP_JOINTS = [f"leap_j{i}" for i in range(16)]  # LEAP numbering: index 0-3, middle 4-7, ring 8-11, thumb 12-15
+# ManiSkill's Panda rest pose (arm) and the gripper open
+PANDA_REST = [0.0, np.pi / 8, 0.0, -np.pi * 5 / 8, 0.0, np.pi * 3 / 4, np.pi / 4]
+GRIPPER_OPEN = 0.04
+TIDYBOT_ARM_REST = [0.0, -0.3, 0.0, -2.2, 0.0, 2.0, np.pi / 4]
+
+ARM_STIFFNESS, ARM_DAMPING, ARM_FORCE = 1e3, 1e2, 100  # ManiSkill's Panda
+GRIPPER_STIFFNESS, GRIPPER_DAMPING, GRIPPER_FORCE = 1e3, 1e2, 100  # ManiSkill's Panda
+# LEAP: stiff enough to hold a 300 g object with 4 fingers, force limited to 2x the servo's 0.95 N m
+# (its stall torque; the hand's joints carry the extra load in simulation where contact is softer)
+LEAP_STIFFNESS, LEAP_DAMPING, LEAP_FORCE = 30.0, 1.0, 1.9
+BASE_DAMPING, BASE_FORCE = 1000.0, 1000.0  # base velocity drive (as ManiSkill's Fetch base)
+BASE_MAX_VEL = (0.5, 0.5, 1.57)  # m/s, m/s, rad/s of the holonomic base (chosen)
+
+HAND_MATERIALS = dict(
+    _materials=dict(tip=dict(static_friction=2.0, dynamic_friction=2.0, restitution=0.0)),
+)
+
+
+def urdf_joint_order(path) -> list[str]:
+    """Active joints of a URDF in SAPIEN's order (breadth-first from the root, children in file order)."""
+    root = ET.parse(path).getroot()
+    children: dict[str, list] = {}
+    child_links = set()
+    for j in root.findall("joint"):
+        children.setdefault(j.find("parent").get("link"), []).append(j)
+        child_links.add(j.find("child").get("link"))
+    base = next(link.get("name") for link in root.findall("link") if link.get("name") not in child_links)
+    order, queue = [], deque([base])
+    while queue:
+        for j in children.get(queue.popleft(), []):
+            if j.get("type") != "fixed":
+                order.append(j.get("name"))
+            queue.append(j.find("child").get("link"))
+    return order
+
+
+def rest_keyframe(name: str, values: dict[str, float], pose=None) -> Keyframe:
+    order = urdf_joint_order(source_urdf(name))
+    return Keyframe(qpos=np.array([values.get(j, 0.0) for j in order]), pose=pose or sapien.Pose())
+
+
+# ---- controller configs ------------------------------------------------------------------------
+def arm_configs(joints: list[str], ee_link: str, urdf: str) -> dict:
+    """The arm part of each control mode: absolute / delta joint targets, delta TCP pose (IK)."""
+    return dict(
+        pd_joint_pos=PDJointPosControllerConfig(
+            joints, None, None, ARM_STIFFNESS, ARM_DAMPING, ARM_FORCE, normalize_action=False
+        ),
+        pd_joint_delta_pos=PDJointPosControllerConfig(
+            joints, -0.1, 0.1, ARM_STIFFNESS, ARM_DAMPING, ARM_FORCE, use_delta=True
+        ),
+        pd_ee_delta_pose=PDEEPoseControllerConfig(
+            joint_names=joints, pos_lower=-0.1, pos_upper=0.1, rot_lower=-0.1, rot_upper=0.1,
+            stiffness=ARM_STIFFNESS, damping=ARM_DAMPING, force_limit=ARM_FORCE, ee_link=ee_link, urdf_path=urdf,
+        ),
+    )
+
+
+def gripper_config(prefix: str = ""):
+    """Gripper: one normalised command, -1 -> finger target -0.01 m (closed), 1 -> 0.04 m (open) (ManiSkill's Panda)."""
+    j1, j2 = prefix + GRIPPER_JOINTS[0], prefix + GRIPPER_JOINTS[1]
+    return PDJointPosMimicControllerConfig(
+        [j1, j2], lower=-0.01, upper=0.04, stiffness=GRIPPER_STIFFNESS, damping=GRIPPER_DAMPING,
+        force_limit=GRIPPER_FORCE, mimic={j2: {"joint": j1}},
+    )
+
+
+def leap_config(prefix: str = ""):
+    """LEAP hand joint targets (rad), absolute, within the joint limits, in LEAP order j0..j15."""
+    return PDJointPosControllerConfig(
+        [prefix + j for j in LEAP_JOINTS], None, None, LEAP_STIFFNESS, LEAP_DAMPING, LEAP_FORCE,
+        normalize_action=False,
+    )
+
+
+MODES = ("pd_joint_pos", "pd_joint_delta_pos", "pd_ee_delta_pose")
+
+
+def combine(**parts) -> dict:
+    """{mode: {part: config}} from parts given as either a per-mode dict or one config for all modes."""
+    out = {}
+    for mode in MODES:
+        out[mode] = {name: (p[mode] if isinstance(p, dict) else deepcopy(p)) for name, p in parts.items()}
+    return deepcopy_dict(out)
+
+
+def wrist_camera(uid: str, link) -> CameraConfig:
+    return CameraConfig(uid=uid, pose=sapien.Pose(), width=128, height=128, fov=np.pi / 2, near=0.01, far=100, mount=link)
+
+
+class _MLAgent(BaseAgent):
+    """Shared: loads agents/<uid>.urdf, checks the keyframe joint order, looks up named links."""
+
+    arm_joint_names: list[str] = ARM_JOINTS
+
+    # prefixes of the LEAP hands this agent carries; each hand's links (and the wrist link it sits on)
+    # share a collision-group bit so they do not collide with each other: the published link meshes
+    # interleave at the joints, and their bounding boxes (our collision shapes) overlap there
+    hand_prefixes: tuple[str, ...] = ()
+    HAND_GROUP_BITS = (25, 26)  # bits of PhysX collision group 2 (ManiSkill uses 29-31 elsewhere)
+
+    def _after_loading_articulation(self):
+        super()._after_loading_articulation()
+        for prefix, bit in zip(self.hand_prefixes, self.HAND_GROUP_BITS):
+            for link in self.robot.get_links():
+                if link.name.startswith(prefix + "leap_") or link.name in (prefix + "camera_link", prefix + "panda_link7"):
+                    link.set_collision_group_bit(group=2, bit_idx=bit, bit=1)
+
+    def _after_init(self):
+        names = [j.name for j in self.robot.get_active_joints()]
+        expected = urdf_joint_order(source_urdf(self.uid))
+        assert names == expected, f"{self.uid}: joint order {names} != keyframe order {expected}"
+        self._links = {link.name: link for link in self.robot.get_links()}
+
+    def link(self, name: str):
+        return self._links[name]
+
+
+# ==================================================================================================
+@register_agent()
+class MLPanda(PandaWristCam):
+    """SG: Franka Panda + parallel gripper, wrist camera `hand_camera` (ManiSkill's `panda_wristcam`).
+
+    Action layout (8 dims):
+      pd_joint_pos        [0:7] arm joint targets (rad), [7] gripper (normalised: -1 closed, 1 open)
+      pd_joint_delta_pos  [0:7] arm joint deltas (normalised, 1 = 0.1 rad), [7] gripper
+      pd_ee_delta_pose    [0:3] TCP translation, [3:6] TCP rotation (axis-angle), both normalised
+                          (1 = 0.1 m / 0.1 rad, in the robot root frame), [6] gripper
+    (ManiSkill's other Panda modes -- pd_ee_pose, pd_joint_vel, ... -- are available too.)
+    """
+
+    uid = "ml_panda"
+
+
+# ==================================================================================================
+@register_agent()
+class MLPandaLeap(_MLAgent):
+    """SX: Panda arm + 16-DoF right LEAP hand on the flange; wrist camera `hand_camera`.
+
+    The hand's palm faces along the flange axis (out of the arm), fingers along the Panda hand's x axis.
+    TCP link `leap_tcp`: 8 cm out from the flange, on its axis (centre of a small power grasp).
+
+    Action layout (23 dims):
+      pd_joint_pos        [0:7] arm joint targets (rad), [7:23] hand joint targets (rad)
+      pd_joint_delta_pos  [0:7] arm joint deltas (normalised, 1 = 0.1 rad), [7:23] hand joint targets (rad)
+      pd_ee_delta_pose    [0:6] TCP delta pose (as ml_panda), [6:22] hand joint targets (rad)
+    Hand joints in LEAP order: index j0 (MCP side), j1 (MCP forward), j2 (PIP), j3 (DIP); middle
+    j4-j7 and ring j8-j11 likewise; thumb j12 (base / opposition), j13, j14, j15 (tip). 0 = flat hand.
+    """
+
+    uid = "ml_panda_leap"
+    hand_prefixes = ("",)
+    urdf_path = urdf_path("ml_panda_leap")
+    urdf_config = dict(HAND_MATERIALS, link={
+        f"leap_{f}_tip": dict(material="tip", patch_radius=0.05, min_patch_radius=0.05)
+        for f in ("index", "middle", "ring", "thumb")
+    })
+    hand_joint_names = LEAP_JOINTS
+    ee_link_name = "leap_tcp"
+    keyframes = dict(rest=rest_keyframe("ml_panda_leap", dict(zip(ARM_JOINTS, PANDA_REST))))
+
+    @property
+    def _controller_configs(self):
+        return combine(arm=arm_configs(ARM_JOINTS, self.ee_link_name, self.urdf_path), hand=leap_config())
+
+    @property
+    def _sensor_configs(self):
+        return [wrist_camera("hand_camera", self.robot.links_map["camera_link"])]
+
+    def _after_init(self):
+        super()._after_init()
+        self.tcp = self.link(self.ee_link_name)
+        self.palm = self.link("leap_palm")
+        self.tip_links = [self.link(f"leap_{f}_tip") for f in ("index", "middle", "ring", "thumb")]
+
+
+# ==================================================================================================
+def _dual_rest(gripper: bool) -> dict:
+    values = {}
+    for side in ("left_", "right_"):
+        values.update({side + j: v for j, v in zip(ARM_JOINTS, PANDA_REST)})
+        if gripper:
+            values.update({side + j: GRIPPER_OPEN for j in GRIPPER_JOINTS})
+    return values
+
+
+@register_agent()
+class MLDualPanda(_MLAgent):
+    """DG: two Pandas with parallel grippers, ONE articulation (root `dual_base`), arm bases 0.3 m to the
+    left (+y) and right (-y) of the robot frame, both facing +x. Wrist cameras `left_hand_camera`,
+    `right_hand_camera`; TCP links `left_panda_hand_tcp`, `right_panda_hand_tcp`.
+
+    Action layout (16 dims), left arm first:
+      pd_joint_pos        [0:7] left arm joint targets, [7] left gripper, [8:15] right arm, [15] right gripper
+      pd_joint_delta_pos  same with arm joint deltas (normalised, 1 = 0.1 rad)
+      pd_ee_delta_pose    [0:6] left TCP delta pose, [6] left gripper, [7:13] right TCP delta pose,
+                          [13] right gripper (delta poses normalised, 1 = 0.1 m / 0.1 rad, in the root frame)
+    Gripper commands are normalised: -1 closed (finger target -0.01 m), 1 open (0.04 m).
+    """
+
+    uid = "ml_dual_panda"
+    urdf_path = urdf_path("ml_dual_panda")
+    urdf_config = dict(
+        _materials=dict(gripper=dict(static_friction=2.0, dynamic_friction=2.0, restitution=0.0)),
+        link={f"{s}panda_{f}finger": dict(material="gripper", patch_radius=0.1, min_patch_radius=0.1)
+              for s in ("left_", "right_") for f in ("left", "right")},
+    )
+    arm_joint_names = [s + j for s in ("left_", "right_") for j in ARM_JOINTS]
+    keyframes = dict(rest=rest_keyframe("ml_dual_panda", _dual_rest(True)))
+    sides = ("left", "right")
+
+    @property
+    def _controller_configs(self):
+        parts = {}
+        for side in self.sides:
+            p = side + "_"
+            parts[f"{side}_arm"] = arm_configs([p + j for j in ARM_JOINTS], p + "panda_hand_tcp", self.urdf_path)
+            parts[f"{side}_gripper"] = gripper_config(p)
+        return combine(**parts)
+
+    @property
+    def _sensor_configs(self):
+        return [wrist_camera(f"{s}_hand_camera", self.robot.links_map[f"{s}_camera_link"]) for s in self.sides]
+
+    def _after_init(self):
+        super()._after_init()
+        self.tcps = {s: self.link(f"{s}_panda_hand_tcp") for s in self.sides}
+        self.fingers = {s: (self.link(f"{s}_panda_leftfinger"), self.link(f"{s}_panda_rightfinger")) for s in self.sides}
+
+
+@register_agent()
+class MLDualPandaLeap(_MLAgent):
+    """DX: two Panda arms with LEAP hands (left hand on the left arm, right hand on the right), ONE
+    articulation, arm bases as `ml_dual_panda`. Wrist cameras `left_hand_camera`, `right_hand_camera`;
+    TCP links `left_leap_tcp`, `right_leap_tcp`.
+
+    Action layout (46 dims), left side first:
+      pd_joint_pos        [0:7] left arm joint targets, [7:23] left hand joint targets,
+                          [23:30] right arm joint targets, [30:46] right hand joint targets (rad)
+      pd_joint_delta_pos  same with arm joint deltas (normalised, 1 = 0.1 rad); hands absolute
+      pd_ee_delta_pose    [0:6] left TCP delta pose, [6:22] left hand, [22:28] right TCP delta pose,
+                          [28:44] right hand
+    Hand joints in LEAP order j0..j15 (see ml_panda_leap); the left hand is the mirror image of the right,
+    so the same joint values give the mirrored posture.
+    """
+
+    uid = "ml_dual_panda_leap"
+    hand_prefixes = ("left_", "right_")
+    urdf_path = urdf_path("ml_dual_panda_leap")
+    urdf_config = dict(HAND_MATERIALS, link={
+        f"{s}leap_{f}_tip": dict(material="tip", patch_radius=0.05, min_patch_radius=0.05)
+        for s in ("left_", "right_") for f in ("index", "middle", "ring", "thumb")
+    })
+    arm_joint_names = [s + j for s in ("left_", "right_") for j in ARM_JOINTS]
+    keyframes = dict(rest=rest_keyframe("ml_dual_panda_leap", _dual_rest(False)))
+    sides = ("left", "right")
+
+    @property
+    def _controller_configs(self):
+        parts = {}
+        for side in self.sides:
+            p = side + "_"
+            parts[f"{side}_arm"] = arm_configs([p + j for j in ARM_JOINTS], p + "leap_tcp", self.urdf_path)
+            parts[f"{side}_hand"] = leap_config(p)
+        return combine(**parts)
+
+    @property
+    def _sensor_configs(self):
+        return [wrist_camera(f"{s}_hand_camera", self.robot.links_map[f"{s}_camera_link"]) for s in self.sides]
+
+    def _after_init(self):
+        super()._after_init()
+        self.tcps = {s: self.link(f"{s}_leap_tcp") for s in self.sides}
+
+
+# ==================================================================================================
+@register_agent()
+class MLTidyBot(_MLAgent):
+    """Mobile: TidyBot++-style holonomic base carrying a Panda with gripper; wrist camera `hand_camera`.
+
+    Base joints `base_x_joint`, `base_y_joint` (prismatic, world-aligned) and `base_yaw_joint` sit on the
+    floor 0.42 m behind the robot frame (so the 0.5 m square chassis clears the table); the arm base is
+    0.47 m above the floor on the chassis. TCP link `panda_hand_tcp`.
+
+    Action layout (11 dims):
+      pd_joint_pos        [0:3] base velocity (vx, vy in the base's own frame, yaw rate; normalised,
+                          1 = 0.5 m/s, 0.5 m/s, 1.57 rad/s), [3:10] arm joint targets (rad), [10] gripper
+      pd_joint_delta_pos  [0:3] base velocity, [3:10] arm joint deltas (1 = 0.1 rad), [10] gripper
+      pd_ee_delta_pose    [0:3] base velocity, [3:9] TCP delta pose (in the fixed root frame), [9] gripper
+    """
+
+    uid = "ml_tidybot"
+    urdf_path = urdf_path("ml_tidybot")
+    urdf_config = dict(
+        _materials=dict(gripper=dict(static_friction=2.0, dynamic_friction=2.0, restitution=0.0)),
+        link={f"panda_{f}finger": dict(material="gripper", patch_radius=0.1, min_patch_radius=0.1) for f in ("left", "right")},
+    )
+    base_joint_names = ["base_x_joint", "base_y_joint", "base_yaw_joint"]
+    gripper_joint_names = GRIPPER_JOINTS
+    ee_link_name = "panda_hand_tcp"
+    # arm folded higher than the fixed Panda's rest (its base is 0.33 m below the table top):
+    # TCP 8 cm above the table, 0.47 m ahead of the arm base
+    keyframes = dict(rest=rest_keyframe(
+        "ml_tidybot", {**dict(zip(ARM_JOINTS, TIDYBOT_ARM_REST)), **{j: GRIPPER_OPEN for j in GRIPPER_JOINTS}}))
+
+    @property
+    def _controller_configs(self):
+        base = PDBaseVelControllerConfig(
+            self.base_joint_names, lower=[-v for v in BASE_MAX_VEL], upper=list(BASE_MAX_VEL),
+            damping=BASE_DAMPING, force_limit=BASE_FORCE,
+        )
+        return combine(base=base, arm=arm_configs(ARM_JOINTS, self.ee_link_name, self.urdf_path), gripper=gripper_config())
+
+    @property
+    def _sensor_configs(self):
+        return [wrist_camera("hand_camera", self.robot.links_map["camera_link"])]
+
+    def _after_init(self):
+        super()._after_init()
+        self.tcp = self.link(self.ee_link_name)
+        self.base_link = self.link("base_link")
+        self.finger1_link, self.finger2_link = self.link("panda_leftfinger"), self.link("panda_rightfinger")
+
+    @property
+    def base_pose(self) -> torch.Tensor:
+        """(x, y, yaw) of the base joints, relative to the rest position."""
+        return self.robot.get_qpos()[:, :3]
