@@ -9,6 +9,8 @@ from collections import Counter
 from pathlib import Path
 
 from maniladder_ms.catalog import EMBODIMENTS, LEVELS, OBJECT_CLASSES, OBJECT_PROPERTIES, SKILLS, CatalogError, UnknownTaskError
+from maniladder_ms.demos.cli import add_parser as add_demos_parser
+from maniladder_ms.demos.files import DemoFileError
 
 
 def _catalog():
@@ -34,7 +36,7 @@ def cmd_list(args) -> int:
          str(t.horizon), "{C_geom}/{C_proc}/{C_perc}".format(**t.scores))
         for t in tasks
     ]
-    _print_table(header, rows)
+    print_table(header, rows)
     print(f"\n{len(tasks)} tasks, {sum(t.implemented for t in tasks)} implemented (*)")
     return 0
 
@@ -59,12 +61,12 @@ def _print_summary(cat, tasks, as_json: bool) -> int:
                 cells.append(f"{done_suite[s]}/{per_suite[s]}" if per_suite[s] else "-")
         lv = [t for t in tasks if t.level == level]
         rows.append((f"L{level}", *cells, f"{sum(t.implemented for t in lv)}/{len(lv)}"))
-    _print_table(("level", *cols, "total"), rows)
+    print_table(("level", *cols, "total"), rows)
     print(f"\nimplemented / catalog: {sum(done_suite.values())} / {len(tasks)} tasks")
     return 0
 
 
-def _print_table(header, rows):
+def print_table(header, rows):
     widths = [max(len(str(x)) for x in col) for col in zip(header, *rows)]
     for line in (header, tuple("-" * w for w in widths), *rows):
         print("  ".join(str(x).ljust(w) for x, w in zip(line, widths)).rstrip())
@@ -90,7 +92,7 @@ def cmd_bench(args) -> int:
             raise CatalogError(f"task {spec.id} is not implemented yet")
     rows = bench([s.env_id for s in specs], steps=args.steps, obs_mode=args.obs_mode,
                  progress=lambda e: print(f"  measuring {e} ...", file=sys.stderr))
-    _print_table(("env", "steps/s", "ratio to PickCube-v1"),
+    print_table(("env", "steps/s", "ratio to PickCube-v1"),
                  [(r["env_id"], f"{r['steps_per_s']:.0f}", f"{r['ratio']:.2f}") for r in rows])
     return 0
 
@@ -123,6 +125,8 @@ def build_parser() -> argparse.ArgumentParser:
     bn.add_argument("--steps", type=int, default=300)
     bn.add_argument("--obs-mode", default="state")
     bn.set_defaults(func=cmd_bench)
+
+    add_demos_parser(sub)
     return p
 
 
@@ -130,7 +134,7 @@ def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)
-    except (UnknownTaskError, CatalogError) as e:
+    except (UnknownTaskError, CatalogError, DemoFileError, FileExistsError, ValueError) as e:
         print(f"maniladder: error: {e}", file=sys.stderr)
         return 2
 

@@ -1,7 +1,8 @@
 """Motion helpers for a single Panda with a parallel gripper (mplib motion planning).
 
-Wraps ManiSkill's `PandaArmMotionPlanningSolver` (mplib 0.1.1), which drives the env in
-`pd_joint_pos`, with top-down grasp poses and pick/place phases the task solvers compose.
+Wraps ManiSkill's `PandaArmMotionPlanningSolver` (mplib 0.1.1) with top-down grasp poses and
+pick/place phases the task solvers compose. The planner commands joint-position targets; through
+`JointTargetAdapter` the env may run in pd_joint_pos, pd_joint_delta_pos or pd_ee_delta_pose.
 """
 
 from __future__ import annotations
@@ -13,11 +14,16 @@ import sapien
 
 from mani_skill.examples.motionplanning.panda.motionplanner import PandaArmMotionPlanningSolver
 
+from .adapters import JointTargetAdapter
+
 # joint speed/acceleration limits for planned paths (rad/s, rad/s^2); the Panda's own are ~2.2 rad/s
 JOINT_VEL_LIMIT = 2.0
 JOINT_ACC_LIMIT = 4.0
-# extra control steps at grasp and release poses, where the PD tracking lag matters
+# holding still at the end of a path: always this many steps at grasp and release poses, where the PD
+# tracking lag matters most, and on any move until the arm is this close (rad) to its goal
 PRECISE_SETTLE_STEPS = 2
+SETTLE_TOLERANCE = 0.02
+MAX_SETTLE_STEPS = 10
 
 
 class PlanningFailed(RuntimeError):
@@ -30,10 +36,8 @@ class PandaSolver:
     def __init__(self, env):
         self.env = env
         base = env.unwrapped
-        if base.control_mode != "pd_joint_pos":
-            raise ValueError(f"the Panda solver drives pd_joint_pos; the env uses {base.control_mode!r}")
         self.planner = PandaArmMotionPlanningSolver(
-            env,
+            JointTargetAdapter(env),
             debug=False,
             vis=False,
             base_pose=base.agent.robot.pose,
@@ -42,6 +46,7 @@ class PandaSolver:
             joint_vel_limits=JOINT_VEL_LIMIT,
             joint_acc_limits=JOINT_ACC_LIMIT,
         )
+        self.planner.control_mode = "pd_joint_pos"  # what the adapter accepts, whatever the env's mode
         self.info = {}
 
     def close(self):
@@ -73,13 +78,22 @@ class PandaSolver:
         return cur + (yaw - cur + period / 2) % period - period / 2
 
     def move(self, pose: sapien.Pose, settle_steps: int = 0):
-        """Plan and follow a path to `pose`; `settle_steps` more steps at the goal let the PD lag close."""
-        result = self.planner.move_to_pose_with_screw(pose, refine_steps=settle_steps)
-        if result == -1:
-            result = self.planner.move_to_pose_with_RRTConnect(pose, refine_steps=settle_steps)
-        if result == -1:
+        """Plan a path to `pose` and follow it, then hold the last waypoint for at least `settle_steps`
+        and until the arm is within SETTLE_TOLERANCE of it (at most MAX_SETTLE_STEPS): the PD lag,
+        larger in the delta control modes, must not leave a grasp or a release short of its pose."""
+        plan = self.planner.move_to_pose_with_screw(pose, dry_run=True)
+        if plan == -1:
+            plan = self.planner.move_to_pose_with_RRTConnect(pose, dry_run=True)
+        if plan == -1:
             raise PlanningFailed(f"no path to {pose}")
-        self.info = result[-1]
+        self.info = self.planner.follow_path(plan)[-1]
+        goal = plan["position"][-1]
+        arm = self.env.unwrapped.agent.robot
+        for step in range(MAX_SETTLE_STEPS):
+            error = np.abs(arm.get_qpos()[0, : len(goal)].cpu().numpy() - goal).max()
+            if step >= settle_steps and error < SETTLE_TOLERANCE:
+                break
+            self.info = self.planner.follow_path({"position": goal[None]})[-1]
 
     def grip(self, closed: bool, steps: int = 6):
         result = self.planner.close_gripper(t=steps) if closed else self.planner.open_gripper(t=steps)

@@ -1,0 +1,107 @@
+"""`maniladder demos generate | verify | stats`."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from .generate import DEFAULT_CONTROL_MODES
+
+
+def _selected_tasks(args):
+    from maniladder_ms.catalog import default_catalog
+
+    cat = default_catalog()
+    if args.task:
+        specs = [cat.get(args.task)]
+    else:
+        specs = cat.filter(level=args.level, suite=args.suite)
+    missing = [s.id for s in specs if not s.implemented]
+    if args.task and missing:
+        raise ValueError(f"task {args.task} is in the catalog but not implemented yet")
+    if missing:
+        print(f"skipping {len(missing)} tasks not implemented yet", file=sys.stderr)
+    return [s for s in specs if s.implemented]
+
+
+def cmd_generate(args) -> int:
+    from .generate import generate
+
+    if not (args.task or args.level or args.suite):
+        raise ValueError("name a task, or --level N / --suite S")
+    rows = []
+    for spec in _selected_tasks(args):
+        for mode in args.control_mode or DEFAULT_CONTROL_MODES:
+            r = generate(spec.id, args.num, args.out, seed=args.seed, control_mode=mode, obs_mode=args.obs_mode,
+                         workers=args.workers, overwrite=args.overwrite)
+            rows.append(r)
+            print(f"{r.task_id} [{mode}]: {r.kept} demos -> {r.path}  "
+                  f"(solver success {r.success_rate:.0%} over {len(r.attempts)} seeds)")
+    return 0
+
+
+def cmd_verify(args) -> int:
+    from .verify import verify
+
+    worst = 0
+    for path in args.paths:
+        checks = verify(Path(path))
+        ok = sum(c.success_from_actions and c.success_from_states for c in checks)
+        drift = max((c.max_drift for c in checks), default=0.0)
+        rate = ok / max(len(checks), 1)
+        print(f"{path}: {ok}/{len(checks)} episodes replay to success ({rate:.0%}); max state drift {drift:.2e}")
+        for c in checks:
+            if not (c.success_from_actions and c.success_from_states):
+                print(f"  episode {c.episode_id} (seed {c.seed}): from actions {c.success_from_actions}, "
+                      f"from states {c.success_from_states}")
+        if rate < args.min_success or (args.max_drift is not None and drift > args.max_drift):
+            worst = 1
+    return worst
+
+
+def cmd_stats(args) -> int:
+    from maniladder_ms.cli import print_table
+
+    from .stats import dataset_stats, plot_stats
+
+    rows = dataset_stats(args.root)
+    if not rows:
+        raise ValueError(f"no demo files under {args.root}")
+    print_table(
+        ("task", "level", "control mode", "demos", "length mean", "min", "max", "horizon", "solver success"),
+        [(r["task"], r["level"], r["control_mode"], r["demos"], f"{r['mean_len']:.0f}", r["min_len"], r["max_len"],
+          r["horizon"], f"{r['solver_success']:.0%}") for r in rows],
+    )
+    png = plot_stats(rows, args.png or Path(args.root) / "stats.png")
+    print(f"wrote {png}")
+    return 0
+
+
+def add_parser(sub):
+    demos = sub.add_parser("demos", help="scripted demonstrations: generate, verify, stats")
+    dsub = demos.add_subparsers(dest="demos_command", required=True)
+
+    gen = dsub.add_parser("generate", help="record successful solver episodes as ManiSkill h5 + json")
+    gen.add_argument("task", nargs="?", help="task id (or use --level / --suite)")
+    gen.add_argument("--level", type=int)
+    gen.add_argument("--suite")
+    gen.add_argument("--num", type=int, default=20, help="successful demos per task (default 20)")
+    gen.add_argument("--out", type=Path, default=Path("demos"))
+    gen.add_argument("--seed", type=int, default=0, help="first seed tried")
+    gen.add_argument("--obs-mode", default="none", help="obs recorded with the demo (default none: convert later)")
+    gen.add_argument("--control-mode", action="append", choices=("pd_joint_pos", "pd_joint_delta_pos", "pd_ee_delta_pose"),
+                     help=f"repeatable; default {' and '.join(DEFAULT_CONTROL_MODES)}")
+    gen.add_argument("--workers", type=int, default=1, help="processes")
+    gen.add_argument("--overwrite", action="store_true", help="replace an existing dataset file")
+    gen.set_defaults(func=cmd_generate)
+
+    ver = dsub.add_parser("verify", help="replay demos from actions and env states; non-zero exit below threshold")
+    ver.add_argument("paths", nargs="+", type=Path, help="demo .h5 files")
+    ver.add_argument("--min-success", type=float, default=1.0, help="fraction of episodes that must replay to success")
+    ver.add_argument("--max-drift", type=float, help="fail if the action replay drifts further from the states")
+    ver.set_defaults(func=cmd_verify)
+
+    st = dsub.add_parser("stats", help="per task demo counts, lengths and solver success; writes a PNG")
+    st.add_argument("root", type=Path, nargs="?", default=Path("demos"))
+    st.add_argument("--png", type=Path, help="plot path (default <root>/stats.png)")
+    st.set_defaults(func=cmd_stats)

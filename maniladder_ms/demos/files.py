@@ -1,0 +1,72 @@
+"""Reading and writing demo files, with clear errors for broken ones."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import h5py
+
+from maniladder_ms.catalog import UnknownTaskError, default_catalog
+
+# gymnasium imports the module before `module:env_id`, so ManiSkill tools that only `gym.make(env_id)`
+# from the json (replay_trajectory) find our envs without importing maniladder_ms themselves
+ENV_ID_PREFIX = "maniladder_ms:"
+DEMO_NAME = "trajectory"
+
+
+class DemoFileError(ValueError):
+    """A demo file that is missing, corrupt, or not a ManiLadder demo."""
+
+
+def demo_path(out_dir: Path, task_id: str, control_mode: str) -> Path:
+    return Path(out_dir) / task_id / f"{DEMO_NAME}.none.{control_mode}.physx_cpu.h5"
+
+
+def json_path(h5_path: Path) -> Path:
+    return Path(h5_path).with_suffix(".json")
+
+
+def load_demo_json(h5_path: Path) -> dict:
+    """The json beside `h5_path`, checked to describe a ManiLadder task."""
+    path = json_path(h5_path)
+    if not path.exists():
+        raise DemoFileError(f"{path}: missing (every demo .h5 needs its .json beside it)")
+    try:
+        data = json.loads(path.read_text())
+    except json.JSONDecodeError as e:
+        raise DemoFileError(f"{path}: not valid JSON ({e})") from e
+    if not isinstance(data, dict) or "env_info" not in data or "episodes" not in data:
+        raise DemoFileError(f"{path}: no 'env_info' / 'episodes' (not a ManiSkill trajectory json)")
+    env_id = data["env_info"].get("env_id", "")
+    try:
+        data["task_spec"] = default_catalog().get(env_id.removeprefix(ENV_ID_PREFIX))
+    except UnknownTaskError as e:
+        raise DemoFileError(f"{path}: demo of an unknown task: {e}") from e
+    return data
+
+
+def open_demo_h5(h5_path: Path) -> h5py.File:
+    path = Path(h5_path)
+    if not path.exists():
+        raise DemoFileError(f"{path}: no such file")
+    try:
+        return h5py.File(path, "r")
+    except OSError as e:
+        raise DemoFileError(f"{path}: unreadable or truncated HDF5 file ({e})") from e
+
+
+def episode_arrays(h5: h5py.File, episode_id: int, where: str) -> tuple:
+    """(actions, env_states dict) of one episode, or a DemoFileError naming what is missing."""
+    key = f"traj_{episode_id}"
+    try:
+        group = h5[key]
+        actions = group["actions"][()]
+        states = _read_group(group["env_states"])
+    except (KeyError, OSError) as e:
+        raise DemoFileError(f"{where}: episode {key} is missing or damaged ({e})") from e
+    return actions, states
+
+
+def _read_group(group):
+    return {k: _read_group(v) if isinstance(v, h5py.Group) else v[()] for k, v in group.items()}

@@ -1,0 +1,191 @@
+"""`maniladder demos generate`: run scripted solvers through RecordEpisode, keep the successes.
+
+Seeds are tried in chunks; each chunk is recorded into its own part file under `.parts/` and renamed
+into place only when complete, so an interrupted run resumes where it stopped (finished chunks are
+not redone) and `--workers K` runs chunks in K processes. When enough successful episodes exist,
+the first `num` by seed are merged into the dataset file.
+"""
+
+from __future__ import annotations
+
+import json
+import multiprocessing as mp
+import shutil
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import h5py
+from tqdm import tqdm
+
+from maniladder_ms.solvers.adapters import ADAPTABLE_MODES
+
+from .files import ENV_ID_PREFIX, DemoFileError, demo_path, json_path
+
+CHUNK_SIZE = 5
+DEFAULT_CONTROL_MODES = ("pd_joint_pos", "pd_ee_delta_pose")
+
+
+@dataclass
+class GenerateReport:
+    task_id: str
+    control_mode: str
+    path: Path
+    attempts: list = field(default_factory=list)  # {seed, success, steps} of every solver run
+    kept: int = 0
+
+    @property
+    def success_rate(self) -> float:
+        return sum(a["success"] for a in self.attempts) / max(len(self.attempts), 1)
+
+
+def _chunk_name(seeds: list[int]) -> str:
+    return f"seeds_{seeds[0]:07d}_{seeds[-1]:07d}"
+
+
+def record_chunk(task_id: str, control_mode: str, obs_mode: str, seeds: list[int], parts_dir: str) -> list[dict]:
+    """Run the solver on `seeds` under RecordEpisode; save successful episodes to a part file."""
+    import maniladder_ms
+    from mani_skill.utils.wrappers.record import RecordEpisode
+
+    from maniladder_ms.solvers import solve
+    from maniladder_ms.solvers.panda import PlanningFailed
+
+    parts_dir = Path(parts_dir)
+    name = _chunk_name(seeds)
+    env = maniladder_ms.make(task_id, obs_mode=obs_mode, control_mode=control_mode)
+    horizon = env.unwrapped.task_spec.horizon
+    env = RecordEpisode(
+        env, output_dir=str(parts_dir), trajectory_name=f"{name}.partial", save_video=False, save_on_reset=False,
+        source_type="scripted", source_desc=f"maniladder_ms scripted solver of {task_id}",
+    )
+    attempts = []
+    try:
+        for seed in seeds:
+            try:
+                info = solve(env, seed)
+                steps = int(info["elapsed_steps"][0])
+                ok = bool(info["success"][0]) and steps <= horizon
+            except PlanningFailed:
+                steps, ok = int(env.unwrapped.elapsed_steps[0]), False
+            env.flush_trajectory(save=ok)
+            attempts.append(dict(seed=seed, success=ok, steps=steps))
+    finally:
+        env.close()
+    for suffix in (".h5", ".json"):
+        (parts_dir / f"{name}.partial{suffix}").replace(parts_dir / f"{name}{suffix}")
+    (parts_dir / f"{name}.attempts.json").write_text(json.dumps(attempts))
+    return attempts
+
+
+def _finished_chunks(parts_dir: Path) -> dict[int, list[dict]]:
+    """{first seed: attempts} of the chunks a previous run completed."""
+    done = {}
+    for f in parts_dir.glob("seeds_*.attempts.json"):
+        attempts = json.loads(f.read_text())
+        done[attempts[0]["seed"]] = attempts
+    return done
+
+
+def generate(
+    task_id: str, num: int, out_dir: Path, seed: int = 0, control_mode: str = "pd_joint_pos",
+    obs_mode: str = "none", workers: int = 1, overwrite: bool = False, progress: bool = True,
+    max_attempts: int | None = None,
+) -> GenerateReport:
+    """Record `num` successful solver episodes of `task_id` (seeds from `seed` on) into one h5/json pair."""
+    from maniladder_ms.catalog import default_catalog
+
+    spec = default_catalog().get(task_id)
+    if control_mode not in ADAPTABLE_MODES:
+        raise ValueError(f"control mode {control_mode!r}: demos are recorded in one of {', '.join(ADAPTABLE_MODES)}")
+    out = demo_path(out_dir, spec.id, control_mode)
+    parts_dir = out.parent / ".parts" / control_mode
+    if out.exists() or json_path(out).exists():
+        if not overwrite:
+            raise FileExistsError(f"{out} exists; pass --overwrite to replace it")
+        out.unlink(missing_ok=True)
+        json_path(out).unlink(missing_ok=True)
+        shutil.rmtree(parts_dir, ignore_errors=True)
+    parts_dir.mkdir(parents=True, exist_ok=True)
+    max_attempts = max_attempts or 3 * num + 20
+
+    done = _finished_chunks(parts_dir)
+    report = GenerateReport(spec.id, control_mode, out)
+    successes = lambda: sum(a["success"] for chunk in done.values() for a in chunk)  # noqa: E731
+    bar = tqdm(total=num, desc=f"{spec.id} [{control_mode}]", unit="demo", disable=not progress)
+    bar.update(min(successes(), num))
+
+    starts = iter(range(seed, seed + max_attempts, CHUNK_SIZE))
+    todo = (s for s in starts if s not in done)
+
+    def chunk_seeds(start):
+        return list(range(start, min(start + CHUNK_SIZE, seed + max_attempts)))
+
+    def record(start, attempts):
+        before = successes()
+        done[start] = attempts
+        bar.update(min(successes(), num) - min(before, num))
+
+    if workers <= 1:
+        for start in todo:
+            if successes() >= num:
+                break
+            record(start, record_chunk(spec.id, control_mode, obs_mode, chunk_seeds(start), str(parts_dir)))
+    else:
+        with mp.get_context("spawn").Pool(workers) as pool:
+            pending = {}
+            while True:
+                while len(pending) < workers and successes() < num:
+                    start = next(todo, None)
+                    if start is None:
+                        break
+                    pending[start] = pool.apply_async(
+                        record_chunk, (spec.id, control_mode, obs_mode, chunk_seeds(start), str(parts_dir)))
+                if not pending:
+                    break
+                start = next(iter(pending))
+                record(start, pending.pop(start).get())
+    bar.close()
+
+    report.attempts = [a for start in sorted(done) for a in done[start]]
+    report.kept = _merge(parts_dir, out, num)
+    shutil.rmtree(parts_dir.parent)  # the merged file and its json carry everything the parts had
+    if report.kept < num:
+        raise RuntimeError(
+            f"{spec.id}: only {report.kept} successful demos in {len(report.attempts)} attempts "
+            f"(solver success {report.success_rate:.0%}); kept them in {out}"
+        )
+    return report
+
+
+def _merge(parts_dir: Path, out: Path, num: int) -> int:
+    """Copy the first `num` successful episodes (by seed) of all parts into `out`; returns the count."""
+    episodes = []  # (seed, part h5 path, episode json)
+    env_info = source = None
+    attempts = []
+    for part in sorted(parts_dir.glob("seeds_*.json")):
+        if part.name.endswith(".attempts.json"):
+            continue
+        data = json.loads(part.read_text())
+        env_info, source = data["env_info"], {k: data.get(k) for k in ("source_type", "source_desc")}
+        episodes += [(ep["episode_seed"], part.with_suffix(".h5"), ep) for ep in data["episodes"]]
+        attempts += json.loads(part.with_name(part.stem + ".attempts.json").read_text())
+    episodes.sort(key=lambda e: e[0])
+    episodes = episodes[:num]
+    if env_info is None:
+        raise DemoFileError(f"{parts_dir}: no recorded chunks to merge")
+    env_info["env_id"] = ENV_ID_PREFIX + env_info["env_id"].removeprefix(ENV_ID_PREFIX)
+    tmp = out.with_suffix(".partial.h5")
+    merged = []
+    with h5py.File(tmp, "w") as dst:
+        for new_id, (_, part_h5, ep) in enumerate(episodes):
+            with h5py.File(part_h5, "r") as src:
+                src.copy(src[f"traj_{ep['episode_id']}"], dst, name=f"traj_{new_id}")
+            merged.append(dict(ep, episode_id=new_id))
+    meta = dict(
+        env_info=env_info, **source, episodes=merged,
+        solver=dict(attempts=len(attempts), successes=sum(a["success"] for a in attempts)),
+    )
+    json_path(tmp).write_text(json.dumps(meta, indent=2))
+    tmp.replace(out)
+    json_path(tmp).replace(json_path(out))
+    return len(merged)
