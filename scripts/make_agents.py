@@ -131,9 +131,9 @@ LEAP_PALM_BOX = ((-0.102, -0.101, -0.035), (-0.007, 0.026, 0.024))  # bounds of 
 # datasheet), 10 mm thick (chosen), between panda_link8 and the palm back; the palm is centred on the flange axis, fingers along the Panda hand's x axis (the Panda
 # gripper is yawed -pi/4 about the flange [PANDA]; the LEAP hand uses the same yaw).
 ADAPTER_RADIUS, ADAPTER_THICKNESS, ADAPTER_MASS = 0.0315, 0.01, 0.1
-# "tcp" of the hand (chosen): 8 cm out from the flange along its axis, 1 cm towards the thumb
-# side of the palm centre -- the centre of a ~5 cm object held in a power grasp.
-LEAP_TCP_OFFSET = (0.0, 0.0, 0.08)
+# "tcp" of the hand (chosen): 10 mm ahead of the palm centre towards the fingers, 3 cm in front of the
+# palm face (flange + 10 mm adapter + 59 mm palm) -- between the curled fingers and the thumb.
+LEAP_TCP_OFFSET = (0.02, 0.0, 0.10)
 # Wrist camera (chosen): on the adapter rim at the wrist end of the palm, looking out along the
 # flange axis, tilted 0.35 rad towards the fingers.
 LEAP_CAMERA_XYZ = (-0.075, 0.0, 0.0)

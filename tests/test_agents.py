@@ -197,7 +197,7 @@ def lift_cube(env, seed: int, arm: str, ee_part: str, leap: bool) -> bool:
     above = p + torch.tensor([0, 0, 0.1])
     if leap:
         driver.set_ee(ee_part, "open", steps=1)
-        grasp = p + torch.tensor([0, 0, 0.04])
+        grasp = p + torch.tensor([0, 0, 0.0])
     else:
         driver.grip(False, ee_part, steps=1)
         grasp = p + torch.tensor([0, 0, 0.0])

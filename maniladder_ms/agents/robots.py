@@ -182,7 +182,7 @@ class MLPandaLeap(_MLAgent):
     """SX: Panda arm + 16-DoF right LEAP hand on the flange; wrist camera `hand_camera`.
 
     The hand's palm faces along the flange axis (out of the arm), fingers along the Panda hand's x axis.
-    TCP link `leap_tcp`: 8 cm out from the flange, on its axis (centre of a small power grasp).
+    TCP link `leap_tcp`: 10 cm out from the flange, 2 cm off its axis towards the fingers.
 
     Action layout (23 dims):
       pd_joint_pos        [0:7] arm joint targets (rad), [7:23] hand joint targets (rad)
