@@ -287,7 +287,7 @@ def test_report_renders_with_comparison(tmp_path):
     from maniladder_ms.evaluation.report import write_report
 
     _fake_run(tmp_path / "a", "random", {PEN: 0.1, "Stack6Blocks": 0.0})
-    _fake_run(tmp_path / "b", "mypkg.policies:Diffusion", {PEN: 0.8, "Stack6Blocks": 0.3})
+    _fake_run(tmp_path / "b", "mypkg.policies:Diffusion", {PEN: 1.0, "Stack6Blocks": 0.3})
     html_path = write_report([tmp_path / "a", tmp_path / "b"], out=tmp_path / "rep")
     page = html_path.read_text()
     assert page.count("data:image/png;base64,") == 5

@@ -41,9 +41,11 @@ def print_summary(summary: dict, file=None):
         rows.append((f"L{level}", *cells, _pct(lv["mean"]) + ci, lv["threshold_text"], f"{lv['n_tasks']}/{lv['catalog_tasks']} tasks"))
     _table(rows, file)
     if summary.get("skipped"):
-        print(f"\nskipped {len(summary['skipped'])} task(s) (not evaluated): "
-              + ", ".join(f"{k} ({v})" for k, v in list(summary["skipped"].items())[:6])
-              + (" ..." if len(summary["skipped"]) > 6 else ""), file=file)
+        by_reason: dict = {}
+        for k, v in summary["skipped"].items():
+            by_reason.setdefault(v, []).append(k)
+        parts = [f"{reason}: " + (", ".join(ids) if len(ids) <= 6 else f"{len(ids)} tasks") for reason, ids in by_reason.items()]
+        print(f"\nskipped {len(summary['skipped'])} task(s) (not evaluated): " + "; ".join(parts), file=file)
     print(f"\n{summary['ladder']['text']}", file=file)
 
 

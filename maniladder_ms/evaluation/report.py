@@ -134,7 +134,7 @@ def fig_tasks(runs) -> bytes:
             if t is None:
                 continue
             color = LEVEL_COLORS[t["level"]] if len(runs) == 1 else RUN_COLORS[r % len(RUN_COLORS)]
-            err = [[t["rate"] - t["ci"][0]], [t["ci"][1] - t["rate"]]]
+            err = [[max(0.0, t["rate"] - t["ci"][0])], [max(0.0, t["ci"][1] - t["rate"])]]
             ax.bar(i - 0.4 + width * (r + 0.5), t["rate"], width * 0.9, color=color, yerr=err, capsize=3,
                    label=run["name"] if (len(runs) > 1 and i == next(j for j, x in enumerate(order) if x in run["summary"]["tasks"])) else None)
     levels = [cat.get(t).level for t in order]
@@ -166,10 +166,10 @@ def fig_properties(runs) -> bytes:
             if not ts:
                 continue
             x = np.array([t["horizon"] if key == "horizon" else t["scores"][key] for t in ts], float)
-            span = (x.max() - x.min()) or (x.max() if key == "horizon" else 1.0)
-            x = x + rng.uniform(-0.03, 0.03, len(x)) * span
+            unit = 0.015 * max(t["horizon"] for run_ in runs for t in run_["summary"]["tasks"].values()) if key == "horizon" else 0.08
+            x = x + (r - (len(runs) - 1) / 2) * unit + rng.uniform(-0.2, 0.2, len(x)) * unit  # runs side by side
             y = np.array([t["rate"] for t in ts])
-            err = np.array([[t["rate"] - t["ci"][0] for t in ts], [t["ci"][1] - t["rate"] for t in ts]])
+            err = np.clip(np.array([[t["rate"] - t["ci"][0] for t in ts], [t["ci"][1] - t["rate"] for t in ts]]), 0, None)
             ax.errorbar(x, y, yerr=err, fmt="o", color=RUN_COLORS[r % len(RUN_COLORS)], ms=5, capsize=2, alpha=0.85,
                         label=run["name"])
         ax.set_xlabel(label)
@@ -277,6 +277,15 @@ def _tasks_html(runs) -> str:
     return "".join(out)
 
 
+def _obs_modes(manifest) -> str:
+    """The obs mode(s) episodes ran under: the requested one, or what the policy asked for instead."""
+    asked = manifest.get("obs_mode")
+    used = sorted({kw.get("obs_mode") for kw in (manifest.get("task_env") or {}).values()} - {None})
+    if not used or used == [asked]:
+        return str(asked)
+    return f"{', '.join(used)} (set by the policy; asked {asked})"
+
+
 def _runs_html(runs) -> str:
     out = ["<table><tr><th>run</th><th>policy</th><th>obs mode</th><th>seed set</th><th>episodes/task</th>"
            "<th>tasks evaluated</th><th>skipped</th><th>episodes</th><th>ladder level</th><th>folder</th></tr>"]
@@ -288,7 +297,7 @@ def _runs_html(runs) -> str:
         delta = "" if k == 0 or d == 0 else f' <span class="{"up" if d > 0 else "down"}">{"▲" if d > 0 else "▼"}{abs(d)}</span>'
         out.append(
             f'<tr><td class="l"><b>{_e(run["name"])}</b>{" (baseline A)" if k == 0 and len(runs) > 1 else ""}</td>'
-            f'<td class="l">{_e(m.get("policy"))}</td><td>{_e(m.get("obs_mode"))}</td><td>{_e(m.get("seed"))}</td>'
+            f'<td class="l">{_e(m.get("policy"))}</td><td>{_e(_obs_modes(m))}</td><td>{_e(m.get("seed"))}</td>'
             f'<td>{_e(m.get("episodes"))}</td><td>{s["evaluated_tasks"]}/{s["catalog_tasks"]}</td><td>{len(s["skipped"])}</td>'
             f'<td>{s["episodes"]}</td><td>{"&ge; " if not lad["exact"] else ""}{lad["level"]}{delta}</td>'
             f'<td class="l small">{_e(run["dir"])}</td></tr>')
