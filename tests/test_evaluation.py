@@ -265,8 +265,14 @@ def test_replay_policy_plays_recorded_demos(tmp_path):
     recs = read_episodes(tmp_path / "out")
     assert [r["seed"] for r in recs] == [3, 4]  # the demos' own seeds; capped at the 2 demos
     assert s["tasks"][PEN]["successes"] == 2
-    # a folder of demos works too, and tasks without demos are skipped
+    # a folder of demos works too (hidden work folders are ignored), and tasks without demos are skipped
+    import shutil
+
+    (tmp_path / "demos" / ".parts").mkdir()
+    for suffix in (".h5", ".json"):
+        shutil.copy(h5.with_suffix(suffix), tmp_path / "demos" / ".parts" / f"seeds_0{suffix}")
     pol = load_policy(f"replay:{tmp_path / 'demos'}")
+    assert pol.demos["ManiLadder-PickPlacePen-v1"][0] == h5
     assert pol.supports(maniladder_ms.default_catalog().get("Stack6Blocks")) is not True
 
 
@@ -324,3 +330,19 @@ def test_real_kill_and_workers(tmp_path):
     kept = {(r["episode"], r["seed"], r["success"], r["steps"]) for r in after}
     assert all((r["episode"], r["seed"], r["success"], r["steps"]) in kept for r in before)
     assert sum(r["success"] for r in after) >= 10
+
+
+def test_add_parsers_plugs_into_the_maniladder_command(tmp_path, capsys):
+    import argparse
+
+    from maniladder_ms.cli import build_parser
+    from maniladder_ms.evaluation.cli import add_parsers
+
+    parser = build_parser()
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    if "eval" not in sub.choices:  # until maniladder_ms/cli.py calls add_parsers itself
+        add_parsers(sub)
+    args = parser.parse_args(["eval", "--policy", "random", "--tasks", "NoSuchTask", "--out", str(tmp_path / "x")])
+    assert args.func(args) == 2 and "unknown ManiLadder task" in capsys.readouterr().err
+    args = parser.parse_args(["report", str(tmp_path / "nothing")])
+    assert args.func(args) == 2

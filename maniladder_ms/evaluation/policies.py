@@ -123,11 +123,15 @@ class ReplayPolicy:
         self.path = Path(path)
         if not self.path.exists():
             raise PolicyError(f"replay: {path} does not exist (give a ManiSkill demo .h5 file or a folder of them)")
-        files = [self.path] if self.path.is_file() else sorted(self.path.rglob("*.h5"))
+        files = [self.path] if self.path.is_file() else sorted(
+            f for f in self.path.rglob("*.h5")
+            if not f.name.endswith(".partial.h5") and not any(p.startswith(".") for p in f.relative_to(self.path).parts)
+        )
         if not files:
             raise PolicyError(f"replay: no .h5 demo files under {path}")
         self.name = f"replay:{path}"
         self.demos: dict[str, tuple[Path, list[dict]]] = {}  # env_id -> (h5 path, episodes)
+        candidates: dict[str, list] = {}
         for h5 in files:
             meta_path = h5.with_suffix(".json")
             if not meta_path.exists():
@@ -138,10 +142,15 @@ class ReplayPolicy:
                 episodes = list(meta["episodes"])
             except (KeyError, TypeError) as e:
                 raise PolicyError(f"replay: {meta_path} is not a ManiSkill trajectory json (missing {e})") from None
-            if env_id in self.demos:
-                raise PolicyError(f"replay: two demo files for {env_id}: {self.demos[env_id][0]} and {h5}")
-            self.demos[env_id] = (h5, episodes)
-        self._h5 = None
+            candidates.setdefault(env_id, []).append((h5, episodes))
+        for env_id, found in candidates.items():
+            if len(found) > 1:  # several control modes of one task: the solvers' own mode replays exactly
+                native = [c for c in found if {ep.get("control_mode") for ep in c[1]} == {SolverPolicy.control_mode}]
+                if len(native) != 1:
+                    raise PolicyError(f"replay: several demo files for {env_id} ({', '.join(str(c[0]) for c in found)}); "
+                                      "give one file with replay:<file.h5>")
+                found = native
+            self.demos[env_id] = found[0]
 
     def supports(self, spec: TaskSpec):
         return True if spec.env_id in self.demos else f"no demos for {spec.id} in {self.path}"
