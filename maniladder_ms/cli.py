@@ -1,4 +1,4 @@
-"""`maniladder`: list the ladder, render a task, benchmark steps/s."""
+"""`maniladder`: list the ladder, render a task, benchmark steps/s, demos, evaluation and reports."""
 
 from __future__ import annotations
 
@@ -11,6 +11,8 @@ from pathlib import Path
 from maniladder_ms.catalog import EMBODIMENTS, LEVELS, OBJECT_CLASSES, OBJECT_PROPERTIES, SKILLS, CatalogError, UnknownTaskError
 from maniladder_ms.demos.cli import add_parser as add_demos_parser
 from maniladder_ms.demos.files import DemoFileError
+from maniladder_ms.evaluation.cli import add_parsers as add_eval_parsers
+from maniladder_ms.table import print_table
 
 
 def _catalog():
@@ -64,12 +66,6 @@ def _print_summary(cat, tasks, as_json: bool) -> int:
     print_table(("level", *cols, "total"), rows)
     print(f"\nimplemented / catalog: {sum(done_suite.values())} / {len(tasks)} tasks")
     return 0
-
-
-def print_table(header, rows):
-    widths = [max(len(str(x)) for x in col) for col in zip(header, *rows)]
-    for line in (header, tuple("-" * w for w in widths), *rows):
-        print("  ".join(str(x).ljust(w) for x, w in zip(line, widths)).rstrip())
 
 
 def cmd_render(args) -> int:
@@ -127,6 +123,7 @@ def build_parser() -> argparse.ArgumentParser:
     bn.set_defaults(func=cmd_bench)
 
     add_demos_parser(sub)
+    add_eval_parsers(sub)
     return p
 
 

@@ -5,6 +5,9 @@ from pathlib import Path
 
 PACKAGE_DIR = Path(__file__).resolve().parent
 REPO_DIR = PACKAGE_DIR.parent
+# the robot descriptions: the repo's top-level agents/, reached through the package's data/agents
+# symlink in a checkout; a wheel carries the files themselves there
+AGENTS_DIR = PACKAGE_DIR / "data" / "agents"
 
 
 def cache_dir(*parts: str) -> Path:

@@ -73,4 +73,5 @@ def test_wheel_install_carries_the_catalog(tmp_path):
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
                          cwd=tmp_path, env=env).stdout.split()
     assert out[0].startswith(str(target)) and out[1] == "112"
+    assert (target / "maniladder_ms" / "data" / "agents" / "ml_panda_leap.urdf").is_file()
     assert (target / "bin" / "maniladder").exists()

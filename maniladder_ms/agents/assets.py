@@ -13,9 +13,7 @@ from pathlib import Path
 
 from mani_skill import PACKAGE_ASSET_DIR
 
-from maniladder_ms.paths import REPO_DIR, cache_dir
-
-AGENTS_DIR = REPO_DIR / "agents"
+from maniladder_ms.paths import AGENTS_DIR, cache_dir
 PANDA_ASSET_DIR = Path(PACKAGE_ASSET_DIR) / "robots" / "panda"
 
 

@@ -159,6 +159,11 @@ class _MLAgent(BaseAgent):
     def link(self, name: str):
         return self._links[name]
 
+    @property
+    def _sensor_configs(self):
+        # one wrist camera; the two-arm agents override this with one per side
+        return [wrist_camera("hand_camera", self.robot.links_map["camera_link"])]
+
 
 # ==================================================================================================
 @register_agent()
@@ -207,10 +212,6 @@ class MLPandaLeap(_MLAgent):
     def _controller_configs(self):
         return combine(arm=arm_configs(ARM_JOINTS, self.ee_link_name, self.urdf_path), hand=leap_config())
 
-    @property
-    def _sensor_configs(self):
-        return [wrist_camera("hand_camera", self.robot.links_map["camera_link"])]
-
     def _after_init(self):
         super()._after_init()
         self.tcp = self.link(self.ee_link_name)
@@ -228,8 +229,38 @@ def _dual_rest(gripper: bool) -> dict:
     return values
 
 
+class _DualArm(_MLAgent):
+    """Shared by the two-arm agents: one articulation, `left_`/`right_` prefixed arms, a wrist camera
+    and an end effector (`_end_effector_config`, TCP link `<side>_<tcp_link>`) per side."""
+
+    sides = ("left", "right")
+    arm_joint_names = [s + j for s in ("left_", "right_") for j in ARM_JOINTS]
+    tcp_link: str
+    end_effector: str
+
+    def _end_effector_config(self, prefix: str):
+        raise NotImplementedError
+
+    @property
+    def _controller_configs(self):
+        parts = {}
+        for side in self.sides:
+            p = side + "_"
+            parts[f"{side}_arm"] = arm_configs([p + j for j in ARM_JOINTS], p + self.tcp_link, self.urdf_path)
+            parts[f"{side}_{self.end_effector}"] = self._end_effector_config(p)
+        return combine(**parts)
+
+    @property
+    def _sensor_configs(self):
+        return [wrist_camera(f"{s}_hand_camera", self.robot.links_map[f"{s}_camera_link"]) for s in self.sides]
+
+    def _after_init(self):
+        super()._after_init()
+        self.tcps = {s: self.link(f"{s}_{self.tcp_link}") for s in self.sides}
+
+
 @register_agent()
-class MLDualPanda(_MLAgent):
+class MLDualPanda(_DualArm):
     """DG: two Pandas with parallel grippers, ONE articulation (root `dual_base`), arm bases 0.3 m to the
     left (+y) and right (-y) of the robot frame, both facing +x. Wrist cameras `left_hand_camera`,
     `right_hand_camera`; TCP links `left_panda_hand_tcp`, `right_panda_hand_tcp`.
@@ -249,31 +280,19 @@ class MLDualPanda(_MLAgent):
         link={f"{s}panda_{f}finger": dict(material="gripper", patch_radius=0.1, min_patch_radius=0.1)
               for s in ("left_", "right_") for f in ("left", "right")},
     )
-    arm_joint_names = [s + j for s in ("left_", "right_") for j in ARM_JOINTS]
     keyframes = dict(rest=rest_keyframe("ml_dual_panda", _dual_rest(True)))
-    sides = ("left", "right")
+    tcp_link, end_effector = "panda_hand_tcp", "gripper"
 
-    @property
-    def _controller_configs(self):
-        parts = {}
-        for side in self.sides:
-            p = side + "_"
-            parts[f"{side}_arm"] = arm_configs([p + j for j in ARM_JOINTS], p + "panda_hand_tcp", self.urdf_path)
-            parts[f"{side}_gripper"] = gripper_config(p)
-        return combine(**parts)
-
-    @property
-    def _sensor_configs(self):
-        return [wrist_camera(f"{s}_hand_camera", self.robot.links_map[f"{s}_camera_link"]) for s in self.sides]
+    def _end_effector_config(self, prefix: str):
+        return gripper_config(prefix)
 
     def _after_init(self):
         super()._after_init()
-        self.tcps = {s: self.link(f"{s}_panda_hand_tcp") for s in self.sides}
         self.fingers = {s: (self.link(f"{s}_panda_leftfinger"), self.link(f"{s}_panda_rightfinger")) for s in self.sides}
 
 
 @register_agent()
-class MLDualPandaLeap(_MLAgent):
+class MLDualPandaLeap(_DualArm):
     """DX: two Panda arms with LEAP hands (left hand on the left arm, right hand on the right), ONE
     articulation, arm bases as `ml_dual_panda`. Wrist cameras `left_hand_camera`, `right_hand_camera`;
     TCP links `left_leap_tcp`, `right_leap_tcp`.
@@ -295,26 +314,11 @@ class MLDualPandaLeap(_MLAgent):
         f"{s}leap_{f}_tip": dict(material="tip", patch_radius=0.05, min_patch_radius=0.05)
         for s in ("left_", "right_") for f in ("index", "middle", "ring", "thumb")
     })
-    arm_joint_names = [s + j for s in ("left_", "right_") for j in ARM_JOINTS]
     keyframes = dict(rest=rest_keyframe("ml_dual_panda_leap", _dual_rest(False)))
-    sides = ("left", "right")
+    tcp_link, end_effector = "leap_tcp", "hand"
 
-    @property
-    def _controller_configs(self):
-        parts = {}
-        for side in self.sides:
-            p = side + "_"
-            parts[f"{side}_arm"] = arm_configs([p + j for j in ARM_JOINTS], p + "leap_tcp", self.urdf_path)
-            parts[f"{side}_hand"] = leap_config(p)
-        return combine(**parts)
-
-    @property
-    def _sensor_configs(self):
-        return [wrist_camera(f"{s}_hand_camera", self.robot.links_map[f"{s}_camera_link"]) for s in self.sides]
-
-    def _after_init(self):
-        super()._after_init()
-        self.tcps = {s: self.link(f"{s}_leap_tcp") for s in self.sides}
+    def _end_effector_config(self, prefix: str):
+        return leap_config(prefix)
 
 
 # ==================================================================================================
@@ -354,10 +358,6 @@ class MLTidyBot(_MLAgent):
             damping=BASE_DAMPING, force_limit=BASE_FORCE,
         )
         return combine(base=base, arm=arm_configs(ARM_JOINTS, self.ee_link_name, self.urdf_path), gripper=gripper_config())
-
-    @property
-    def _sensor_configs(self):
-        return [wrist_camera("hand_camera", self.robot.links_map["camera_link"])]
 
     def _after_init(self):
         super()._after_init()

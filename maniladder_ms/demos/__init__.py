@@ -10,6 +10,6 @@ replay into rgbd writes `trajectory.rgbd.<control_mode>.physx_cpu.h5` beside it.
 """
 
 from .files import DemoFileError, load_demo_json, open_demo_h5
-from .generate import generate
+from .recording import generate
 from .stats import dataset_stats
 from .verify import verify

@@ -5,7 +5,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from .generate import DEFAULT_CONTROL_MODES
+from .recording import DEFAULT_CONTROL_MODES
 
 
 def _selected_tasks(args):
@@ -25,7 +25,7 @@ def _selected_tasks(args):
 
 
 def cmd_generate(args) -> int:
-    from .generate import generate
+    from .recording import generate
 
     if not (args.task or args.level or args.suite):
         raise ValueError("name a task, or --level N / --suite S")
@@ -60,7 +60,7 @@ def cmd_verify(args) -> int:
 
 
 def cmd_stats(args) -> int:
-    from maniladder_ms.cli import print_table
+    from maniladder_ms.table import print_table
 
     from .stats import dataset_stats, plot_stats
 

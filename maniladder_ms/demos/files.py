@@ -19,8 +19,8 @@ class DemoFileError(ValueError):
     """A demo file that is missing, corrupt, or not a ManiLadder demo."""
 
 
-def demo_path(out_dir: Path, task_id: str, control_mode: str) -> Path:
-    return Path(out_dir) / task_id / f"{DEMO_NAME}.none.{control_mode}.physx_cpu.h5"
+def demo_path(out_dir: Path, task_id: str, obs_mode: str, control_mode: str) -> Path:
+    return Path(out_dir) / task_id / f"{DEMO_NAME}.{obs_mode}.{control_mode}.physx_cpu.h5"
 
 
 def json_path(h5_path: Path) -> Path:

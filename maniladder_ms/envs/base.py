@@ -133,8 +133,10 @@ class ManiLadderEnv(BaseEnv):
         with torch.device(self.device):
             b = len(env_idx)
             qpos = torch.as_tensor(self.agent.keyframes["rest"].qpos, dtype=torch.float32).repeat(b, 1)
-            n_arm = len(self.agent.arm_joint_names)  # noise on the arm only; the gripper starts open
-            qpos[:, :n_arm] += torch.randn(b, n_arm) * self.robot_init_qpos_noise
+            # noise on the arm joints only: the gripper starts open and a mobile base where it is
+            active = [joint.name for joint in self.agent.robot.active_joints]
+            arm = [active.index(name) for name in self.agent.arm_joint_names]
+            qpos[:, arm] += torch.randn(b, len(arm)) * self.robot_init_qpos_noise
             self.agent.reset(qpos)
             self.agent.robot.set_pose(ROBOT_BASE_POSE)
             self.ladder_scene.initialize(env_idx, keep_out=self.TASK_REGION)

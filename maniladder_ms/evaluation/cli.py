@@ -9,6 +9,8 @@ from pathlib import Path
 
 from maniladder_ms.catalog import EMBODIMENTS, LEVELS, OBJECT_PROPERTIES, CatalogError, UnknownTaskError
 
+from maniladder_ms.table import print_table
+
 from .policies import PolicyError, policy_label
 from .results import ResultsError
 
@@ -26,7 +28,7 @@ def print_summary(summary: dict, file=None):
         rows.append((tid, str(t["level"]), t["suite"], f"{100 * t['rate']:.0f}%",
                      f"[{_pct(t['ci'][0])}, {_pct(t['ci'][1])}]", str(t["episodes"]),
                      f"{t['mean_steps']:.0f}", f"{t['mean_wall_s']:.2f}"))
-    _table(rows, file)
+    print_table(rows[0], rows[1:], file)
     print(file=file)
     cols = [f"{p[:3]}-{e}" for p in OBJECT_PROPERTIES for e in EMBODIMENTS]
     rows = [("level", *cols, "level mean", "threshold", "coverage")]
@@ -39,7 +41,7 @@ def print_summary(summary: dict, file=None):
         lv = summary["levels"][str(level)]
         ci = f" [{_pct(lv['ci'][0])}, {_pct(lv['ci'][1])}]" if lv["ci"] else ""
         rows.append((f"L{level}", *cells, _pct(lv["mean"]) + ci, lv["threshold_text"], f"{lv['n_tasks']}/{lv['catalog_tasks']} tasks"))
-    _table(rows, file)
+    print_table(rows[0], rows[1:], file)
     if summary.get("skipped"):
         by_reason: dict = {}
         for k, v in summary["skipped"].items():
@@ -47,14 +49,6 @@ def print_summary(summary: dict, file=None):
         parts = [f"{reason}: " + (", ".join(ids) if len(ids) <= 6 else f"{len(ids)} tasks") for reason, ids in by_reason.items()]
         print(f"\nskipped {len(summary['skipped'])} task(s) (not evaluated): " + "; ".join(parts), file=file)
     print(f"\n{summary['ladder']['text']}", file=file)
-
-
-def _table(rows, file):
-    widths = [max(len(str(x)) for x in col) for col in zip(*rows)]
-    for i, line in enumerate(rows):
-        print("  ".join(str(x).ljust(w) for x, w in zip(line, widths)).rstrip(), file=file)
-        if i == 0:
-            print("  ".join("-" * w for w in widths), file=file)
 
 
 def cmd_eval(args) -> int:

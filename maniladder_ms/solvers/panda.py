@@ -99,10 +99,16 @@ class PandaSolver:
         result = self.planner.close_gripper(t=steps) if closed else self.planner.open_gripper(t=steps)
         self.info = result[-1]
 
-    def hold(self, max_steps: int, until_success: bool = True):
-        """Keep the arm and gripper where they are for up to `max_steps` (e.g. to let objects come to rest)."""
+    def hold_until_success(self, max_steps: int = 30, stable_steps: int = 3):
+        """Keep still until the task has reported success `stable_steps` steps in a row (or `max_steps`).
+
+        Ending a demo in a settled success makes it robust for tools that replay it from recorded states
+        (ManiSkill 3.0.1's replay_trajectory --use-env-states scores the last step one state behind).
+        """
+        streak = 0
         for _ in range(max_steps):
-            if until_success and bool(self.info.get("success", False)):
+            streak = streak + 1 if bool(self.info.get("success", False)) else 0
+            if streak >= stable_steps:
                 return
             self.grip(closed=self.planner.gripper_state == self.planner.CLOSED, steps=1)
 

@@ -127,4 +127,5 @@ def solve_pick_place_pen(env, seed: int) -> dict:
         turn = (tray_yaw - pen_yaw + np.pi / 2) % np.pi - np.pi / 2
         release_z = task.tray_base_thickness + task.pen_radius + 0.01
         robot.place(robot.top_down_pose([tray_p[0], tray_p[1], release_z], grasp_yaw + turn))
+        robot.hold_until_success()
         return robot.info

@@ -19,6 +19,8 @@ from tqdm import tqdm
 
 from maniladder_ms.solvers.adapters import ADAPTABLE_MODES
 
+from maniladder_ms.evaluation import EVAL_SEED_BASE as MAX_DEMO_SEED
+
 from .files import ENV_ID_PREFIX, DemoFileError, demo_path, json_path
 
 CHUNK_SIZE = 5
@@ -36,6 +38,11 @@ class GenerateReport:
     @property
     def success_rate(self) -> float:
         return sum(a["success"] for a in self.attempts) / max(len(self.attempts), 1)
+
+
+def max_attempts_for(num: int, max_attempts: int | None) -> int:
+    """Seeds tried before giving up: enough for a solver that succeeds a third of the time."""
+    return max_attempts or 3 * num + 20
 
 
 def _chunk_name(seeds: list[int]) -> str:
@@ -95,9 +102,11 @@ def generate(
     from maniladder_ms.catalog import default_catalog
 
     spec = default_catalog().get(task_id)
+    if not (0 <= seed and seed + max_attempts_for(num, max_attempts) <= MAX_DEMO_SEED):
+        raise ValueError(f"demo seeds must stay in [0, {MAX_DEMO_SEED}): evaluation seeds start there")
     if control_mode not in ADAPTABLE_MODES:
         raise ValueError(f"control mode {control_mode!r}: demos are recorded in one of {', '.join(ADAPTABLE_MODES)}")
-    out = demo_path(out_dir, spec.id, control_mode)
+    out = demo_path(out_dir, spec.id, obs_mode, control_mode)
     parts_dir = out.parent / ".parts" / control_mode
     if out.exists() or json_path(out).exists():
         if not overwrite:
@@ -106,7 +115,7 @@ def generate(
         json_path(out).unlink(missing_ok=True)
         shutil.rmtree(parts_dir, ignore_errors=True)
     parts_dir.mkdir(parents=True, exist_ok=True)
-    max_attempts = max_attempts or 3 * num + 20
+    max_attempts = max_attempts_for(num, max_attempts)
 
     done = _finished_chunks(parts_dir)
     report = GenerateReport(spec.id, control_mode, out)
@@ -134,7 +143,8 @@ def generate(
         with mp.get_context("spawn").Pool(workers) as pool:
             pending = {}
             while True:
-                while len(pending) < workers and successes() < num:
+                # optimistic: count every in-flight seed as a success, so no chunk starts that cannot be needed
+                while len(pending) < workers and successes() + CHUNK_SIZE * len(pending) < num:
                     start = next(todo, None)
                     if start is None:
                         break

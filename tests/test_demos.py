@@ -1,0 +1,162 @@
+"""Demonstrations: generate, verify, ManiSkill's own replay_trajectory, stats, bad input."""
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import h5py
+import pytest
+
+import maniladder_ms
+from maniladder_ms.demos import DemoFileError, dataset_stats, generate, verify
+from maniladder_ms.demos import recording as generate_module
+from maniladder_ms.demos.files import demo_path
+from maniladder_ms.demos.stats import plot_stats
+
+TASKS = [t.id for t in maniladder_ms.default_catalog().filter(implemented=True)]
+
+
+@pytest.fixture(scope="module")
+def demo_root(tmp_path_factory):
+    root = tmp_path_factory.mktemp("demos")
+    for task_id in TASKS:
+        report = generate(task_id, 3, root, control_mode="pd_joint_pos", progress=False)
+        assert report.kept == 3
+    return root
+
+
+@pytest.mark.parametrize("task_id", TASKS)
+def test_generated_demos_verify(demo_root, task_id):
+    path = demo_path(demo_root, task_id, "none", "pd_joint_pos")
+    meta = json.loads(path.with_suffix(".json").read_text())
+    assert meta["env_info"]["env_id"] == f"maniladder_ms:ManiLadder-{task_id}-v1"
+    assert "render_backend" not in meta["env_info"]["env_kwargs"]
+    assert [ep["episode_seed"] for ep in meta["episodes"]] == sorted(ep["episode_seed"] for ep in meta["episodes"])
+    assert meta["solver"]["attempts"] >= 3
+    checks = verify(path, progress=False)
+    assert len(checks) == 3
+    assert all(c.success_from_actions and c.success_from_states for c in checks)
+    assert max(c.max_drift for c in checks) < 1e-4
+
+
+def _replay(path: Path, *args) -> str:
+    """ManiSkill's own replay tool, in a fresh process that never imports maniladder_ms itself."""
+    cmd = [sys.executable, "-m", "mani_skill.trajectory.replay_trajectory", "--traj-path", str(path), *args]
+    result = subprocess.run(cmd, capture_output=True, text=True, timeout=900)
+    assert result.returncode == 0, result.stderr[-3000:]
+    return result.stdout + result.stderr
+
+
+@pytest.mark.parametrize("task_id", TASKS)
+def test_replay_trajectory_converts_to_rgbd_keeping_success(demo_root, task_id):
+    path = demo_path(demo_root, task_id, "none", "pd_joint_pos")
+    out = _replay(path, "--use-env-states", "-o", "rgbd", "--save-traj", "--count", "1")
+    assert "1/1=100.00% demos saved" in out
+    converted = path.with_name("trajectory.rgbd.pd_joint_pos.physx_cpu.h5")
+    with h5py.File(converted, "r") as f:
+        traj = f["traj_0"]
+        assert traj["success"][-1]
+        rgb = traj["obs/sensor_data/front_camera/rgb"]
+        assert rgb.shape[1:] == (128, 128, 3) and rgb.shape[0] == traj["actions"].shape[0] + 1
+        assert "depth" in traj["obs/sensor_data/hand_camera"]
+
+
+@pytest.mark.parametrize("target", ["pd_ee_delta_pose", "pd_joint_delta_pos"])
+def test_replay_trajectory_control_mode_conversion(demo_root, target):
+    out = _replay(demo_path(demo_root, "PickPlacePen", "none", "pd_joint_pos"), "-c", target, "--save-traj")
+    assert "3/3=100.00% demos saved" in out
+
+
+@pytest.mark.parametrize("mode", ["pd_joint_delta_pos", "pd_ee_delta_pose"])
+def test_native_control_mode_recording(tmp_path, mode):
+    report = generate("PickPlacePen", 2, tmp_path, control_mode=mode, progress=False)
+    meta = json.loads(report.path.with_suffix(".json").read_text())
+    assert all(ep["control_mode"] == mode for ep in meta["episodes"])
+    assert all(c.success_from_actions for c in verify(report.path, progress=False))
+
+
+def test_existing_dataset_is_not_overwritten(demo_root):
+    with pytest.raises(FileExistsError, match="--overwrite"):
+        generate("PickPlacePen", 3, demo_root, control_mode="pd_joint_pos", progress=False)
+
+
+def test_interrupted_generation_resumes_without_redoing_chunks(tmp_path, monkeypatch):
+    real = generate_module.record_chunk
+    calls = []
+
+    def dies_after_first_chunk(*args):
+        calls.append(args[3])
+        if len(calls) > 1:
+            raise KeyboardInterrupt
+        return real(*args)
+
+    monkeypatch.setattr(generate_module, "record_chunk", dies_after_first_chunk)
+    with pytest.raises(KeyboardInterrupt):
+        generate("PickPlacePen", 7, tmp_path, control_mode="pd_joint_pos", progress=False)
+    first = calls[0]
+    calls.clear()
+    monkeypatch.setattr(generate_module, "record_chunk", lambda *a: (calls.append(a[3]), real(*a))[1])
+    report = generate("PickPlacePen", 7, tmp_path, control_mode="pd_joint_pos", progress=False)
+    assert first not in calls and report.kept == 7
+    assert [a["seed"] for a in report.attempts][:5] == first
+
+
+def test_parallel_workers(tmp_path):
+    report = generate("PickPlacePen", 6, tmp_path, control_mode="pd_joint_pos", workers=2, progress=False)
+    assert report.kept == 6 and len(report.attempts) == 10
+
+
+def test_stats_table_and_plot(demo_root, tmp_path):
+    rows = [r for r in dataset_stats(demo_root) if Path(r["file"]).name.startswith("trajectory.none.")]
+    assert {r["task"] for r in rows} == set(TASKS)
+    assert all(r["demos"] == 3 and r["min_len"] <= r["mean_len"] <= r["max_len"] <= r["horizon"] for r in rows)
+    png = plot_stats(rows, tmp_path / "stats.png")
+    assert png.stat().st_size > 10_000
+
+
+def test_broken_demo_files_are_clear_errors(demo_root, tmp_path):
+    good = demo_path(demo_root, "PickPlacePen", "none", "pd_joint_pos")
+    truncated = tmp_path / "truncated.h5"
+    truncated.write_bytes(good.read_bytes()[:2000])
+    truncated.with_suffix(".json").write_text(good.with_suffix(".json").read_text())
+    with pytest.raises(DemoFileError, match="truncated.h5: unreadable or truncated"):
+        verify(truncated, progress=False)
+
+    no_info = tmp_path / "noinfo.h5"
+    no_info.write_bytes(good.read_bytes())
+    no_info.with_suffix(".json").write_text(json.dumps({"episodes": []}))
+    with pytest.raises(DemoFileError, match="noinfo.json: no 'env_info'"):
+        verify(no_info, progress=False)
+
+    unknown = tmp_path / "unknown.h5"
+    unknown.write_bytes(good.read_bytes())
+    meta = json.loads(good.with_suffix(".json").read_text())
+    meta["env_info"]["env_id"] = "ManiLadder-JuggleKnives-v1"
+    unknown.with_suffix(".json").write_text(json.dumps(meta))
+    with pytest.raises(DemoFileError, match="unknown.json: demo of an unknown task"):
+        verify(unknown, progress=False)
+
+    with pytest.raises(ValueError, match="control mode 'pd_joint_vel'"):
+        generate("PickPlacePen", 1, tmp_path, control_mode="pd_joint_vel", progress=False)
+    with pytest.raises(ValueError, match="evaluation seeds start there"):
+        generate("PickPlacePen", 1, tmp_path, seed=999_990, progress=False)
+
+
+def test_cli_demos_commands(demo_root, capsys):
+    from maniladder_ms.cli import main
+
+    assert main(["demos", "verify", str(demo_path(demo_root, "PickPlacePen", "none", "pd_joint_pos"))]) == 0
+    assert "3/3 episodes replay to success" in capsys.readouterr().out
+    assert main(["demos", "stats", str(demo_root)]) == 0
+    assert "PickPlacePen" in capsys.readouterr().out
+    assert main(["demos", "generate", "HangMug", "--num", "1", "--out", str(demo_root)]) == 2
+    assert "not implemented yet" in capsys.readouterr().err
+
+
+def test_committed_samples_replay_to_success():
+    samples = sorted((Path(__file__).resolve().parents[1] / "demos").glob("*/trajectory.*.h5"))
+    assert {p.parent.name for p in samples} == set(TASKS)
+    for path in samples:
+        checks = verify(path, progress=False)
+        assert checks and all(c.success_from_actions and c.success_from_states for c in checks), path
