@@ -68,6 +68,14 @@ class PandaSolver:
         closing = np.array([np.cos(yaw), np.sin(yaw), 0.0])
         return self.env.unwrapped.agent.build_grasp_pose(np.array([0, 0, -1.0]), closing, np.asarray(center, float))
 
+    def straight_line_yaw(self, center, yaws) -> float:
+        """The first of the equivalent `yaws` whose top-down pose at `center` is reachable by a straight
+        (screw) path from here: the RRT fallback may sweep the arm through objects on the table."""
+        for yaw in yaws:
+            if self.planner.move_to_pose_with_screw(self.top_down_pose(center, yaw), dry_run=True) != -1:
+                return yaw
+        return yaws[0]
+
     def current_yaw(self) -> float:
         m = self.env.unwrapped.agent.tcp.pose.to_transformation_matrix()[0, :3, :3].cpu().numpy()
         return float(np.arctan2(m[1, 1], m[0, 1]))

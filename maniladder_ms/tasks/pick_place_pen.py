@@ -126,6 +126,9 @@ def solve_pick_place_pen(env, seed: int) -> dict:
         tray_yaw = float(yaw_of(task.tray.pose.q)[0])
         turn = (tray_yaw - pen_yaw + np.pi / 2) % np.pi - np.pi / 2
         release_z = task.tray_base_thickness + task.pen_radius + 0.01
-        robot.place(robot.top_down_pose([tray_p[0], tray_p[1], release_z], grasp_yaw + turn))
+        # the pen lies the same way in the tray after a half turn: take whichever wrist yaw has a straight path
+        above_tray = [tray_p[0], tray_p[1], release_z + 0.08]
+        place_yaw = robot.straight_line_yaw(above_tray, [grasp_yaw + turn, grasp_yaw + turn - np.pi, grasp_yaw + turn + np.pi])
+        robot.place(robot.top_down_pose([tray_p[0], tray_p[1], release_z], place_yaw))
         robot.hold_until_success()
         return robot.info
