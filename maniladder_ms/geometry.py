@@ -12,3 +12,8 @@ def yaw_quat(yaw: torch.Tensor) -> torch.Tensor:
 def yaw_of(q: torch.Tensor) -> torch.Tensor:
     """(b, 4) quaternions of rotations about z only -> (b,) yaw angles."""
     return 2 * torch.atan2(q[:, 3], q[:, 0])
+
+
+def actor_yaw(actor) -> float:
+    """Yaw of an actor in the first sub-env, for solvers (which drive one env)."""
+    return float(yaw_of(actor.pose.q)[0])

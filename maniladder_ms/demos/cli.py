@@ -29,12 +29,10 @@ def cmd_generate(args) -> int:
 
     if not (args.task or args.level or args.suite):
         raise ValueError("name a task, or --level N / --suite S")
-    rows = []
     for spec in _selected_tasks(args):
         for mode in args.control_mode or DEFAULT_CONTROL_MODES:
             r = generate(spec.id, args.num, args.out, seed=args.seed, control_mode=mode, obs_mode=args.obs_mode,
                          workers=args.workers, overwrite=args.overwrite)
-            rows.append(r)
             print(f"{r.task_id} [{mode}]: {r.kept} demos -> {r.path}  "
                   f"(solver success {r.success_rate:.0%} over {len(r.attempts)} seeds)")
     return 0

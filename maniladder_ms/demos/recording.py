@@ -17,9 +17,8 @@ from pathlib import Path
 import h5py
 from tqdm import tqdm
 
-from maniladder_ms.solvers.adapters import ADAPTABLE_MODES
-
 from maniladder_ms.evaluation import EVAL_SEED_BASE as MAX_DEMO_SEED
+from maniladder_ms.solvers.adapters import ADAPTABLE_MODES
 
 from .files import ENV_ID_PREFIX, DemoFileError, demo_path, json_path
 
@@ -54,13 +53,11 @@ def record_chunk(task_id: str, control_mode: str, obs_mode: str, seeds: list[int
     import maniladder_ms
     from mani_skill.utils.wrappers.record import RecordEpisode
 
-    from maniladder_ms.solvers import solve
-    from maniladder_ms.solvers.panda import PlanningFailed
+    from maniladder_ms.solvers import solve_within_horizon
 
     parts_dir = Path(parts_dir)
     name = _chunk_name(seeds)
     env = maniladder_ms.make(task_id, obs_mode=obs_mode, control_mode=control_mode)
-    horizon = env.unwrapped.task_spec.horizon
     env = RecordEpisode(
         env, output_dir=str(parts_dir), trajectory_name=f"{name}.partial", save_video=False, save_on_reset=False,
         source_type="scripted", source_desc=f"maniladder_ms scripted solver of {task_id}",
@@ -68,14 +65,9 @@ def record_chunk(task_id: str, control_mode: str, obs_mode: str, seeds: list[int
     attempts = []
     try:
         for seed in seeds:
-            try:
-                info = solve(env, seed)
-                steps = int(info["elapsed_steps"][0])
-                ok = bool(info["success"][0]) and steps <= horizon
-            except PlanningFailed:
-                steps, ok = int(env.unwrapped.elapsed_steps[0]), False
-            env.flush_trajectory(save=ok)
-            attempts.append(dict(seed=seed, success=ok, steps=steps))
+            attempt = solve_within_horizon(env, seed)
+            env.flush_trajectory(save=attempt["success"])
+            attempts.append(dict(seed=seed, **attempt))
     finally:
         env.close()
     for suffix in (".h5", ".json"):

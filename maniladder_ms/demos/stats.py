@@ -6,6 +6,8 @@ from pathlib import Path
 
 import numpy as np
 
+from maniladder_ms.catalog import default_catalog
+
 from .files import load_demo_json
 
 
@@ -25,7 +27,7 @@ def dataset_stats(root: Path) -> list[dict]:
             min_len=int(lengths.min()), max_len=int(lengths.max()), horizon=spec.horizon,
             solver_success=solver["successes"] / solver["attempts"] if solver.get("attempts") else float("nan"),
         ))
-    order = {t.id: i for i, t in enumerate(__import__("maniladder_ms").default_catalog())}
+    order = {t.id: i for i, t in enumerate(default_catalog())}
     return sorted(rows, key=lambda r: (order[r["task"]], r["control_mode"]))
 
 

@@ -34,7 +34,6 @@ def _flat(state: dict) -> np.ndarray:
 
 def verify(path: Path, progress: bool = True) -> list[EpisodeCheck]:
     """Check each episode of the demo file at `path`; raises DemoFileError for broken files."""
-    import gymnasium as gym
     from tqdm import tqdm
 
     import maniladder_ms

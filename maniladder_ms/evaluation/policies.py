@@ -98,7 +98,7 @@ class SolverPolicy:
 
     def run_episode(self, env, ctx: EpisodeContext):
         from maniladder_ms.solvers import SOLVERS
-        from maniladder_ms.solvers.panda import PlanningFailed
+        from maniladder_ms.solvers import PlanningFailed
 
         try:
             SOLVERS[ctx.spec.id](env, ctx.seed)

@@ -11,6 +11,10 @@ from typing import Callable
 SOLVERS: dict[str, Callable] = {}
 
 
+class PlanningFailed(RuntimeError):
+    """A solver's planner found no path to a requested pose: the episode fails, it is not a bug."""
+
+
 def register_solver(*task_ids: str):
     def decorate(fn):
         for task_id in task_ids:
@@ -28,6 +32,17 @@ def solve(env, seed: int) -> dict:
     return SOLVERS[task_id](env, seed)
 
 
+def solve_within_horizon(env, seed: int) -> dict:
+    """{success, steps} of one solver episode: success only if reached within the task's horizon."""
+    try:
+        info = solve(env, seed)
+        steps = int(info["elapsed_steps"][0])
+        success = bool(info["success"][0]) and steps <= env.unwrapped.task_spec.horizon
+    except PlanningFailed:
+        steps, success = int(env.unwrapped.elapsed_steps[0]), False
+    return dict(success=success, steps=steps)
+
+
 def sweep(task_id: str, seeds, progress: bool = False, **make_kwargs) -> list[dict]:
     """Run the task's solver on each seed in one env; rows of {seed, success, steps}.
 
@@ -38,13 +53,9 @@ def sweep(task_id: str, seeds, progress: bool = False, **make_kwargs) -> list[di
 
     make_kwargs.setdefault("obs_mode", "state")
     env = maniladder_ms.make(task_id, control_mode="pd_joint_pos", **make_kwargs)
-    horizon = env.unwrapped.task_spec.horizon
-    rows = []
     try:
-        for seed in tqdm(list(seeds), desc=f"{task_id} solver", disable=not progress):
-            info = solve(env, seed)
-            steps = int(info["elapsed_steps"][0])
-            rows.append(dict(seed=seed, success=bool(info["success"][0]) and steps <= horizon, steps=steps))
+        rows = [dict(seed=seed, **solve_within_horizon(env, seed))
+                for seed in tqdm(list(seeds), desc=f"{task_id} solver", disable=not progress)]
     finally:
         env.close()
     return rows

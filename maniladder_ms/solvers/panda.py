@@ -14,6 +14,7 @@ import sapien
 
 from mani_skill.examples.motionplanning.panda.motionplanner import PandaArmMotionPlanningSolver
 
+from . import PlanningFailed
 from .adapters import JointTargetAdapter
 
 # joint speed/acceleration limits for planned paths (rad/s, rad/s^2); the Panda's own are ~2.2 rad/s
@@ -24,10 +25,7 @@ JOINT_ACC_LIMIT = 4.0
 PRECISE_SETTLE_STEPS = 2
 SETTLE_TOLERANCE = 0.02
 MAX_SETTLE_STEPS = 10
-
-
-class PlanningFailed(RuntimeError):
-    """The planner found no path to a requested pose."""
+APPROACH_HEIGHT = 0.08  # metres above a grasp or release pose where the straight descent starts
 
 
 class PandaSolver:
@@ -120,13 +118,13 @@ class PandaSolver:
                 return
             self.grip(closed=self.planner.gripper_state == self.planner.CLOSED, steps=1)
 
-    def pick(self, grasp: sapien.Pose, approach_height: float = 0.08, lift_height: float = 0.1):
+    def pick(self, grasp: sapien.Pose, approach_height: float = APPROACH_HEIGHT, lift_height: float = 0.1):
         self.move(sapien.Pose([0, 0, approach_height]) * grasp)
         self.move(grasp, settle_steps=PRECISE_SETTLE_STEPS)
         self.grip(closed=True)
         self.move(sapien.Pose([0, 0, lift_height]) * grasp)
 
-    def place(self, release: sapien.Pose, approach_height: float = 0.08, retreat_height: float = 0.06):
+    def place(self, release: sapien.Pose, approach_height: float = APPROACH_HEIGHT, retreat_height: float = 0.06):
         self.move(sapien.Pose([0, 0, approach_height]) * release)
         self.move(release, settle_steps=PRECISE_SETTLE_STEPS)
         self.grip(closed=False)

@@ -10,10 +10,10 @@ import torch
 from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.envs import ManiLadderEnv, register_task
-from maniladder_ms.geometry import yaw_of, yaw_quat
+from maniladder_ms.geometry import actor_yaw, yaw_quat
 from maniladder_ms.objects import build_pen, build_tray
 from maniladder_ms.solvers import register_solver
-from maniladder_ms.solvers.panda import PandaSolver
+from maniladder_ms.solvers.panda import APPROACH_HEIGHT, PandaSolver
 
 
 @register_task("PickPlacePen")
@@ -118,16 +118,16 @@ def solve_pick_place_pen(env, seed: int) -> dict:
     with PandaSolver.episode(env, seed) as robot:
         task: PickPlacePenEnv = env.unwrapped
         pen_p = task.pen.pose.p[0].cpu().numpy()
-        pen_yaw = float(yaw_of(task.pen.pose.q)[0])
+        pen_yaw = actor_yaw(task.pen)
         grasp_yaw = robot.closest_grasp_yaw(pen_yaw + np.pi / 2)
         robot.pick(robot.top_down_pose([pen_p[0], pen_p[1], task.pen_radius], grasp_yaw))
         # rotate the pen axis onto the tray's long axis: the grasp yaw follows by the same angle
         tray_p = task.tray.pose.p[0].cpu().numpy()
-        tray_yaw = float(yaw_of(task.tray.pose.q)[0])
+        tray_yaw = actor_yaw(task.tray)
         turn = (tray_yaw - pen_yaw + np.pi / 2) % np.pi - np.pi / 2
         release_z = task.tray_base_thickness + task.pen_radius + 0.01
         # the pen lies the same way in the tray after a half turn: take whichever wrist yaw has a straight path
-        above_tray = [tray_p[0], tray_p[1], release_z + 0.08]
+        above_tray = [tray_p[0], tray_p[1], release_z + APPROACH_HEIGHT]
         place_yaw = robot.straight_line_yaw(above_tray, [grasp_yaw + turn, grasp_yaw + turn - np.pi, grasp_yaw + turn + np.pi])
         robot.place(robot.top_down_pose([tray_p[0], tray_p[1], release_z], place_yaw))
         robot.hold_until_success()

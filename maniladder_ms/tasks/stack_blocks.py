@@ -11,7 +11,7 @@ from mani_skill.utils.building import actors
 from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.envs import ManiLadderEnv, register_task
-from maniladder_ms.geometry import yaw_of, yaw_quat
+from maniladder_ms.geometry import actor_yaw, yaw_quat
 from maniladder_ms.solvers import register_solver
 from maniladder_ms.solvers.panda import PandaSolver
 
@@ -145,10 +145,6 @@ class StackBlocksEnv(ManiLadderEnv):
 STACK_SITE = (-0.05, 0.0)  # the solver builds the tower on the block nearest this point
 
 
-def _yaw(actor) -> float:
-    return float(yaw_of(actor.pose.q)[0])
-
-
 @register_solver("Stack6Blocks")
 def solve_stack_blocks(env, seed: int) -> dict:
     """Keep the block nearest the workspace centre as the base; put every other block on the current top."""
@@ -164,12 +160,12 @@ def solve_stack_blocks(env, seed: int) -> dict:
             p = block.pose.p[0].cpu().numpy()
             # travel between the tower and the blocks at a height that clears the tower's top
             carry_z = task.half_size + size * level + 0.05
-            robot.pick(robot.top_down_pose(p, robot.closest_grasp_yaw(_yaw(block), np.pi / 2)),
+            robot.pick(robot.top_down_pose(p, robot.closest_grasp_yaw(actor_yaw(block), np.pi / 2)),
                        approach_height=carry_z - p[2], lift_height=carry_z - p[2])
             # aim at the block actually on top, so small placement errors do not add up along the tower
             top_p = top.pose.p[0].cpu().numpy()
             release_z = top_p[2] + size + 0.004
-            robot.place(robot.top_down_pose([top_p[0], top_p[1], release_z], robot.closest_grasp_yaw(_yaw(top), np.pi / 2)),
+            robot.place(robot.top_down_pose([top_p[0], top_p[1], release_z], robot.closest_grasp_yaw(actor_yaw(top), np.pi / 2)),
                         approach_height=carry_z - release_z, retreat_height=carry_z + size - release_z)
             top = block
         robot.hold_until_success()  # let the tower come to rest
