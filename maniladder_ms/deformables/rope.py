@@ -1,0 +1,225 @@
+"""Rope / cable: a chain of capsules as one articulation, with rope metrics.
+
+SAPIEN's articulation builder has no spherical joint, so consecutive capsules are linked through a
+small middle link by two revolute joints with perpendicular axes (one about the rope's local z, one
+about its local y): the chain bends in every direction; twist about the rope axis is not modelled.
+Bend stiffness and damping are the joint drives (target 0 = straight).
+
+Metrics take the rope's points (`Rope.points()`, shape [B, n + 2, 3]: first tip, capsule centres,
+last tip) so they also serve any other polyline:
+- `end_to_end_distance`: distance between the two tips (m);
+- `straightness`: end-to-end distance / arc length, 1 for a straight rope, smaller when bent or coiled;
+- `winding_number`: signed turns of the rope about a vertical axis (wrap count around a peg/post);
+- `crossings` / `is_knotted`: self-crossings of the top-down projection and a knot test on them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import sapien
+import sapien.physx as physx
+import sapien.render
+import torch
+
+from mani_skill.envs.scene import ManiSkillScene
+from mani_skill.utils.structs.articulation import Articulation
+from mani_skill.utils.structs.link import Link
+
+# revolute joints turn about the x axis of their joint frame: these frames put that axis on z / y
+X_TO_Z = sapien.Pose(q=[0.7071068, 0, -0.7071068, 0])
+X_TO_Y = sapien.Pose(q=[0.7071068, 0, 0, 0.7071068])
+# the middle link carries this fraction of a capsule's mass (PhysX needs a massive link; a light
+# one keeps the chain's inertia on the capsules)
+MIDDLE_LINK_MASS_FRACTION = 0.1
+
+
+@dataclass(frozen=True)
+class RopeConfig:
+    """Parameters of a capsule-chain rope.
+
+    length: total length (m), capsule tips included; radius: capsule radius (m), 8 mm pinches like a
+    pen in the Panda gripper; segments: number of capsules (20-40 are cheap); bend_stiffness (N m/rad)
+    and bend_damping (N m s/rad): drives of each joint towards straight; mass: total mass (kg);
+    friction: static = dynamic friction of the capsules (high, so a gripper can hold a segment);
+    max_bend: joint limit (rad) of each of the two joints between capsules.
+    """
+
+    length: float = 0.4
+    radius: float = 0.008
+    segments: int = 20
+    bend_stiffness: float = 0.002
+    bend_damping: float = 0.001
+    mass: float = 0.05
+    friction: float = 1.0
+    max_bend: float = 2.4
+    color: tuple = (0.85, 0.3, 0.15, 1)
+    end_color: tuple = (0.25, 0.25, 0.3, 1)
+
+    @property
+    def segment_length(self) -> float:
+        return self.length / self.segments
+
+
+class Rope:
+    """A built rope: `articulation` (ManiSkill, batched over envs), its capsule `links` in order and
+    `capsules`, one merged view of them (one pose query for the whole rope)."""
+
+    def __init__(self, articulation: Articulation, config: RopeConfig):
+        self.articulation = articulation
+        self.config = config
+        self.links = [articulation.links_map[f"capsule_{i}"] for i in range(config.segments)]
+        self.capsules = Link.merge(self.links, name=f"{articulation.name}_capsules")
+
+    def points(self) -> torch.Tensor:
+        """The rope as a polyline: first tip, capsule centres, last tip; [B, segments + 2, 3]."""
+        pose = self.capsules.pose  # capsule-major: [segments * B]
+        n = self.config.segments
+        p = pose.p.reshape(n, -1, 3).transpose(0, 1)
+        q = pose.q.reshape(n, -1, 4).transpose(0, 1)
+        half = self.config.segment_length / 2
+        tip0 = p[:, 0] - half * _x_axis(q[:, 0])
+        tip1 = p[:, -1] + half * _x_axis(q[:, -1])
+        return torch.cat([tip0[:, None], p, tip1[:, None]], dim=1)
+
+    def set_shape(self, root_pose, bend: torch.Tensor):
+        """Lay the rope from `root_pose` (first capsule) with joint angles `bend` [B, 2 * (segments - 1)], at rest."""
+        self.articulation.set_root_pose(root_pose)
+        self.articulation.set_qpos(bend)
+        self.articulation.set_qvel(torch.zeros_like(bend))
+        self.articulation.set_root_linear_velocity(torch.zeros(bend.shape[0], 3, device=bend.device))
+        self.articulation.set_root_angular_velocity(torch.zeros(bend.shape[0], 3, device=bend.device))
+
+
+def _x_axis(q: torch.Tensor) -> torch.Tensor:
+    """First column of the rotation of wxyz quaternions q [B, 4]."""
+    w, x, y, z = q.unbind(-1)
+    return torch.stack([1 - 2 * (y * y + z * z), 2 * (x * y + w * z), 2 * (x * z - w * y)], dim=-1)
+
+
+def build_rope(scene: ManiSkillScene, name: str, config: RopeConfig = RopeConfig(), fix_first_end: bool = False,
+               initial_pose: sapien.Pose = sapien.Pose()) -> Rope:
+    """Build a straight rope along the local x axis of `initial_pose`, its first capsule at that pose.
+
+    fix_first_end: fix the first capsule in place (a cable hanging from a point); otherwise the rope is free.
+    Joints are named `bend_z_<i>`, `bend_y_<i>`; capsule links `capsule_<i>`.
+    """
+    seg = config.segment_length
+    half = seg / 2 - config.radius  # the capsule's cylinder part; its tips reach the joint points
+    capsule_mass = config.mass / config.segments
+    material = physx.PhysxMaterial(config.friction, config.friction, 0.0)
+    builder = scene.create_articulation_builder()
+    builder.initial_pose = initial_pose
+    colors = {0: config.end_color, config.segments - 1: config.end_color}
+    parent = None
+    for i in range(config.segments):
+        if i > 0:
+            middle = builder.create_link_builder(parent)
+            middle.set_name(f"middle_{i}")
+            middle.set_joint_name(f"bend_z_{i}")
+            middle.set_joint_properties(
+                "revolute", [[-config.max_bend, config.max_bend]],
+                sapien.Pose(p=[seg / 2, 0, 0]) * X_TO_Z, X_TO_Z,
+            )
+            m = MIDDLE_LINK_MASS_FRACTION * capsule_mass
+            middle.set_mass_and_inertia(m, sapien.Pose(), np.full(3, 0.4 * m * config.radius**2))
+            parent = middle
+        capsule = builder.create_link_builder(parent)
+        capsule.set_name(f"capsule_{i}")
+        if i > 0:
+            capsule.set_joint_name(f"bend_y_{i}")
+            capsule.set_joint_properties(
+                "revolute", [[-config.max_bend, config.max_bend]], X_TO_Y, sapien.Pose(p=[-seg / 2, 0, 0]) * X_TO_Y
+            )
+        capsule.add_capsule_collision(radius=config.radius, half_length=half, material=material)
+        capsule.set_mass_and_inertia(
+            capsule_mass, sapien.Pose(),
+            capsule_mass * np.array([0.4 * config.radius**2, seg**2 / 12, seg**2 / 12]),
+        )
+        if scene.can_render():
+            mat = sapien.render.RenderMaterial(base_color=list(colors.get(i, config.color)), roughness=0.8)
+            capsule.add_capsule_visual(radius=config.radius, half_length=half, material=mat)
+        parent = capsule
+    articulation = builder.build(name=name, fix_root_link=fix_first_end)
+    for joint in articulation.active_joints:
+        joint.set_drive_properties(config.bend_stiffness, config.bend_damping)
+    return Rope(articulation, config)
+
+
+# ---- metrics --------------------------------------------------------------------------------------
+def arc_length(points: torch.Tensor) -> torch.Tensor:
+    """Length of the polyline `points` [B, N, 3] -> [B]."""
+    return torch.linalg.norm(points[:, 1:] - points[:, :-1], dim=-1).sum(dim=1)
+
+
+def end_to_end_distance(points: torch.Tensor) -> torch.Tensor:
+    """Distance between the first and last point, [B]."""
+    return torch.linalg.norm(points[:, -1] - points[:, 0], dim=-1)
+
+
+def straightness(points: torch.Tensor) -> torch.Tensor:
+    """End-to-end distance / arc length, [B]: 1 for a straight rope, near 0 for a coiled one."""
+    return end_to_end_distance(points) / arc_length(points)
+
+
+def winding_number(points: torch.Tensor, axis_xy: torch.Tensor) -> torch.Tensor:
+    """Signed turns of the polyline about the vertical axis through `axis_xy` [B, 2] (or [2]), [B].
+
+    The angle swept by the rope around the axis in the top-down view, in turns (counter-clockwise
+    positive): 1 means the rope wraps once around a peg or post standing there.
+    """
+    rel = points[..., :2] - axis_xy.reshape(-1, 1, 2)
+    angle = torch.atan2(rel[..., 1], rel[..., 0])
+    step = torch.diff(angle, dim=1)
+    step = (step + np.pi) % (2 * np.pi) - np.pi  # each step is the short way round
+    return step.sum(dim=1) / (2 * np.pi)
+
+
+def crossings(points: np.ndarray) -> list[tuple[float, float, bool]]:
+    """Self-crossings of the top-down projection of one polyline `points` [N, 3].
+
+    Each crossing is (s_a, s_b, a_over): the positions along the rope (in segment units, s_a < s_b)
+    of the two crossing strands and whether the earlier strand lies above the later one there.
+    Segments sharing a point are not compared.
+    """
+    p = np.asarray(points, dtype=float)
+    a0, a1 = p[:-1], p[1:]
+    found = []
+    for i in range(len(a0)):
+        for j in range(i + 2, len(a0)):
+            hit = _segment_intersection(a0[i, :2], a1[i, :2], a0[j, :2], a1[j, :2])
+            if hit is None:
+                continue
+            t, u = hit
+            z_i = a0[i, 2] + t * (a1[i, 2] - a0[i, 2])
+            z_j = a0[j, 2] + u * (a1[j, 2] - a0[j, 2])
+            found.append((i + t, j + u, bool(z_i > z_j)))
+    return found
+
+
+def _segment_intersection(p, p2, q, q2):
+    """(t, u) in [0, 1]^2 where 2D segments p-p2 and q-q2 cross, or None."""
+    r, s = p2 - p, q2 - q
+    denom = r[0] * s[1] - r[1] * s[0]
+    if abs(denom) < 1e-12:
+        return None
+    d = q - p
+    t = (d[0] * s[1] - d[1] * s[0]) / denom
+    u = (d[0] * r[1] - d[1] * r[0]) / denom
+    return (t, u) if 0 <= t <= 1 and 0 <= u <= 1 else None
+
+
+def is_knotted(points: np.ndarray) -> bool:
+    """Knot test on one polyline `points` [N, 3] from its top-down crossing diagram.
+
+    True when the rope crosses itself at least 3 times and, walking along it, the crossings it passes
+    alternate over, under, over, ... (the diagram of an overhand knot). Loose coils and a rope merely
+    laid across itself do not alternate, so they are not knots. A diagram test, not a proof: an
+    alternating diagram with >= 3 crossings is knotted as long as it has no removable twist.
+    """
+    found = crossings(points)
+    if len(found) < 3:
+        return False
+    passes = sorted([(a, over) for a, _, over in found] + [(b, not over) for _, b, over in found])
+    return all(passes[k][1] != passes[k + 1][1] for k in range(len(passes) - 1))

@@ -1,0 +1,203 @@
+"""One small demo scene per deformable kind, on the ManiLadder table with the default Panda.
+
+They are not ladder tasks (task_id=None): each shows one builder of `maniladder_ms.deformables`
+at work, exposes its metrics in `info`, and is what `scripts/bench_deformables.py` times. Every
+scene holds at least one dynamic actor besides the deformable (ManiSkill 3.0.1's set_state fails
+on scenes without one). The state obs carries the deformable's points, so a state round trip
+checks them too.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import ClassVar
+
+import numpy as np
+import sapien
+import sapien.render
+import torch
+
+from mani_skill.utils.registration import register_env
+from mani_skill.utils.structs.pose import Pose
+
+from maniladder_ms.envs import ManiLadderEnv
+from maniladder_ms.geometry import yaw_quat
+from maniladder_ms.objects import containers
+
+from . import particles, rope
+
+SHOWCASE_ENV_IDS: dict[str, str] = {}
+SHOWCASE_STEPS = 200
+
+
+def _register(kind: str):
+    def decorate(cls):
+        env_id = f"ManiLadderShowcase-{kind.capitalize()}-v1"
+        SHOWCASE_ENV_IDS[kind] = env_id
+        return register_env(env_id, max_episode_steps=SHOWCASE_STEPS)(cls)
+
+    return decorate
+
+
+class ShowcaseEnv(ManiLadderEnv):
+    """Base of the showcase scenes: no catalog task, the robot's TCP pose in the obs."""
+
+    SHOWCASE_TITLE: ClassVar[str] = ""
+    SUPPORTED_REWARD_MODES = ("none",)  # demos, not tasks: no reward
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, task_id=None, **kwargs)
+
+    def deformable_points(self) -> torch.Tensor:
+        """The points that make up the deformable, [B, N, 3] (part of the state obs)."""
+        raise NotImplementedError
+
+    def _get_obs_extra(self, info: dict):
+        obs = dict(tcp_pose=self.agent.tcp_pose.raw_pose)
+        if "state" in self.obs_mode:
+            obs["deformable_points"] = self.deformable_points().flatten(1)
+        return obs
+
+
+def _build_weight(scene, name: str, radius: float, half_height: float, color) -> "Actor":
+    """An upright cylinder (a peg or a weight) standing on z = 0."""
+    builder = scene.create_actor_builder()
+    up = sapien.Pose(q=[0.7071068, 0, 0.7071068, 0])  # SAPIEN cylinders lie along x
+    builder.add_cylinder_collision(pose=up, radius=radius, half_length=half_height, density=800)
+    if scene.can_render():
+        mat = sapien.render.RenderMaterial(base_color=list(color), roughness=0.5)
+        builder.add_cylinder_visual(pose=up, radius=radius, half_length=half_height, material=mat)
+    builder.initial_pose = sapien.Pose(p=[0, 0, half_height])
+    return builder.build(name=name)
+
+
+@_register("rope")
+class RopeShowcaseEnv(ShowcaseEnv):
+    """A 40 cm, 20-capsule rope lying in a gentle S on the table beside a free-standing peg."""
+
+    SHOWCASE_TITLE = "Rope: 20-capsule chain, 40 cm, free"
+    rope_config = rope.RopeConfig()
+    peg_radius = 0.02
+    peg_half_height = 0.04
+
+    def _load_scene(self, options: dict):
+        super()._load_scene(options)
+        self.rope = rope.build_rope(self.scene, "rope", self.rope_config)
+        self.peg = _build_weight(self.scene, "peg", self.peg_radius, self.peg_half_height, (0.3, 0.5, 0.3, 1))
+
+    def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
+        super()._initialize_episode(env_idx, options)
+        with torch.device(self.device):
+            b = len(env_idx)
+            cfg = self.rope_config
+            start = torch.tensor([[-0.05, -0.2, cfg.radius]]).repeat(b, 1)
+            start[:, 0] += (torch.rand(b) - 0.5) * 0.05
+            bend = torch.zeros(b, 2 * (cfg.segments - 1))
+            phase = torch.rand(b, 1) * 2 * np.pi
+            k = torch.arange(1, cfg.segments)
+            bend[:, 0::2] = 0.25 * torch.sin(2 * np.pi * k / cfg.segments + phase)  # in-plane S curve
+            self.rope.set_shape(Pose.create_from_pq(start, yaw_quat(torch.full((b,), np.pi / 2))), bend)
+            self.peg.set_pose(Pose.create_from_pq(torch.tensor([[0.1, 0.0, self.peg_half_height]]).repeat(b, 1)))
+
+    def deformable_points(self):
+        return self.rope.points()
+
+    def evaluate(self):
+        points = self.rope.points()
+        return dict(
+            straightness=rope.straightness(points),
+            end_to_end=rope.end_to_end_distance(points),
+            winding_about_peg=rope.winding_number(points, self.peg.pose.p[:, :2]),
+        )
+
+
+class PourShowcaseEnv(ShowcaseEnv):
+    """A full source container beside an empty target container; subclasses pick media and vessels."""
+
+    particle_config: particles.ParticleConfig
+    source_shape: containers.ContainerShape
+    target_shape: containers.ContainerShape
+    source_xy = (0.08, -0.12)
+    target_xy = (0.08, 0.12)
+
+    def _load_scene(self, options: dict):
+        super()._load_scene(options)
+        self.source = containers.build_container(self.scene, "source", self.source_shape, color=(0.9, 0.9, 0.92, 1))
+        self.target = containers.build_container(self.scene, "target", self.target_shape, color=(0.85, 0.75, 0.55, 1))
+        self.particles = particles.build_particles(self.scene, "particles", self.particle_config)
+
+    def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
+        super()._initialize_episode(env_idx, options)
+        with torch.device(self.device):
+            b = len(env_idx)
+            for actor, xy in ((self.source, self.source_xy), (self.target, self.target_xy)):
+                actor.set_pose(Pose.create_from_pq(torch.tensor([[xy[0], xy[1], 0.0]]).repeat(b, 1)))
+            local = torch.stack([
+                particles.pack_in_container(self.source_shape, self.particle_config.count, self.particle_config.radius)
+                for _ in range(b)
+            ])
+            self.particles.set_positions(local + torch.tensor([self.source_xy[0], self.source_xy[1], 0.0]))
+
+    def deformable_points(self):
+        return self.particles.positions()
+
+    def evaluate(self):
+        p = self.particles.positions()
+        return dict(
+            in_source=particles.fraction_inside(p, self.source.pose, self.source_shape),
+            in_target=particles.fraction_inside(p, self.target.pose, self.target_shape),
+            spilled=particles.fraction_spilled(p, [(self.source.pose, self.source_shape), (self.target.pose, self.target_shape)]),
+        )
+
+
+@_register("liquid")
+class LiquidShowcaseEnv(PourShowcaseEnv):
+    """100 low-friction spheres (water) in a pitcher with a spout, beside an empty glass."""
+
+    SHOWCASE_TITLE = "Liquid: 100 low-friction spheres in a pitcher, glass beside"
+    particle_config = particles.LIQUID
+    source_shape = containers.pitcher(height=0.09)
+    target_shape = containers.glass()
+
+
+@_register("granular")
+class GranularShowcaseEnv(PourShowcaseEnv):
+    """100 high-friction spheres (beans) in a cup, beside an empty bowl and a scoop."""
+
+    SHOWCASE_TITLE = "Granular: 100 high-friction beans in a cup, bowl and scoop beside"
+    particle_config = particles.GRANULAR
+    source_shape = containers.cup(radius=0.04, height=0.09)
+    target_shape = containers.bowl()
+
+    def _load_scene(self, options: dict):
+        super()._load_scene(options)
+        self.scoop = containers.build_container(self.scene, "scoop", containers.scoop(), color=(0.4, 0.6, 0.8, 1))
+
+    def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
+        super()._initialize_episode(env_idx, options)
+        with torch.device(self.device):
+            b = len(env_idx)
+            self.scoop.set_pose(Pose.create_from_pq(torch.tensor([[0.2, 0.0, 0.0]]).repeat(b, 1), yaw_quat(torch.full((b,), np.pi / 2))))
+
+
+def render_showcase(kind: str, out: Path, seed: int = 0, settle_steps: int = 20, size: int = 256) -> Path:
+    """Save one PNG with every camera of the `kind` showcase after `settle_steps` of a still robot."""
+    import gymnasium as gym
+
+    from maniladder_ms.render import camera_images, tile
+
+    env = gym.make(SHOWCASE_ENV_IDS[kind], obs_mode="rgb", control_mode="pd_joint_delta_pos",
+                   sensor_configs=dict(width=size, height=size))
+    try:
+        env.reset(seed=seed)
+        still = torch.zeros(env.action_space.shape)
+        still[..., -1] = 1  # gripper open
+        for _ in range(settle_steps):
+            env.step(still)
+        title = f"{env.unwrapped.SHOWCASE_TITLE}  (seed {seed}, after {settle_steps} steps)"
+        out = Path(out)
+        out.parent.mkdir(parents=True, exist_ok=True)
+        tile(camera_images(env), title).save(out)
+        return out
+    finally:
+        env.close()

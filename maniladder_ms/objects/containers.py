@@ -1,0 +1,200 @@
+"""Procedural containers (cup, glass, bowl, pitcher with spout, scoop) for liquid and granular tasks.
+
+Each container is a solid of revolution about its local z axis (trimesh), origin at the centre of
+its bottom face, so it stands on the table at z = 0. Its collision is a convex decomposition by
+CoACD, computed once per shape and cached under `maniladder_ms.paths.cache_dir("containers")` (a
+few seconds to ~20 s per shape the first time, instant afterwards). The pitcher's spout is a bulge
+of its rim towards +x; pitcher and scoop handles are boxes on the -x side.
+
+`ContainerShape.inside` tells which points lie in the container's inner volume (metrics such as the
+fraction of particles in a cup build on it; see `maniladder_ms.deformables.particles`).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Optional
+
+import numpy as np
+import sapien
+import sapien.physx as physx
+import sapien.render
+import torch
+import trimesh
+
+from mani_skill.envs.scene import ManiSkillScene
+from mani_skill.utils.structs.pose import Pose
+
+from maniladder_ms.paths import cache_dir
+
+SECTIONS = 32  # facets around the axis
+COACD_THRESHOLD = 0.05  # CoACD concavity threshold: lower is finer (more hulls, slower)
+COACD_MAX_HULLS = 16
+CONTACT_OFFSET = 0.005  # m, below ManiSkill's 2 cm default: particles near the walls stay cheap
+CERAMIC_DENSITY = 1200.0  # kg/m^3, light enough for a Panda to lift a full pitcher
+
+
+@dataclass(frozen=True)
+class ContainerShape:
+    """A container as a revolved wall profile.
+
+    kind: a name (cup, glass, bowl, pitcher, scoop); inner: (z, inner radius) samples of the inner
+    wall from the inner floor (first) to the rim (last), metres; wall: wall thickness; floor: bottom
+    thickness; spout: how far the pitcher's rim bulges out at +x (0: none); handle: half size (x, y, z)
+    of a box handle on the -x side, or None.
+    """
+
+    kind: str
+    inner: tuple[tuple[float, float], ...]
+    wall: float
+    floor: float
+    spout: float = 0.0
+    handle: Optional[tuple[float, float, float]] = None
+
+    @property
+    def height(self) -> float:
+        return self.inner[-1][0]
+
+    @property
+    def rim_radius(self) -> float:
+        return self.inner[-1][1]
+
+    def profile(self) -> np.ndarray:
+        """Closed (radius, z) polygon of the wall section: outer wall up, inner wall down to the axis."""
+        outer = [(0.0, 0.0), (self.inner[0][1] + self.wall, 0.0)] + [(r + self.wall, z) for z, r in self.inner]
+        inside = [(r, z) for z, r in self.inner[::-1]]
+        return np.array(outer + inside + [(0.0, self.floor)])
+
+    def inner_radius(self, z: torch.Tensor) -> torch.Tensor:
+        """Inner wall radius at heights z (clamped to the floor..rim range)."""
+        zs = torch.tensor([p[0] for p in self.inner], dtype=z.dtype, device=z.device)
+        rs = torch.tensor([p[1] for p in self.inner], dtype=z.dtype, device=z.device)
+        z = z.clamp(zs[0], zs[-1])
+        k = torch.searchsorted(zs, z.contiguous()).clamp(1, len(zs) - 1)
+        t = (z - zs[k - 1]) / (zs[k] - zs[k - 1]).clamp_min(1e-9)
+        return rs[k - 1] + t * (rs[k] - rs[k - 1])
+
+    def inside(self, points: torch.Tensor, pose: Pose) -> torch.Tensor:
+        """Which of `points` [B, N, 3] (world) lie inside the inner volume, below the rim; [B, N] bool.
+
+        `pose` is the container's batched pose (e.g. `actor.pose`).
+        """
+        m = pose.to_transformation_matrix()  # [B, 4, 4]
+        local = torch.einsum("bij,bni->bnj", m[:, :3, :3], points - m[:, None, :3, 3])
+        z = local[..., 2]
+        r = torch.linalg.norm(local[..., :2], dim=-1)
+        return (z >= self.floor) & (z <= self.height) & (r <= self.inner_radius(z))
+
+
+def cup(radius: float = 0.035, height: float = 0.08, wall: float = 0.004, floor: float = 0.005) -> ContainerShape:
+    """A straight cup; radius is the inner radius."""
+    return ContainerShape("cup", ((floor, radius), (height, radius)), wall, floor)
+
+
+def glass(bottom_radius: float = 0.025, top_radius: float = 0.033, height: float = 0.1, wall: float = 0.003,
+          floor: float = 0.008) -> ContainerShape:
+    """A drinking glass widening from bottom_radius to top_radius (inner radii)."""
+    return ContainerShape("glass", ((floor, bottom_radius), (height, top_radius)), wall, floor)
+
+
+def bowl(radius: float = 0.08, height: float = 0.05, foot_radius: float = 0.035, wall: float = 0.005,
+         floor: float = 0.006, samples: int = 6) -> ContainerShape:
+    """A bowl: flat inner floor of foot_radius, then a quarter-ellipse wall out to radius at the rim."""
+    angles = np.linspace(0, np.pi / 2, samples)
+    inner = [(floor + (height - floor) * (1 - np.cos(a)), foot_radius + (radius - foot_radius) * np.sin(a)) for a in angles]
+    return ContainerShape("bowl", tuple((float(z), float(r)) for z, r in inner), wall, floor)
+
+
+def pitcher(radius: float = 0.04, height: float = 0.12, wall: float = 0.004, floor: float = 0.006,
+            spout: float = 0.02) -> ContainerShape:
+    """A straight pitcher whose rim bulges `spout` metres out at +x (a pouring lip), box handle at -x."""
+    handle = (0.008, 0.01, 0.35 * height)
+    return ContainerShape("pitcher", ((floor, radius), (height, radius)), wall, floor, spout, handle)
+
+
+def scoop(radius: float = 0.03, depth: float = 0.03, wall: float = 0.003, floor: float = 0.004,
+          handle_length: float = 0.12) -> ContainerShape:
+    """A small shallow cup with a long flat handle sticking out at -x (its top level with the rim)."""
+    return ContainerShape("scoop", ((floor, radius), (depth, radius * 1.15)), wall, floor,
+                          handle=(handle_length / 2, 0.008, 0.003))
+
+
+def container_mesh(shape: ContainerShape) -> trimesh.Trimesh:
+    """Watertight mesh of the container body (without the handle), origin at the bottom centre."""
+    mesh = trimesh.creation.revolve(shape.profile(), sections=SECTIONS)
+    if shape.spout > 0:
+        v = mesh.vertices.copy()
+        angle = np.arctan2(v[:, 1], v[:, 0])
+        # a smooth bulge: strongest at the rim on +x, fading within 40 degrees and over the top third
+        around = np.clip(1 - np.abs(angle) / np.radians(40), 0, 1) ** 2
+        up = np.clip((v[:, 2] - 2 * shape.height / 3) / (shape.height / 3), 0, 1) ** 2
+        radial = np.linalg.norm(v[:, :2], axis=1)
+        grow = 1 + shape.spout * around * up / np.maximum(radial, 1e-6)
+        v[:, :2] *= grow[:, None] * (radial[:, None] > 1e-6) + (radial[:, None] <= 1e-6)
+        mesh = trimesh.Trimesh(v, mesh.faces)
+    return mesh
+
+
+def _handle_pose(shape: ContainerShape) -> sapien.Pose:
+    hx, _, hz = shape.handle
+    outer = shape.rim_radius + shape.wall
+    if shape.kind == "scoop":  # flat handle level with the rim
+        return sapien.Pose(p=[-(outer + hx - shape.wall), 0, shape.height - hz])
+    return sapien.Pose(p=[-(outer + hx), 0, shape.height / 2])
+
+
+def cached_parts(shape: ContainerShape) -> tuple[Path, list[Path]]:
+    """(visual mesh file, convex part files) of the shape, decomposing with CoACD on a cache miss."""
+    mesh = container_mesh(shape)
+    # keyed by the mesh itself and the decomposition settings: any change to either recomputes
+    digest = hashlib.sha1(np.round(mesh.vertices, 6).tobytes() + mesh.faces.tobytes())
+    digest.update(json.dumps([COACD_THRESHOLD, COACD_MAX_HULLS]).encode())
+    folder = cache_dir("containers", f"{shape.kind}_{digest.hexdigest()[:16]}")
+    visual = folder / "visual.obj"
+    parts = sorted(folder.glob("part_*.obj"))
+    if visual.exists() and parts:
+        return visual, parts
+    import coacd
+
+    coacd.set_log_level("error")
+    hulls = coacd.run_coacd(coacd.Mesh(mesh.vertices, mesh.faces), threshold=COACD_THRESHOLD,
+                            max_convex_hull=COACD_MAX_HULLS, preprocess_mode="off", seed=0)
+    parts = []
+    for k, (v, f) in enumerate(hulls):
+        path = folder / f"part_{k:02d}.obj"
+        trimesh.Trimesh(v, f).export(path)
+        parts.append(path)
+    mesh.export(visual)  # written last: its presence marks a complete cache entry
+    return visual, parts
+
+
+def build_container(scene: ManiSkillScene, name: str, shape: ContainerShape, color=(0.9, 0.9, 0.92, 1),
+                    density: float = CERAMIC_DENSITY, friction: float = 0.6, kinematic: bool = False):
+    """Build the container as an actor (dynamic, or kinematic to stay put), resting on z = 0."""
+    visual, parts = cached_parts(shape)
+    builder = scene.create_actor_builder()
+    material = physx.PhysxMaterial(friction, friction, 0.0)
+    for part in parts:
+        builder.add_convex_collision_from_file(str(part), material=material, density=density)
+    render_mat = sapien.render.RenderMaterial(base_color=list(color), roughness=0.3) if scene.can_render() else None
+    if render_mat is not None:
+        builder.add_visual_from_file(str(visual), material=render_mat)
+    if shape.handle is not None:
+        pose = _handle_pose(shape)
+        builder.add_box_collision(pose=pose, half_size=shape.handle, material=material, density=density)
+        if render_mat is not None:
+            builder.add_box_visual(pose=pose, half_size=shape.handle, material=render_mat)
+    builder.initial_pose = sapien.Pose()
+    actor = builder.build_kinematic(name=name) if kinematic else builder.build(name=name)
+    set_contact_offset(actor, CONTACT_OFFSET)
+    return actor
+
+
+def set_contact_offset(actor, offset: float):
+    """Contact offset (m) of all the actor's collision shapes in every sub-scene (before the sim starts)."""
+    for body in actor._bodies:
+        for collision_shape in body.get_collision_shapes():
+            collision_shape.set_contact_offset(offset)
