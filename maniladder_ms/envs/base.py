@@ -64,32 +64,33 @@ class ManiLadderEnv(BaseEnv):
     """Base class of all ManiLadder tasks (see the module docstring).
 
     Keyword args beyond ManiSkill's BaseEnv:
-        task_id: catalog id, fixed by the registration of each env id.
+        task_id: catalog id, fixed by the registration of each env id; None for scenes that are not
+            ladder tasks (agent gallery, deformable showcases), whose `task_spec` is then None.
         domain_randomization: randomise lighting, table/backdrop textures and 0-3 distractors; the
             scene is then rebuilt at every reset (reconfiguration_freq=1).
         robot_init_qpos_noise: std of the noise added to the robot's rest pose at reset.
     """
 
-    SUPPORTED_ROBOTS: ClassVar[list[str]] = ["panda_wristcam"]
+    SUPPORTED_ROBOTS: ClassVar[list[str]] = ["ml_panda", "panda_wristcam"]
     # (xmin, xmax, ymin, ymax) of the table area task objects and goals use; distractors stay out of it
     TASK_REGION: ClassVar[tuple[float, float, float, float]] = (-0.25, 0.25, -0.3, 0.3)
-    task_spec: TaskSpec
+    task_spec: Optional[TaskSpec]
 
     def __init__(
         self,
         *args,
-        task_id: str,
+        task_id: Optional[str],
         robot_uids: Optional[str] = None,
         domain_randomization: bool = False,
         robot_init_qpos_noise: float = 0.02,
         render_backend: Optional[str] = None,
         **kwargs,
     ):
-        self.task_spec = default_catalog().get(task_id)
+        self.task_spec = None if task_id is None else default_catalog().get(task_id)
         robot_uids = self.SUPPORTED_ROBOTS[0] if robot_uids is None else robot_uids
         if robot_uids not in self.SUPPORTED_ROBOTS:
             raise UnsupportedRobotError(
-                f"task {task_id} does not support robot {robot_uids!r}; supported: {', '.join(map(str, self.SUPPORTED_ROBOTS))}"
+                f"{task_id or type(self).__name__} does not support robot {robot_uids!r}; supported: {', '.join(map(str, self.SUPPORTED_ROBOTS))}"
             )
         self.domain_randomization = domain_randomization
         self.robot_init_qpos_noise = robot_init_qpos_noise
