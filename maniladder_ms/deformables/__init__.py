@@ -1,6 +1,8 @@
 """Deformable objects without a soft-body solver, as rigid-body PhysX proxies built through ManiSkill.
 
 - `rope`: capsule-chain articulation (free or one end fixed); straightness, winding, knot metrics.
+- `cloth`: sheets of particles linked by spring drives (towel, shirt, bag, tent panel), drawn as
+  tiles; covered area, coverage, fold, flatness and hanging metrics.
 - `particles`: liquid (low friction) and granular (high friction) spheres; container fill metrics.
   The containers themselves are in `maniladder_ms.objects.containers`.
 

@@ -24,7 +24,7 @@ from maniladder_ms.envs import ManiLadderEnv
 from maniladder_ms.geometry import yaw_quat
 from maniladder_ms.objects import containers
 
-from . import particles, rope
+from . import cloth, particles, rope
 
 SHOWCASE_ENV_IDS: dict[str, str] = {}
 SHOWCASE_STEPS = 200
@@ -109,6 +109,105 @@ class RopeShowcaseEnv(ShowcaseEnv):
             end_to_end=rope.end_to_end_distance(points),
             winding_about_peg=rope.winding_number(points, self.peg.pose.p[:, :2]),
         )
+
+
+def _build_box(scene, name: str, half_size, color) -> "Actor":
+    """A dynamic wooden box resting on z = 0 (a support to drape cloth over, or a cube to handle)."""
+    builder = scene.create_actor_builder()
+    builder.add_box_collision(half_size=half_size, density=600)
+    if scene.can_render():
+        builder.add_box_visual(half_size=half_size, material=sapien.render.RenderMaterial(base_color=list(color), roughness=0.6))
+    builder.initial_pose = sapien.Pose(p=[0, 0, half_size[2]])
+    return builder.build(name=name)
+
+
+class ClothShowcaseEnv(ShowcaseEnv):
+    """A sheet dropped from `drop_height` onto the table, over a box at `box_xy` (its support or a prop)."""
+
+    cloth_config = cloth.ClothConfig()
+    cloth_xy = (0.05, 0.0)
+    drop_height = 0.0
+    box_half_size = (0.02, 0.02, 0.02)
+    box_xy = (0.05, 0.2)
+    box_color = (0.6, 0.45, 0.3, 1)
+
+    def _layout(self) -> cloth.ClothLayout:
+        raise NotImplementedError
+
+    def _load_scene(self, options: dict):
+        super()._load_scene(options)
+        self.cloth = cloth.build_cloth(self.scene, "cloth", self._layout(), self.cloth_config)
+        self.box = _build_box(self.scene, "box", self.box_half_size, self.box_color)
+
+    def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
+        super()._initialize_episode(env_idx, options)
+        with torch.device(self.device):
+            b = len(env_idx)
+            box = torch.tensor([[self.box_xy[0], self.box_xy[1], self.box_half_size[2]]]).repeat(b, 1)
+            self.box.set_pose(Pose.create_from_pq(box))
+            z = self.cloth_config.radius + self.drop_height
+            self.cloth.set_rest_shape(Pose.create_from_pq(torch.tensor([[self.cloth_xy[0], self.cloth_xy[1], z]]).repeat(b, 1)))
+
+    def deformable_points(self):
+        return self.cloth.positions()
+
+    def evaluate(self):
+        points = self.cloth.positions()
+        return dict(
+            covered_area=cloth.covered_area(points, self.cloth_config.spacing),
+            flatness=cloth.flatness(points),
+        )
+
+
+@_register("towel")
+class TowelShowcaseEnv(ClothShowcaseEnv):
+    """A 10 x 10 towel (25 cm) dropped over a 6 cm box: it drapes."""
+
+    SHOWCASE_TITLE = "Towel: 10x10 particles (25 cm) draped over a box"
+    box_half_size = (0.03, 0.03, 0.03)
+    box_xy = (0.05, 0.0)
+    drop_height = 0.07
+
+    def _layout(self):
+        return cloth.towel(10, 10, self.cloth_config.spacing)
+
+
+@_register("shirt")
+class ShirtShowcaseEnv(ClothShowcaseEnv):
+    """A T-shirt outline (8 x 6 body, 3 x 3 sleeves) lying flat on the table."""
+
+    SHOWCASE_TITLE = "Shirt: body 8x6 + sleeves 3x3, lying flat"
+    cloth_config = cloth.ClothConfig(color=(0.85, 0.25, 0.25, 1), border_color=(0.6, 0.12, 0.12, 1))
+
+    def _layout(self):
+        return cloth.shirt(spacing=self.cloth_config.spacing)
+
+
+@_register("bag")
+class BagShowcaseEnv(ClothShowcaseEnv):
+    """A 6 x 6 tote bag (two sewn panels, handle loops) lying flat, a cube beside it."""
+
+    SHOWCASE_TITLE = "Bag: two sewn 6x6 panels with handles, lying flat, cube beside"
+    cloth_config = cloth.ClothConfig(color=(0.85, 0.75, 0.45, 1), border_color=(0.45, 0.3, 0.15, 1))
+    cloth_xy = (0.0, 0.0)
+    box_xy = (0.05, 0.2)
+
+    def _layout(self):
+        return cloth.bag(spacing=self.cloth_config.spacing, radius=self.cloth_config.radius)
+
+
+@_register("tent")
+class TentShowcaseEnv(ClothShowcaseEnv):
+    """An 8 x 12 tent panel (3 cm spacing) dropped over a long ridge box: a small tent."""
+
+    SHOWCASE_TITLE = "Tent panel: 8x12 particles (24 x 36 cm) over a ridge"
+    cloth_config = cloth.ClothConfig(spacing=0.03, radius=0.009, color=(0.3, 0.55, 0.25, 1), border_color=(0.9, 0.75, 0.2, 1))
+    box_half_size = (0.015, 0.2, 0.05)
+    box_xy = (0.05, 0.0)
+    drop_height = 0.11
+
+    def _layout(self):
+        return cloth.tent_panel(spacing=self.cloth_config.spacing)
 
 
 class PourShowcaseEnv(ShowcaseEnv):

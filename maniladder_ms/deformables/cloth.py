@@ -1,0 +1,304 @@
+"""Cloth: a sheet of small rigid particles linked by spring drives (towel, shirt, bag, tent panel).
+
+Each particle is a sphere (collision; pinchable by a parallel gripper like a pen) carrying a thin
+square tile as its visual, so the sheet renders as a surface. Neighbouring particles are linked by
+a PhysX D6 drive whose two frames sit at the midpoint between them: the linear drive (stiff: stretch)
+pulls the two midpoints together, the angular slerp drive (soft: bending) pulls the two particles
+towards the same orientation. Linked at edge midpoints, each tile turns with the sheet around it,
+so the tiles follow folds and drapes instead of spinning on their own. Jointed particles do not
+collide with each other (PhysX's default for jointed pairs); all others do, so folds stack.
+
+Budget: keep a sheet at or below about 12 x 12 particles; make larger cloth from larger particles.
+
+Shapes (`ClothLayout`, all lying flat in their rest shape): `towel` (rows x cols), `shirt` (body
+with two sleeves), `bag` (a tote bag lying flat: front and back panels sewn along both sides and
+the bottom, a handle loop on each panel) and `tent_panel` (a sheet with corner grommets marked).
+
+Metrics on particle positions [B, N, 3] (`Cloth.positions()`):
+- `covered_area`: area (m^2) of the sheet's top-down footprint, each particle covering its tile;
+- `region_coverage`: fraction of a table rectangle that the sheet covers;
+- `fold_distance`: mean distance between particles paired by a fold (0 when perfectly folded);
+- `flatness`: standard deviation of particle heights (0 for a flat sheet);
+- `fraction_below`: fraction of particles lower than a height (hanging below a bar);
+- `fraction_beyond`: fraction of particles on the far side of a vertical plane (one side of a bar).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import sapien
+import sapien.physx as physx
+import sapien.render
+import torch
+
+from mani_skill.envs.scene import ManiSkillScene
+from mani_skill.utils.structs.actor import Actor
+from mani_skill.utils.structs.pose import Pose
+
+from maniladder_ms.objects.containers import set_contact_offset
+
+CONTACT_OFFSET = 0.003  # m: small, so a sheet lying on itself tracks few contact pairs
+
+
+@dataclass(frozen=True)
+class ClothConfig:
+    """spacing: distance between neighbouring particles (m); radius: particle collision radius (m),
+    8 mm pinches like a pen; particle_mass (kg); stretch_stiffness (N/m) and stretch_damping (N s/m)
+    of the linear drives; bend_stiffness (N m/rad) and bend_damping (N m s/rad) of the angular drives;
+    friction: static = dynamic; tile_thickness: half thickness (m) of the visual tiles; color of the
+    tiles, border_color of the tiles on the outline."""
+
+    spacing: float = 0.025
+    radius: float = 0.008
+    particle_mass: float = 0.002
+    stretch_stiffness: float = 2000.0
+    stretch_damping: float = 5.0
+    bend_stiffness: float = 0.002
+    bend_damping: float = 0.0005
+    friction: float = 1.0
+    tile_thickness: float = 0.0015
+    color: tuple = (0.2, 0.55, 0.75, 1)
+    border_color: tuple = (0.95, 0.95, 0.95, 1)
+
+
+@dataclass
+class ClothLayout:
+    """Rest shape of a sheet: particle positions [N, 3] (m, local frame), linked pairs, the particles
+    on the outline, named particle indices (corners, handle particles, grommets...) and `cords`, the
+    particles of a strap (bag handles) drawn as beads of a cord instead of tiles."""
+
+    positions: np.ndarray
+    links: list[tuple[int, int]]
+    border: set[int]
+    named: dict[str, list[int]] = field(default_factory=dict)
+    cords: set[int] = field(default_factory=set)
+
+
+def _grid(mask: np.ndarray, spacing: float, z: float = 0.0, offset: int = 0):
+    """Particles on the True cells of `mask` [rows, cols] (rows along x, cols along y), centred;
+    returns positions, links between 4-neighbours, border particles and the cell -> index map."""
+    rows, cols = mask.shape
+    index = -np.ones(mask.shape, dtype=int)
+    index[mask] = np.arange(mask.sum()) + offset
+    r, c = np.nonzero(mask)
+    positions = np.stack([(r - (rows - 1) / 2) * spacing, (c - (cols - 1) / 2) * spacing, np.full(len(r), z)], axis=1)
+    links = []
+    for a, b in ((index[:-1, :], index[1:, :]), (index[:, :-1], index[:, 1:])):
+        both = (a >= 0) & (b >= 0)
+        links += list(zip(a[both].tolist(), b[both].tolist()))
+    padded = np.pad(mask, 1)
+    inner = padded[:-2, 1:-1] & padded[2:, 1:-1] & padded[1:-1, :-2] & padded[1:-1, 2:]
+    border = set(index[mask & ~inner].tolist())
+    return positions, links, border, index
+
+
+def towel(rows: int = 10, cols: int = 10, spacing: float = ClothConfig.spacing) -> ClothLayout:
+    """A rectangular towel; named corners `corners` in the order (-x,-y), (-x,+y), (+x,-y), (+x,+y)."""
+    positions, links, border, index = _grid(np.ones((rows, cols), bool), spacing)
+    corners = [index[0, 0], index[0, -1], index[-1, 0], index[-1, -1]]
+    return ClothLayout(positions, links, border, dict(corners=[int(i) for i in corners]))
+
+
+def tent_panel(rows: int = 8, cols: int = 12, spacing: float = 0.03) -> ClothLayout:
+    """A tent panel: a larger-spaced rectangle; `grommets` are its four corners (to pin on pegs)."""
+    layout = towel(rows, cols, spacing)
+    layout.named["grommets"] = layout.named.pop("corners")
+    return layout
+
+
+def shirt(body_rows: int = 8, body_cols: int = 6, sleeve_rows: int = 3, sleeve_cols: int = 3,
+          spacing: float = ClothConfig.spacing) -> ClothLayout:
+    """A T-shirt outline: a body (rows along x, collar at +x) with a sleeve on each side at the top.
+
+    Named: `collar` (top edge), `hem` (bottom edge), `left_sleeve`, `right_sleeve` (all their particles).
+    """
+    rows, cols = body_rows, body_cols + 2 * sleeve_cols
+    mask = np.zeros((rows, cols), bool)
+    mask[:, sleeve_cols:sleeve_cols + body_cols] = True
+    mask[rows - sleeve_rows:, :sleeve_cols] = True
+    mask[rows - sleeve_rows:, -sleeve_cols:] = True
+    positions, links, border, index = _grid(mask, spacing)
+    named = dict(
+        collar=index[-1, sleeve_cols:sleeve_cols + body_cols].tolist(),
+        hem=index[0, sleeve_cols:sleeve_cols + body_cols].tolist(),
+        left_sleeve=index[rows - sleeve_rows:, :sleeve_cols].ravel().tolist(),
+        right_sleeve=index[rows - sleeve_rows:, -sleeve_cols:].ravel().tolist(),
+    )
+    return ClothLayout(positions, links, border, named)
+
+
+def bag(rows: int = 6, cols: int = 6, handle_length: int = 5, spacing: float = ClothConfig.spacing,
+        radius: float = ClothConfig.radius) -> ClothLayout:
+    """A tote bag lying flat: back panel on the table, front panel on top of it (2.2 radii higher),
+    sewn along both sides (y edges) and the bottom (-x edge); the top (+x) is the opening. Each panel
+    has a handle: an arc of `handle_length` particles from its top corners, lying flat beyond the top.
+
+    Named: `front_handle`, `back_handle` (handle particles), `front_rim`, `back_rim` (top edges).
+    """
+    gap = 2.2 * radius
+    mask = np.ones((rows, cols), bool)
+    back, back_links, back_border, back_index = _grid(mask, spacing, z=0.0)
+    front, front_links, front_border, front_index = _grid(mask, spacing, z=gap, offset=rows * cols)
+    positions = [back, front]
+    links = back_links + front_links
+    seam = back_index[:, 0].tolist() + back_index[:, -1].tolist() + back_index[0, 1:-1].tolist()
+    links += [(i, i + rows * cols) for i in seam]
+    named = dict(front_rim=front_index[-1].tolist(), back_rim=back_index[-1].tolist())
+    n = 2 * rows * cols
+    top_x = back[back_index[-1, 0], 0]
+    half_width = (cols - 1) / 2 * spacing
+    # handle arc: a half ellipse from one top corner to the other, beyond the opening
+    angles = np.linspace(0, np.pi, handle_length + 2)[1:-1]
+    for panel, index, z in (("back", back_index, 0.0), ("front", front_index, gap)):
+        arc = np.stack([top_x + 2.5 * spacing * np.sin(angles), -half_width * np.cos(angles), np.full(handle_length, z)], axis=1)
+        ids = list(range(n, n + handle_length))
+        chain = [int(index[-1, 0])] + ids + [int(index[-1, -1])]
+        links += list(zip(chain[:-1], chain[1:]))
+        named[f"{panel}_handle"] = ids
+        positions.append(arc)
+        n += handle_length
+    handles = set(range(2 * rows * cols, n))
+    return ClothLayout(np.concatenate(positions), links, back_border | front_border, named, cords=handles)
+
+
+class Cloth:
+    """A built sheet: `particles` (one ManiSkill Actor each, batched over envs), a merged view of
+    them, the `drives` linking them and the `layout` it was made from."""
+
+    def __init__(self, particles: list[Actor], merged: Actor, drives: list, layout: ClothLayout, config: ClothConfig):
+        self.particles = particles
+        self.merged = merged
+        self.drives = drives
+        self.layout = layout
+        self.config = config
+
+    def positions(self) -> torch.Tensor:
+        """Particle centres, [B, N, 3]."""
+        return self.merged.pose.p.reshape(len(self.particles), -1, 3).transpose(0, 1)
+
+    def set_rest_shape(self, pose: Pose):
+        """Lay the sheet in its rest shape at `pose` (batched over the envs being reset), at rest."""
+        local = torch.as_tensor(self.layout.positions, dtype=torch.float32, device=pose.device)
+        n, b = len(self.particles), pose.p.shape[0]
+        world = pose.to_transformation_matrix()  # [b, 4, 4]
+        xyz = torch.einsum("bij,nj->nbi", world[:, :3, :3], local) + world[None, :, :3, 3]
+        q = pose.q[None].expand(n, b, 4)
+        self.merged.set_pose(Pose.create_from_pq(xyz.reshape(-1, 3), q.reshape(-1, 4)))
+        zeros = torch.zeros(n * b, 3, device=pose.device)
+        self.merged.set_linear_velocity(zeros)
+        self.merged.set_angular_velocity(zeros)
+
+
+def build_cloth(scene: ManiSkillScene, name: str, layout: ClothLayout, config: ClothConfig = ClothConfig()) -> Cloth:
+    """Build the sheet of `layout` (particles `<name>_<i>`); place it with `Cloth.set_rest_shape`."""
+    material = physx.PhysxMaterial(config.friction, config.friction, 0.0)
+    density = config.particle_mass / (4 / 3 * np.pi * config.radius**3)
+    half = config.spacing / 2 * 1.04  # tiles overlap a little, so a bent sheet shows no gaps
+    tile = [half, half, config.tile_thickness]
+    if scene.can_render():
+        colors = {
+            kind: sapien.render.RenderMaterial(base_color=list(color), roughness=0.9)
+            for kind, color in (("inner", config.color), ("border", config.border_color))
+        }
+    particles = []
+    for i, p in enumerate(layout.positions):
+        builder = scene.create_actor_builder()
+        builder.add_sphere_collision(radius=config.radius, material=material, density=density)
+        if scene.can_render() and i in layout.cords:
+            builder.add_sphere_visual(radius=config.radius, material=colors["border"])
+        elif scene.can_render():
+            builder.add_box_visual(half_size=tile, material=colors["border" if i in layout.border else "inner"])
+        builder.initial_pose = sapien.Pose(p=[float(p[0]), float(p[1]), float(p[2]) + 1.0])
+        actor = builder.build(name=f"{name}_{i}")
+        set_contact_offset(actor, CONTACT_OFFSET)
+        particles.append(actor)
+    drives = [_link(scene, particles, layout.positions, i, j, config) for i, j in layout.links]
+    return Cloth(particles, Actor.merge(particles, name=name), drives, layout, config)
+
+
+def _link(scene: ManiSkillScene, particles: list[Actor], rest: np.ndarray, i: int, j: int, config: ClothConfig):
+    """A D6 drive between particles i and j with both frames at their rest midpoint."""
+    mid = (rest[i] + rest[j]) / 2
+    drive = scene.create_drive(particles[i], sapien.Pose(p=mid - rest[i]), particles[j], sapien.Pose(p=mid - rest[j]))
+    drive.set_drive_property_x(config.stretch_stiffness, config.stretch_damping)
+    drive.set_drive_property_y(config.stretch_stiffness, config.stretch_damping)
+    drive.set_drive_property_z(config.stretch_stiffness, config.stretch_damping)
+    for component in drive._objs:  # ManiSkill's Drive wraps only the linear drive properties
+        component.set_drive_property_slerp(config.bend_stiffness, config.bend_damping)
+    return drive
+
+
+# ---- metrics --------------------------------------------------------------------------------------
+def _footprint_cells(points: torch.Tensor, spacing: float, cell: float) -> torch.Tensor:
+    """Integer (x, y) cells [B, N * k * k, 2] covered by each particle's spacing-wide tile, sampled
+    k x k times (k = spacing / cell)."""
+    k = max(1, int(round(spacing / cell)))
+    offsets = (torch.arange(k, device=points.device, dtype=points.dtype) + 0.5) * (spacing / k) - spacing / 2
+    ox, oy = torch.meshgrid(offsets, offsets, indexing="ij")
+    samples = points[:, :, None, :2] + torch.stack([ox.ravel(), oy.ravel()], dim=-1)[None, None]
+    return torch.floor(samples.reshape(points.shape[0], -1, 2) / cell).long()
+
+
+def _occupancy(cells: torch.Tensor, lo: torch.Tensor, size: tuple[int, int]) -> torch.Tensor:
+    """[B, size] boolean grid of the cells (relative to cell `lo`) that fall inside it."""
+    rel = cells - lo
+    ok = (rel[..., 0] >= 0) & (rel[..., 0] < size[0]) & (rel[..., 1] >= 0) & (rel[..., 1] < size[1])
+    b = torch.arange(cells.shape[0], device=cells.device)[:, None].expand_as(rel[..., 0])
+    grid = torch.zeros((cells.shape[0], *size), dtype=torch.bool, device=cells.device)
+    grid[b[ok], rel[..., 0][ok], rel[..., 1][ok]] = True
+    return grid
+
+
+def covered_area(points: torch.Tensor, spacing: float, cell: float = None) -> torch.Tensor:
+    """Top-down area (m^2) covered by the sheet, [B]: each particle covers a spacing x spacing tile,
+    rasterised at `cell` (default spacing / 2). A flat sheet covers N * spacing^2; folded in half, half."""
+    cell = spacing / 2 if cell is None else cell
+    cells = _footprint_cells(points, spacing, cell)
+    lo = cells.amin(dim=(0, 1))
+    size = tuple((cells.amax(dim=(0, 1)) - lo + 1).tolist())
+    return _occupancy(cells, lo, size).flatten(1).sum(dim=1) * cell**2
+
+
+def region_coverage(points: torch.Tensor, spacing: float, region: tuple[float, float, float, float],
+                    cell: float = None) -> torch.Tensor:
+    """Fraction of the table rectangle `region` = (xmin, xmax, ymin, ymax) covered by the sheet, [B]."""
+    cell = spacing / 2 if cell is None else cell
+    xmin, xmax, ymin, ymax = region
+    lo = torch.tensor([np.floor(xmin / cell), np.floor(ymin / cell)], device=points.device).long()
+    size = (int(np.ceil(xmax / cell)) - int(lo[0]), int(np.ceil(ymax / cell)) - int(lo[1]))
+    grid = _occupancy(_footprint_cells(points, spacing, cell), lo, size)
+    return grid.flatten(1).float().mean(dim=1)
+
+
+def fold_pairs(rows: int, cols: int, axis: int = 0) -> list[tuple[int, int]]:
+    """Particle pairs of a rows x cols towel that meet when it is folded in half across `axis`
+    (0: the fold line runs along y, halving the rows; 1: along x, halving the columns)."""
+    index = np.arange(rows * cols).reshape(rows, cols)
+    if axis == 1:
+        index = index.T
+    half = index.shape[0] // 2
+    return list(zip(index[:half].ravel().tolist(), index[::-1][:half].ravel().tolist()))
+
+
+def fold_distance(points: torch.Tensor, pairs: list[tuple[int, int]]) -> torch.Tensor:
+    """Mean distance (m) between the particles of each pair, [B]: 0 when the fold is perfect."""
+    a, b = zip(*pairs)
+    return torch.linalg.norm(points[:, list(a)] - points[:, list(b)], dim=-1).mean(dim=1)
+
+
+def flatness(points: torch.Tensor) -> torch.Tensor:
+    """Standard deviation (m) of the particle heights, [B]: 0 for a sheet lying flat."""
+    return points[..., 2].std(dim=1, unbiased=False)
+
+
+def fraction_below(points: torch.Tensor, height: float) -> torch.Tensor:
+    """Fraction of particles lower than `height`, [B] (e.g. hanging below a bar)."""
+    return (points[..., 2] < height).float().mean(dim=1)
+
+
+def fraction_beyond(points: torch.Tensor, point: torch.Tensor, normal: torch.Tensor) -> torch.Tensor:
+    """Fraction of particles on the side of the plane through `point` [3] facing `normal` [3], [B]
+    (with a vertical plane through a bar: the share of the sheet on that side of the bar)."""
+    return (((points - point) * normal).sum(dim=-1) > 0).float().mean(dim=1)
