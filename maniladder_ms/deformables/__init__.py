@@ -2,7 +2,9 @@
 
 - `rope`: capsule-chain articulation (free or one end fixed); straightness, winding, knot metrics.
 - `cloth`: sheets of particles linked by spring drives (towel, shirt, bag, tent panel), drawn as
-  tiles; covered area, coverage, fold, flatness and hanging metrics.
+  tiles; fold, flatness and hanging metrics.
+- `clay`: a lattice of spheres linked by springs that yield (plasticity); height, width, dent metrics.
+- `metrics`: footprint area, region coverage and IoU on 2D/voxel grids (cloth and clay).
 - `particles`: liquid (low friction) and granular (high friction) spheres; container fill metrics.
   The containers themselves are in `maniladder_ms.objects.containers`.
 

@@ -14,9 +14,10 @@ Shapes (`ClothLayout`, all lying flat in their rest shape): `towel` (rows x cols
 with two sleeves), `bag` (a tote bag lying flat: front and back panels sewn along both sides and
 the bottom, a handle loop on each panel) and `tent_panel` (a sheet with corner grommets marked).
 
-Metrics on particle positions [B, N, 3] (`Cloth.positions()`):
-- `covered_area`: area (m^2) of the sheet's top-down footprint, each particle covering its tile;
-- `region_coverage`: fraction of a table rectangle that the sheet covers;
+Metrics on particle positions [B, N, 3] (`Cloth.positions()`); the footprint ones live in
+`maniladder_ms.deformables.metrics` with tile = the cloth's spacing:
+- `metrics.footprint_area`: area (m^2) the sheet covers seen from above (flat: N * spacing^2);
+- `metrics.region_coverage`: fraction of a table rectangle that the sheet covers;
 - `fold_distance`: mean distance between particles paired by a fold (0 when perfectly folded);
 - `flatness`: standard deviation of particle heights (0 for a flat sheet);
 - `fraction_below`: fraction of particles lower than a height (hanging below a bar);
@@ -230,48 +231,7 @@ def _link(scene: ManiSkillScene, particles: list[Actor], rest: np.ndarray, i: in
     return drive
 
 
-# ---- metrics --------------------------------------------------------------------------------------
-def _footprint_cells(points: torch.Tensor, spacing: float, cell: float) -> torch.Tensor:
-    """Integer (x, y) cells [B, N * k * k, 2] covered by each particle's spacing-wide tile, sampled
-    k x k times (k = spacing / cell)."""
-    k = max(1, int(round(spacing / cell)))
-    offsets = (torch.arange(k, device=points.device, dtype=points.dtype) + 0.5) * (spacing / k) - spacing / 2
-    ox, oy = torch.meshgrid(offsets, offsets, indexing="ij")
-    samples = points[:, :, None, :2] + torch.stack([ox.ravel(), oy.ravel()], dim=-1)[None, None]
-    return torch.floor(samples.reshape(points.shape[0], -1, 2) / cell).long()
-
-
-def _occupancy(cells: torch.Tensor, lo: torch.Tensor, size: tuple[int, int]) -> torch.Tensor:
-    """[B, size] boolean grid of the cells (relative to cell `lo`) that fall inside it."""
-    rel = cells - lo
-    ok = (rel[..., 0] >= 0) & (rel[..., 0] < size[0]) & (rel[..., 1] >= 0) & (rel[..., 1] < size[1])
-    b = torch.arange(cells.shape[0], device=cells.device)[:, None].expand_as(rel[..., 0])
-    grid = torch.zeros((cells.shape[0], *size), dtype=torch.bool, device=cells.device)
-    grid[b[ok], rel[..., 0][ok], rel[..., 1][ok]] = True
-    return grid
-
-
-def covered_area(points: torch.Tensor, spacing: float, cell: float = None) -> torch.Tensor:
-    """Top-down area (m^2) covered by the sheet, [B]: each particle covers a spacing x spacing tile,
-    rasterised at `cell` (default spacing / 2). A flat sheet covers N * spacing^2; folded in half, half."""
-    cell = spacing / 2 if cell is None else cell
-    cells = _footprint_cells(points, spacing, cell)
-    lo = cells.amin(dim=(0, 1))
-    size = tuple((cells.amax(dim=(0, 1)) - lo + 1).tolist())
-    return _occupancy(cells, lo, size).flatten(1).sum(dim=1) * cell**2
-
-
-def region_coverage(points: torch.Tensor, spacing: float, region: tuple[float, float, float, float],
-                    cell: float = None) -> torch.Tensor:
-    """Fraction of the table rectangle `region` = (xmin, xmax, ymin, ymax) covered by the sheet, [B]."""
-    cell = spacing / 2 if cell is None else cell
-    xmin, xmax, ymin, ymax = region
-    lo = torch.tensor([np.floor(xmin / cell), np.floor(ymin / cell)], device=points.device).long()
-    size = (int(np.ceil(xmax / cell)) - int(lo[0]), int(np.ceil(ymax / cell)) - int(lo[1]))
-    grid = _occupancy(_footprint_cells(points, spacing, cell), lo, size)
-    return grid.flatten(1).float().mean(dim=1)
-
-
+# ---- metrics (footprints: `maniladder_ms.deformables.metrics`, with tile = config.spacing) -----------
 def fold_pairs(rows: int, cols: int, axis: int = 0) -> list[tuple[int, int]]:
     """Particle pairs of a rows x cols towel that meet when it is folded in half across `axis`
     (0: the fold line runs along y, halving the rows; 1: along x, halving the columns)."""

@@ -24,7 +24,7 @@ from maniladder_ms.envs import ManiLadderEnv
 from maniladder_ms.geometry import yaw_quat
 from maniladder_ms.objects import containers
 
-from . import cloth, particles, rope
+from . import clay, cloth, metrics, particles, rope
 
 SHOWCASE_ENV_IDS: dict[str, str] = {}
 SHOWCASE_STEPS = 200
@@ -154,7 +154,7 @@ class ClothShowcaseEnv(ShowcaseEnv):
     def evaluate(self):
         points = self.cloth.positions()
         return dict(
-            covered_area=cloth.covered_area(points, self.cloth_config.spacing),
+            covered_area=metrics.footprint_area(points, self.cloth_config.spacing),
             flatness=cloth.flatness(points),
         )
 
@@ -208,6 +208,55 @@ class TentShowcaseEnv(ClothShowcaseEnv):
 
     def _layout(self):
         return cloth.tent_panel(spacing=self.cloth_config.spacing)
+
+
+@_register("clay")
+class ClayShowcaseEnv(ShowcaseEnv):
+    """A 6 cm clay ball on the table beside a wooden weight; plastic after every control step."""
+
+    SHOWCASE_TITLE = "Clay: 6 cm ball, lattice of springs that yield"
+    clay_config = clay.ClayConfig()
+    clay_xy = (0.05, -0.05)
+    weight_half_size = (0.03, 0.03, 0.015)
+
+    def _load_scene(self, options: dict):
+        super()._load_scene(options)
+        self.clay = clay.build_clay(self.scene, "clay", clay.clay_ball(0.03, self.clay_config.spacing), self.clay_config)
+        self.weight = _build_box(self.scene, "weight", self.weight_half_size, (0.6, 0.45, 0.3, 1))
+
+    def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
+        super()._initialize_episode(env_idx, options)
+        with torch.device(self.device):
+            b = len(env_idx)
+            origin = torch.tensor([[self.clay_xy[0], self.clay_xy[1], self.clay_config.radius]]).repeat(b, 1)
+            self.clay.reset(env_idx, origin)
+            self.weight.set_pose(Pose.create_from_pq(torch.tensor([[0.05, 0.12, self.weight_half_size[2]]]).repeat(b, 1)))
+
+    def _after_control_step(self):
+        self.clay.relax()
+
+    def get_state_dict(self):
+        state = super().get_state_dict()
+        state["clay_rest"] = self.clay.state()
+        return state
+
+    def set_state_dict(self, state: dict, env_idx: torch.Tensor = None):
+        super().set_state_dict(state, env_idx)
+        if "clay_rest" in state:
+            idx = torch.arange(self.num_envs, device=self.device) if env_idx is None else env_idx
+            self.clay.set_state(state["clay_rest"], idx)
+
+    def deformable_points(self):
+        return self.clay.positions()
+
+    def evaluate(self):
+        points = self.clay.positions()
+        r = self.clay_config.radius
+        return dict(
+            height=clay.height(points, r),
+            footprint_area=metrics.footprint_area(points, self.clay_config.spacing),
+            width_x=clay.width_along(points, torch.tensor([1.0, 0.0], device=self.device), r),
+        )
 
 
 class PourShowcaseEnv(ShowcaseEnv):

@@ -1,0 +1,207 @@
+"""Clay / plasticine: a lattice of small spheres held together by spring drives that yield.
+
+Particles sit on a cubic lattice (`clay_ball`, `clay_block`); each face-neighbour pair is linked by
+a PhysX D6 drive pulling the second particle to a rest offset from the first. Particles cannot
+rotate (locked angular motion), so the offsets stay in the world frame and one link resists both
+stretch and shear. Plasticity: once per control step the task calls `Clay.relax()`, which moves the
+rest offset of every link strained past `yield_distance` back to exactly that strain (perfect
+plasticity, a return mapping, batched in torch over envs and links). The clay springs back from
+small pokes, and keeps the shape it is pressed into beyond that. Contacts between the spheres keep
+its volume. The rest offsets are state: `Clay.state()` / `Clay.set_state()`; tasks add them to
+their state dict (see the clay showcase) so env.get_state_dict/set_state_dict keep them.
+
+The drive targets are set through SAPIEN per sub-scene (ManiSkill 3.0.1 wraps no batched setter);
+on the GPU backend they are set per env the same way, untested here (no GPU on the build machine).
+
+Metrics on particle positions [B, N, 3] (`Clay.positions()`), lengths in metres:
+- `height`: top of the highest sphere above the lowest one's bottom;
+- `width_along`: extent along a horizontal axis (squeezing narrows it);
+- `surface_height_at`: top of the clay near a table point; `dent_depth`: a reference top minus it;
+- footprint area / IoU with a target footprint or voxel grid: `maniladder_ms.deformables.metrics`
+  with tile = the clay's spacing.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import sapien
+import sapien.physx as physx
+import sapien.render
+import torch
+
+from mani_skill.envs.scene import ManiSkillScene
+from mani_skill.utils.structs.actor import Actor
+from mani_skill.utils.structs.pose import Pose
+
+from maniladder_ms.objects.containers import set_contact_offset
+
+CONTACT_OFFSET = 0.002  # m: the lattice packs spheres within a millimetre of each other
+
+
+@dataclass(frozen=True)
+class ClayConfig:
+    """spacing: lattice spacing (m); radius: sphere radius (m), just under spacing / 2 so neighbours
+    nearly touch; density of the clay (kg/m^3, one lattice cell per particle); stiffness (N/m) and
+    damping (N s/m) of each link; yield_distance (m): strain of a link beyond which it deforms
+    permanently (stiffness * yield_distance is a link's yield force); friction; color."""
+
+    spacing: float = 0.012
+    radius: float = 0.0058
+    density: float = 1500.0
+    stiffness: float = 300.0
+    damping: float = 2.0
+    yield_distance: float = 0.0015
+    friction: float = 0.8
+    color: tuple = (0.85, 0.45, 0.55, 1)
+
+
+def _lattice(inside, extent: np.ndarray, spacing: float) -> np.ndarray:
+    """Lattice points within `extent` (half sizes) for which `inside(points)` holds, bottom at z = 0."""
+    axes = [np.arange(-np.floor(e / spacing), np.floor(e / spacing) + 1) * spacing for e in extent]
+    points = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+    points = points[inside(points)]
+    points[:, 2] -= points[:, 2].min()
+    return points
+
+
+def clay_ball(radius: float = 0.03, spacing: float = ClayConfig.spacing) -> np.ndarray:
+    """Rest positions [N, 3] of a ball of `radius`, lowest particle centre at z = 0."""
+    return _lattice(lambda p: np.linalg.norm(p, axis=1) <= radius, np.full(3, radius), spacing)
+
+
+def clay_block(half_size=(0.03, 0.03, 0.015), spacing: float = ClayConfig.spacing) -> np.ndarray:
+    """Rest positions [N, 3] of a box of `half_size`, lowest particle centre at z = 0."""
+    half = np.asarray(half_size, float)
+    return _lattice(lambda p: np.all(np.abs(p) <= half + 1e-9, axis=1), half, spacing)
+
+
+def _face_links(positions: np.ndarray, spacing: float) -> list[tuple[int, int]]:
+    """Pairs of lattice points one spacing apart along x, y or z."""
+    keys = {tuple(k): i for i, k in enumerate(np.round(positions / spacing).astype(int).tolist())}
+    links = []
+    for key, i in keys.items():
+        for axis in range(3):
+            step = list(key)
+            step[axis] += 1
+            j = keys.get(tuple(step))
+            if j is not None:
+                links.append((i, j))
+    return links
+
+
+class Clay:
+    """A built clay body: `particles` (one ManiSkill Actor each), a merged view, the link `drives`,
+    the linked index pairs and the rest offsets `rest` [B, L, 3] the drives pull towards."""
+
+    def __init__(self, particles: list[Actor], merged: Actor, drives: list, links: list[tuple[int, int]],
+                 layout: np.ndarray, config: ClayConfig, num_envs: int, device):
+        self.particles = particles
+        self.merged = merged
+        self.drives = drives
+        self.layout = layout
+        self.config = config
+        self.first = torch.tensor([i for i, _ in links], device=device)
+        self.second = torch.tensor([j for _, j in links], device=device)
+        offsets = torch.as_tensor(layout[[j for _, j in links]] - layout[[i for i, _ in links]], dtype=torch.float32, device=device)
+        self.initial_rest = offsets
+        self.rest = offsets[None].repeat(num_envs, 1, 1)
+
+    def positions(self) -> torch.Tensor:
+        """Particle centres, [B, N, 3]."""
+        return self.merged.pose.p.reshape(len(self.particles), -1, 3).transpose(0, 1)
+
+    def reset(self, env_idx: torch.Tensor, origin: torch.Tensor):
+        """Put the envs' clay back to its rest shape with its lowest particles' centres at `origin` [b, 3]."""
+        n, b = len(self.particles), len(env_idx)
+        local = torch.as_tensor(self.layout, dtype=torch.float32, device=origin.device)
+        xyz = (origin[None] + local[:, None]).reshape(-1, 3)
+        self.merged.set_pose(Pose.create_from_pq(xyz))
+        self.merged.set_linear_velocity(torch.zeros(n * b, 3, device=origin.device))
+        self.rest[env_idx] = self.initial_rest
+        self._push_targets(env_idx, torch.ones(b, len(self.drives), dtype=torch.bool, device=origin.device))
+
+    def relax(self):
+        """Plastic step: clamp every link's strain (offset - rest) to `yield_distance` by moving its rest offset."""
+        p = self.positions()
+        strain = p[:, self.second] - p[:, self.first] - self.rest
+        size = torch.linalg.norm(strain, dim=-1, keepdim=True)
+        yielded = size[..., 0] > self.config.yield_distance
+        if not bool(yielded.any()):
+            return
+        excess = strain * (1 - self.config.yield_distance / size.clamp_min(1e-9))
+        self.rest = torch.where(yielded[..., None], self.rest + excess, self.rest)
+        self._push_targets(torch.arange(len(p), device=p.device), yielded)
+
+    def state(self) -> torch.Tensor:
+        """The plastic state: rest offsets, [B, L * 3]."""
+        return self.rest.flatten(1).clone()
+
+    def set_state(self, state: torch.Tensor, env_idx: torch.Tensor):
+        """Restore rest offsets saved by `state()` for the envs `env_idx`."""
+        self.rest[env_idx] = state.reshape(len(env_idx), -1, 3).to(self.rest)
+        self._push_targets(env_idx, torch.ones(len(env_idx), len(self.drives), dtype=torch.bool))
+
+    def _push_targets(self, env_idx: torch.Tensor, which: torch.Tensor):
+        """Send the rest offsets of the links marked in `which` [b, L] to their PhysX drives."""
+        rows, links = torch.nonzero(which.cpu(), as_tuple=True)
+        envs = env_idx.cpu()[rows].tolist()
+        targets = self.rest.cpu()[envs, links.tolist()].tolist() if len(envs) else []
+        for env, link, target in zip(envs, links.tolist(), targets):
+            self.drives[link]._objs[env].set_drive_target(sapien.Pose(p=target))
+
+
+def build_clay(scene: ManiSkillScene, name: str, layout: np.ndarray, config: ClayConfig = ClayConfig()) -> Clay:
+    """Build clay with particles at `layout` [N, 3] (`clay_ball`, `clay_block`); place it with `Clay.reset`."""
+    material = physx.PhysxMaterial(config.friction, config.friction, 0.0)
+    mass = config.density * config.spacing**3
+    density = mass / (4 / 3 * np.pi * config.radius**3)
+    render_mat = sapien.render.RenderMaterial(base_color=list(config.color), roughness=0.9) if scene.can_render() else None
+    particles = []
+    for i, p in enumerate(layout):
+        builder = scene.create_actor_builder()
+        builder.add_sphere_collision(radius=config.radius, material=material, density=density)
+        if render_mat is not None:  # drawn a little larger than they collide, so the body reads as one lump
+            builder.add_sphere_visual(radius=config.spacing * 0.62, material=render_mat)
+        builder.initial_pose = sapien.Pose(p=[float(p[0]), float(p[1]), float(p[2]) + 1.0])
+        actor = builder.build(name=f"{name}_{i}")
+        set_contact_offset(actor, CONTACT_OFFSET)
+        for body in actor._bodies:  # translation only: link offsets stay in the world frame
+            body.set_locked_motion_axes([False, False, False, True, True, True])
+        particles.append(actor)
+    links = _face_links(layout, config.spacing)
+    drives = []
+    for i, j in links:
+        drive = scene.create_drive(particles[i], sapien.Pose(), particles[j], sapien.Pose())
+        drive.set_drive_property_x(config.stiffness, config.damping)
+        drive.set_drive_property_y(config.stiffness, config.damping)
+        drive.set_drive_property_z(config.stiffness, config.damping)
+        drives.append(drive)
+    return Clay(particles, Actor.merge(particles, name=name), drives, links, layout, config, scene.num_envs, scene.device)
+
+
+# ---- metrics --------------------------------------------------------------------------------------
+def height(points: torch.Tensor, radius: float) -> torch.Tensor:
+    """Height of the clay (top of the highest sphere above the bottom of the lowest), [B]."""
+    z = points[..., 2]
+    return z.amax(dim=1) - z.amin(dim=1) + 2 * radius
+
+
+def width_along(points: torch.Tensor, axis: torch.Tensor, radius: float) -> torch.Tensor:
+    """Extent of the clay along the horizontal direction `axis` [2] or [B, 2] (unit), spheres included, [B]."""
+    s = (points[..., :2] * axis.reshape(-1, 1, 2)).sum(dim=-1)
+    return s.amax(dim=1) - s.amin(dim=1) + 2 * radius
+
+
+def surface_height_at(points: torch.Tensor, xy: torch.Tensor, within: float, radius: float) -> torch.Tensor:
+    """Top of the clay (highest sphere top) within `within` of the table point xy [2] or [B, 2], [B];
+    0 where no particle is that close."""
+    near = torch.linalg.norm(points[..., :2] - xy.reshape(-1, 1, 2), dim=-1) <= within
+    top = torch.where(near, points[..., 2] + radius, torch.zeros_like(points[..., 2]))
+    return top.amax(dim=1)
+
+
+def dent_depth(points: torch.Tensor, xy: torch.Tensor, reference_top: torch.Tensor, within: float, radius: float) -> torch.Tensor:
+    """How far (m) the clay surface near xy lies below `reference_top` [B] (e.g. its height before), [B]."""
+    return reference_top - surface_height_at(points, xy, within, radius)

@@ -1,0 +1,76 @@
+"""Occupancy metrics shared by cloth and clay: top-down footprints and voxel grids of particle sets.
+
+Each particle counts as a square tile (or cube) of side `tile` centred on it, rasterised on a grid of
+`cell` (default tile / 2); all functions are batched over the leading env dimension of points [B, N, 3].
+- `footprint_area`: area (m^2) the particles cover seen from above;
+- `footprint_grid` + `iou`: shape agreement with a target footprint given as a boolean grid;
+- `region_coverage`: fraction of a table rectangle that the particles cover;
+- `voxel_grid` + `iou`: 3D shape agreement.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+
+
+def _tile_samples(points: torch.Tensor, tile: float, cell: float, dims: int) -> torch.Tensor:
+    """Integer cells [B, N * k^dims, dims] covered by each particle's tile, sampled k = tile / cell times per axis."""
+    k = max(1, int(round(tile / cell)))
+    offsets = (torch.arange(k, device=points.device, dtype=points.dtype) + 0.5) * (tile / k) - tile / 2
+    grid = torch.stack(torch.meshgrid(*[offsets] * dims, indexing="ij"), dim=-1).reshape(-1, dims)
+    samples = points[:, :, None, :dims] + grid[None, None]
+    return torch.floor(samples.reshape(points.shape[0], -1, dims) / cell).long()
+
+
+def _occupancy(cells: torch.Tensor, lo: torch.Tensor, size: tuple[int, ...]) -> torch.Tensor:
+    """[B, *size] boolean grid of the cells (relative to cell index `lo`) that fall inside it."""
+    rel = cells - lo
+    ok = ((rel >= 0) & (rel < torch.tensor(size, device=cells.device))).all(dim=-1)
+    b = torch.arange(cells.shape[0], device=cells.device)[:, None].expand_as(ok)
+    grid = torch.zeros((cells.shape[0], *size), dtype=torch.bool, device=cells.device)
+    grid[(b[ok], *rel[ok].unbind(-1))] = True
+    return grid
+
+
+def _region_cells(region, cell: float) -> tuple[torch.Tensor, tuple[int, ...]]:
+    """Lowest cell index and grid size of region (lo_0, hi_0, lo_1, hi_1, ...)."""
+    lo = [int(np.floor(region[2 * d] / cell)) for d in range(len(region) // 2)]
+    size = tuple(int(np.ceil(region[2 * d + 1] / cell)) - lo[d] for d in range(len(region) // 2))
+    return torch.tensor(lo), size
+
+
+def footprint_grid(points: torch.Tensor, tile: float, region: tuple[float, float, float, float], cell: float = None) -> torch.Tensor:
+    """[B, H, W] top-down occupancy of the table rectangle region = (xmin, xmax, ymin, ymax)."""
+    cell = tile / 2 if cell is None else cell
+    lo, size = _region_cells(region, cell)
+    return _occupancy(_tile_samples(points, tile, cell, 2), lo.to(points.device), size)
+
+
+def footprint_area(points: torch.Tensor, tile: float, cell: float = None) -> torch.Tensor:
+    """Top-down area (m^2) covered by the particles, [B]; N separate particles cover N * tile^2."""
+    cell = tile / 2 if cell is None else cell
+    cells = _tile_samples(points, tile, cell, 2)
+    lo = cells.amin(dim=(0, 1))
+    size = tuple((cells.amax(dim=(0, 1)) - lo + 1).tolist())
+    return _occupancy(cells, lo, size).flatten(1).sum(dim=1) * cell**2
+
+
+def region_coverage(points: torch.Tensor, tile: float, region: tuple[float, float, float, float], cell: float = None) -> torch.Tensor:
+    """Fraction of the table rectangle region = (xmin, xmax, ymin, ymax) covered from above, [B]."""
+    return footprint_grid(points, tile, region, cell).flatten(1).float().mean(dim=1)
+
+
+def voxel_grid(points: torch.Tensor, tile: float, region: tuple[float, ...], cell: float = None) -> torch.Tensor:
+    """[B, X, Y, Z] occupancy of the box region = (xmin, xmax, ymin, ymax, zmin, zmax), each particle a cube."""
+    cell = tile / 2 if cell is None else cell
+    lo, size = _region_cells(region, cell)
+    return _occupancy(_tile_samples(points, tile, cell, 3), lo.to(points.device), size)
+
+
+def iou(grid: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
+    """Intersection over union of boolean grids [B, ...] and a target of the same grid shape, [B]."""
+    target = target.to(grid.device).expand_as(grid)
+    inter = (grid & target).flatten(1).sum(dim=1)
+    union = (grid | target).flatten(1).sum(dim=1).clamp_min(1)
+    return inter / union
