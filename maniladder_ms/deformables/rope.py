@@ -32,7 +32,13 @@ X_TO_Z = sapien.Pose(q=[0.7071068, 0, -0.7071068, 0])
 X_TO_Y = sapien.Pose(q=[0.7071068, 0, 0, 0.7071068])
 # the middle link carries this fraction of a capsule's mass (PhysX needs a massive link; a light
 # one keeps the chain's inertia on the capsules)
-MIDDLE_LINK_MASS_FRACTION = 0.1
+MIDDLE_LINK_MASS_FRACTION = 0.5
+# SAPIEN skips contacts between shapes that share a bit of collision group 2 when their group 3
+# (low 16 bits) is equal: rope capsules get their own group-3 id, so their group-2 bits only act
+# among rope capsules, never against a robot's (which use the same bits for their own pairs)
+ROPE_GROUP_ID = 0x2C0E
+NEIGHBOUR_BITS = 32
+MAX_DEPENETRATION_VELOCITY = 0.3  # m/s  # capsules i and i +- 31 share a bit too: ropes beyond 31 capsules miss those pairs
 
 
 @dataclass(frozen=True)
@@ -51,7 +57,7 @@ class RopeConfig:
     segments: int = 20
     bend_stiffness: float = 0.002
     bend_damping: float = 0.001
-    mass: float = 0.05
+    mass: float = 0.1
     friction: float = 1.0
     max_bend: float = 2.4
     color: tuple = (0.85, 0.3, 0.15, 1)
@@ -123,7 +129,7 @@ def build_rope(scene: ManiSkillScene, name: str, config: RopeConfig = RopeConfig
                 sapien.Pose(p=[seg / 2, 0, 0]) * X_TO_Z, X_TO_Z,
             )
             m = MIDDLE_LINK_MASS_FRACTION * capsule_mass
-            middle.set_mass_and_inertia(m, sapien.Pose(), np.full(3, 0.4 * m * config.radius**2))
+            middle.set_mass_and_inertia(m, sapien.Pose(), np.full(3, m * seg**2 / 12))
             parent = middle
         capsule = builder.create_link_builder(parent)
         capsule.set_name(f"capsule_{i}")
@@ -135,16 +141,41 @@ def build_rope(scene: ManiSkillScene, name: str, config: RopeConfig = RopeConfig
         capsule.add_capsule_collision(radius=config.radius, half_length=half, material=material)
         capsule.set_mass_and_inertia(
             capsule_mass, sapien.Pose(),
-            capsule_mass * np.array([0.4 * config.radius**2, seg**2 / 12, seg**2 / 12]),
+            np.full(3, capsule_mass * seg**2 / 12),
         )
         if scene.can_render():
             mat = sapien.render.RenderMaterial(base_color=list(colors.get(i, config.color)), roughness=0.8)
             capsule.add_capsule_visual(radius=config.radius, half_length=half, material=mat)
         parent = capsule
     articulation = builder.build(name=name, fix_root_link=fix_first_end)
+    _ignore_neighbour_contacts(articulation, config.segments)
+    for link in articulation.links:
+        for body in link._objs:
+            # a light link squeezed into the (kinematic) table by the robot was thrown out at
+            # huge speed and the chain went NaN; capping the push-out speed keeps it finite
+            body.set_max_depenetration_velocity(MAX_DEPENETRATION_VELOCITY)
     for joint in articulation.active_joints:
         joint.set_drive_properties(config.bend_stiffness, config.bend_damping)
     return Rope(articulation, config)
+
+
+def _ignore_neighbour_contacts(articulation: Articulation, segments: int):
+    """Switch off contacts between consecutive capsules only.
+
+    They touch at their joint (PhysX skips only parent-child pairs, and a middle link sits between
+    them), and fighting that contact made the chain blow up. Capsule i carries bits i and i + 1
+    (mod 32) of group 2, so only neighbours share one; capsules further apart still collide, so the
+    rope can lie on itself and knot. All ropes share ROPE_GROUP_ID, so rope A's capsule i ignores
+    rope B's capsules i - 1, i, i + 1: keep two ropes apart or accept that.
+    """
+    for i in range(segments):
+        bits = (1 << (i % NEIGHBOUR_BITS)) | (1 << ((i + 1) % NEIGHBOUR_BITS))
+        for link in articulation.links_map[f"capsule_{i}"]._objs:
+            for shape in link.get_collision_shapes():
+                groups = shape.get_collision_groups()
+                groups[2] |= bits
+                groups[3] = (groups[3] & 0xFFFF0000) | ROPE_GROUP_ID
+                shape.set_collision_groups(groups)
 
 
 # ---- metrics --------------------------------------------------------------------------------------

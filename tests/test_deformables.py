@@ -1,0 +1,230 @@
+"""Deformable proxies: every showcase builds, round-trips its state and stays finite under random
+Panda actions; the metrics give the expected values on constructed shapes; clay stays pressed; a
+Panda can pick up a rope end; container decompositions are cached."""
+
+import numpy as np
+import pytest
+import torch
+import gymnasium as gym
+
+import maniladder_ms  # noqa: F401
+from maniladder_ms.deformables import clay, cloth, metrics, particles, rope
+from maniladder_ms.deformables.showcase import SHOWCASE_ENV_IDS
+from maniladder_ms.objects import containers
+from mani_skill.utils.structs.pose import Pose
+
+RANDOM_STEPS = 1000
+
+
+def _make(kind, **kwargs):
+    return gym.make(SHOWCASE_ENV_IDS[kind], obs_mode="state", render_backend="cpu", **kwargs)
+
+
+@pytest.mark.parametrize("kind", sorted(SHOWCASE_ENV_IDS))
+def test_showcase_state_round_trip_and_random_actions(kind):
+    env = _make(kind)
+    try:
+        obs, _ = env.reset(seed=0)
+        env.action_space.seed(0)
+        base = env.unwrapped
+        state = base.get_state_dict()
+        for _ in range(5):
+            env.step(env.action_space.sample())
+        base.set_state_dict(state)
+        assert (base.get_obs() - obs).abs().max() < 1e-5
+        for _ in range(RANDOM_STEPS):
+            obs, *_ = env.step(env.action_space.sample())
+        assert torch.isfinite(obs).all()
+        points = base.deformable_points()
+        assert torch.isfinite(points).all()
+        # nothing flew off or fell through the table
+        assert points[..., 2].min() > -0.01 and points[..., 2].max() < 1.0
+        assert points[..., :2].abs().max() < 1.0
+    finally:
+        env.close()
+
+
+@pytest.mark.skipif(not torch.cuda.is_available(), reason="num_envs > 1 needs ManiSkill's GPU sim backend; this machine has no CUDA GPU")
+@pytest.mark.parametrize("kind", sorted(SHOWCASE_ENV_IDS))
+def test_showcase_batched_on_gpu(kind):
+    env = gym.make(SHOWCASE_ENV_IDS[kind], num_envs=2, obs_mode="state", sim_backend="physx_cuda")
+    try:
+        obs, _ = env.reset(seed=0)
+        state = env.unwrapped.get_state_dict()
+        for _ in range(20):
+            obs, *_ = env.step(env.action_space.sample())
+        assert torch.isfinite(obs).all()
+        env.unwrapped.set_state_dict(state)
+        assert env.unwrapped.deformable_points().shape[0] == 2
+    finally:
+        env.close()
+
+
+# ---- rope -----------------------------------------------------------------------------------------
+def _polyline(xyz):
+    return torch.as_tensor(np.asarray(xyz, dtype=np.float32))[None]
+
+
+def test_rope_metrics_on_constructed_shapes():
+    straight = _polyline([[x, 0, 0] for x in np.linspace(0, 0.4, 22)])
+    assert rope.straightness(straight)[0] == pytest.approx(1.0, abs=1e-5)
+    assert rope.end_to_end_distance(straight)[0] == pytest.approx(0.4, abs=1e-5)
+    t = np.linspace(0, 2 * np.pi * 1.25, 60)
+    coil = _polyline(np.stack([0.05 * np.cos(t), 0.05 * np.sin(t), np.zeros_like(t)], axis=1))
+    assert rope.winding_number(coil, torch.zeros(2))[0] == pytest.approx(1.25, abs=1e-3)
+    assert rope.straightness(coil)[0] < 0.2
+    # overhand knot: a trefoil-like curve whose strands alternate over/under
+    s = np.linspace(0.2, 2 * np.pi - 0.2, 200)
+    trefoil = np.stack([np.sin(s) + 2 * np.sin(2 * s), np.cos(s) - 2 * np.cos(2 * s), -np.sin(3 * s)], axis=1) * 0.03
+    assert len(rope.crossings(trefoil)) == 3
+    assert rope.is_knotted(trefoil)
+    flat_trefoil = trefoil.copy()
+    flat_trefoil[:, 2] = np.linspace(0, 0.05, len(s))  # same drawing, each strand lying on the earlier ones
+    assert not rope.is_knotted(flat_trefoil)
+    assert not rope.is_knotted(straight[0].numpy())
+
+
+def test_rope_built_straight_is_straight():
+    env = _make("rope")
+    try:
+        env.reset(seed=0)
+        r = env.unwrapped.rope
+        b = torch.zeros(1, 2 * (r.config.segments - 1))
+        r.set_shape(Pose.create_from_pq(torch.tensor([[0.0, -0.2, r.config.radius]])), b)
+        points = r.points()
+        assert rope.straightness(points)[0] == pytest.approx(1.0, abs=1e-4)
+        assert rope.end_to_end_distance(points)[0] == pytest.approx(r.config.length, abs=1e-4)
+    finally:
+        env.close()
+
+
+@pytest.mark.xfail(reason="not solved yet: the gripper closes on a capsule but the rope slips out on lifting "
+                   "(the depenetration cap that keeps the chain finite weakens the grip)", strict=False)
+def test_panda_picks_up_a_rope_end():
+    from maniladder_ms.solvers.panda import PandaSolver
+
+    env = _make("rope", control_mode="pd_joint_pos")
+    try:
+        with PandaSolver.episode(env, seed=0) as robot:
+            r = env.unwrapped.rope
+            first = r.links[0].pose
+            axis = rope._x_axis(first.q)[0].numpy()
+            yaw = robot.closest_grasp_yaw(float(np.arctan2(axis[1], axis[0])) + np.pi / 2)
+            grip_at = r.links[1].pose.p[0].numpy()  # the second capsule's middle, clear of the joints
+            robot.pick(robot.top_down_pose([grip_at[0], grip_at[1], r.config.radius], yaw), lift_height=0.15)
+            robot.grip(closed=True, steps=20)  # hold still while the rope stops swinging
+            points = r.points()[0]
+            assert points[:3, 2].min() > 0.08  # the gripped end is up in the air
+            assert points[-1, 2] < 0.03  # the rest still trails on the table
+    finally:
+        env.close()
+
+
+# ---- cloth ----------------------------------------------------------------------------------------
+def test_cloth_metrics_flat_and_folded():
+    spacing = 0.025
+    layout = cloth.towel(10, 10, spacing)
+    flat = torch.as_tensor(layout.positions, dtype=torch.float32)[None]
+    assert metrics.footprint_area(flat, spacing)[0] == pytest.approx(100 * spacing**2, rel=1e-4)
+    assert cloth.flatness(flat)[0] < 1e-6
+    pairs = cloth.fold_pairs(10, 10, axis=0)
+    assert cloth.fold_distance(flat, pairs)[0] > 0.1
+    folded = flat.clone()  # rows 5..9 mirrored onto rows 0..4, one layer up
+    top = folded[0, :, 0] > 0
+    folded[0, top, 0] = -folded[0, top, 0]
+    folded[0, top, 2] += 0.016
+    assert cloth.fold_distance(folded, pairs)[0] == pytest.approx(0.016, abs=1e-5)
+    assert metrics.footprint_area(folded, spacing)[0] == pytest.approx(50 * spacing**2, rel=1e-4)
+    region = (-0.125, 0.125, -0.125, 0.125)
+    assert metrics.region_coverage(flat, spacing, region)[0] == pytest.approx(1.0)
+    assert metrics.region_coverage(folded, spacing, region)[0] == pytest.approx(0.5)
+    hanging = flat.clone()
+    x = hanging[0, :, 0]
+    hanging[0, :, 2] = 0.31 - (x - x.min())  # hung by its -x edge over a bar at z = 0.3
+    assert cloth.fraction_below(hanging, 0.3)[0] == pytest.approx(0.9)
+    assert cloth.fraction_beyond(flat, torch.zeros(3), torch.tensor([1.0, 0, 0]))[0] == pytest.approx(0.5)
+
+
+def test_cloth_layouts():
+    shirt = cloth.shirt()
+    assert len(shirt.positions) == 8 * 6 + 2 * 9
+    assert set(shirt.named["left_sleeve"]).isdisjoint(shirt.named["right_sleeve"])
+    bag = cloth.bag(6, 6, 5)
+    assert len(bag.positions) == 2 * 36 + 2 * 5
+    seams = [(i, j) for i, j in bag.links if j == i + 36]
+    assert len(seams) == 6 + 6 + 4  # both sides and the bottom between the corners
+    assert len(cloth.tent_panel().named["grommets"]) == 4
+
+
+# ---- clay -----------------------------------------------------------------------------------------
+def test_clay_metrics():
+    spacing, r = 0.012, 0.0058
+    block = torch.as_tensor(clay.clay_block((0.03, 0.03, 0.012), spacing), dtype=torch.float32)[None]
+    assert clay.height(block, r)[0] == pytest.approx(2 * spacing + 2 * r, abs=1e-5)
+    assert clay.width_along(block, torch.tensor([1.0, 0.0]), r)[0] == pytest.approx(4 * spacing + 2 * r, abs=1e-5)
+    top = clay.surface_height_at(block, torch.zeros(2), 0.01, r)
+    dented = block.clone()
+    centre = torch.linalg.norm(dented[0, :, :2], dim=-1) < 0.001
+    dented[0, centre & (dented[0, :, 2] > 0.02), 2] -= 0.012
+    assert clay.dent_depth(dented, torch.zeros(2), top, 0.005, r)[0] == pytest.approx(0.012, abs=1e-5)
+    region = (-0.036, 0.036, -0.036, 0.036)
+    target = metrics.footprint_grid(block, spacing, region)
+    assert metrics.iou(target, target)[0] == 1
+    shifted = block + torch.tensor([0.024, 0, 0])
+    assert 0.3 < metrics.iou(metrics.footprint_grid(shifted, spacing, region), target)[0] < 0.7
+    voxels = metrics.voxel_grid(block, spacing, region + (-0.01, 0.04))
+    assert metrics.iou(voxels, voxels)[0] == 1
+
+
+def test_clay_keeps_the_shape_it_is_pressed_into():
+    env = _make("clay", control_mode="pd_joint_delta_pos")
+    try:
+        env.reset(seed=0)
+        base = env.unwrapped
+        still = torch.zeros(env.action_space.shape)
+        for _ in range(20):
+            env.step(still)
+        start = base.evaluate()
+        for body in base.weight._bodies:
+            body.set_mass(2.0)  # a 2 kg press
+        base.weight.set_pose(Pose.create_from_pq(torch.tensor([[*base.clay_xy, 0.08]])))
+        for _ in range(40):
+            env.step(still)
+        pressed = base.evaluate()
+        state = base.get_state_dict()
+        base.weight.set_pose(Pose.create_from_pq(torch.tensor([[0.05, 0.15, 0.02]])))
+        for _ in range(60):
+            env.step(still)
+        released = base.evaluate()
+        assert pressed["height"][0] < 0.7 * start["height"][0]
+        assert released["height"][0] < pressed["height"][0] + 0.005  # no spring back
+        assert released["footprint_area"][0] > 1.2 * start["footprint_area"][0]
+        # the plastic state is part of the env state: restoring it restores the pressed rest shape
+        base.set_state_dict(state)
+        assert torch.allclose(base.clay.state(), state["clay_rest"])
+    finally:
+        env.close()
+
+
+# ---- liquid / granular and containers -------------------------------------------------------------
+@pytest.mark.parametrize("make_shape", [containers.cup, containers.bowl, containers.glass, containers.pitcher])
+def test_full_container_is_full(make_shape):
+    shape = make_shape()
+    pose = Pose.create_from_pq(torch.tensor([[0.1, -0.2, 0.0]]))
+    full = particles.pack_in_container(shape, 40, 0.005)[None] + pose.p[:, None]
+    assert particles.fraction_inside(full, pose, shape)[0] == 1
+    assert particles.fraction_spilled(full, [(pose, shape)])[0] == 0
+    outside = full + torch.tensor([0.3, 0, 0])
+    assert particles.fraction_inside(outside, pose, shape)[0] == 0
+    half = torch.cat([full[:, :20], outside[:, 20:]], dim=1)
+    assert particles.fraction_spilled(half, [(pose, shape)])[0] == pytest.approx(0.5)
+
+
+def test_container_decomposition_is_cached(monkeypatch):
+    import coacd
+
+    shape = containers.cup()
+    visual, parts = containers.cached_parts(shape)
+    monkeypatch.setattr(coacd, "run_coacd", lambda *a, **k: pytest.fail("recomputed a cached decomposition"))
+    assert containers.cached_parts(shape) == (visual, parts)
+    assert len(parts) > 4 and visual.exists()
