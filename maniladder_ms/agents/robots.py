@@ -55,9 +55,25 @@ LEAP_STIFFNESS, LEAP_DAMPING, LEAP_FORCE = 30.0, 1.0, 1.9
 BASE_DAMPING, BASE_FORCE = 1000.0, 1000.0  # base velocity drive (as ManiSkill's Fetch base)
 BASE_MAX_VEL = (0.5, 0.5, 1.57)  # m/s, m/s, rad/s of the holonomic base (chosen)
 
-HAND_MATERIALS = dict(
-    _materials=dict(tip=dict(static_friction=2.0, dynamic_friction=2.0, restitution=0.0)),
-)
+# LEAP contact materials: the fingertips' rubber pads grip hardest; the printed finger segments get a
+# plastic-on-plastic friction high enough that a power grasp, which touches mostly the segments, holds
+LEAP_TIP_FRICTION, LEAP_SEGMENT_FRICTION = 2.0, 1.0
+LEAP_SEGMENTS = [f"{f}_{s}" for f in ("index", "middle", "ring") for s in ("mcp", "pip", "dip")] + \
+    ["thumb_base", "thumb_pip", "thumb_dip"]
+
+
+def leap_urdf_config(prefixes=("",)) -> dict:
+    """ManiSkill urdf_config giving each LEAP hand's tips and segments their contact materials."""
+    materials = dict(tip=dict(static_friction=LEAP_TIP_FRICTION, dynamic_friction=LEAP_TIP_FRICTION, restitution=0.0),
+                     segment=dict(static_friction=LEAP_SEGMENT_FRICTION, dynamic_friction=LEAP_SEGMENT_FRICTION,
+                                  restitution=0.0))
+    links = {}
+    for prefix in prefixes:
+        for finger in ("index", "middle", "ring", "thumb"):
+            links[f"{prefix}leap_{finger}_tip"] = dict(material="tip", patch_radius=0.05, min_patch_radius=0.05)
+        for segment in LEAP_SEGMENTS:
+            links[f"{prefix}leap_{segment}"] = dict(material="segment")
+    return dict(_materials=materials, link=links)
 
 
 def urdf_joint_order(path) -> list[str]:
@@ -187,7 +203,8 @@ class MLPandaLeap(_MLAgent):
     """SX: Panda arm + 16-DoF right LEAP hand on the flange; wrist camera `hand_camera`.
 
     The hand's palm faces along the flange axis (out of the arm), fingers along the Panda hand's x axis.
-    TCP link `leap_tcp`: 10 cm out from the flange, 2 cm off its axis towards the fingers.
+    TCP link `leap_tcp`: where a held object's centre sits in the "power" synergy, 15 cm out from the
+    flange (see scripts/make_agents.py); move it onto an object, close the hand, and the object is grasped.
 
     Action layout (23 dims):
       pd_joint_pos        [0:7] arm joint targets (rad), [7:23] hand joint targets (rad)
@@ -200,10 +217,7 @@ class MLPandaLeap(_MLAgent):
     uid = "ml_panda_leap"
     hand_prefixes = ("",)
     urdf_path = urdf_path("ml_panda_leap")
-    urdf_config = dict(HAND_MATERIALS, link={
-        f"leap_{f}_tip": dict(material="tip", patch_radius=0.05, min_patch_radius=0.05)
-        for f in ("index", "middle", "ring", "thumb")
-    })
+    urdf_config = leap_urdf_config()
     hand_joint_names = LEAP_JOINTS
     ee_link_name = "leap_tcp"
     keyframes = dict(rest=rest_keyframe("ml_panda_leap", dict(zip(ARM_JOINTS, PANDA_REST))))
@@ -310,10 +324,7 @@ class MLDualPandaLeap(_DualArm):
     uid = "ml_dual_panda_leap"
     hand_prefixes = ("left_", "right_")
     urdf_path = urdf_path("ml_dual_panda_leap")
-    urdf_config = dict(HAND_MATERIALS, link={
-        f"{s}leap_{f}_tip": dict(material="tip", patch_radius=0.05, min_patch_radius=0.05)
-        for s in ("left_", "right_") for f in ("index", "middle", "ring", "thumb")
-    })
+    urdf_config = leap_urdf_config(("left_", "right_"))
     keyframes = dict(rest=rest_keyframe("ml_dual_panda_leap", _dual_rest(False)))
     tcp_link, end_effector = "leap_tcp", "hand"
 
