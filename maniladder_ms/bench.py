@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import time
+from typing import NamedTuple
 
 import gymnasium as gym
 import torch
@@ -10,9 +11,22 @@ import torch
 REFERENCE_ENV = "PickCube-v1"
 
 
-def steps_per_second(env_id: str, steps: int, obs_mode: str = "state", seed: int = 0) -> float:
+class BenchTarget(NamedTuple):
+    """One row of a benchmark: a label and how to make its env."""
+
+    label: str
+    env_id: str
+    make_kwargs: dict
+
+
+def env_target(env_id: str, **make_kwargs) -> BenchTarget:
+    robot = make_kwargs.get("robot_uids")
+    return BenchTarget(f"{env_id} [{robot}]" if robot else env_id, env_id, make_kwargs)
+
+
+def steps_per_second(env_id: str, steps: int, obs_mode: str = "state", seed: int = 0, **make_kwargs) -> float:
     """Random-action control steps per second (after one warm-up reset), resetting at episode ends."""
-    env = gym.make(env_id, obs_mode=obs_mode, render_backend=_backend())
+    env = gym.make(env_id, obs_mode=obs_mode, render_backend=_backend(), **make_kwargs)
     try:
         env.action_space.seed(seed)
         env.reset(seed=seed)
@@ -32,15 +46,17 @@ def _backend() -> str:
     return resolve_render_backend(None, "state", None)
 
 
-def bench(env_ids: list[str], steps: int = 300, obs_mode: str = "state", progress=None) -> list[dict]:
-    """Rows of {env_id, steps_per_s, ratio}; the reference is measured before and after, and averaged."""
+def bench(targets: list[BenchTarget | str], steps: int = 300, obs_mode: str = "state", progress=None) -> list[dict]:
+    """Rows of {env_id (the label), steps_per_s, ratio}; targets are env ids or `BenchTarget`s; the
+    reference is measured before and after, and averaged."""
     torch.set_num_threads(1)
+    targets = [env_target(t) if isinstance(t, str) else t for t in targets]
     before = steps_per_second(REFERENCE_ENV, steps, obs_mode)
     rates = {}
-    for env_id in env_ids:
+    for target in targets:
         if progress:
-            progress(env_id)
-        rates[env_id] = steps_per_second(env_id, steps, obs_mode)
+            progress(target.label)
+        rates[target.label] = steps_per_second(target.env_id, steps, obs_mode, **target.make_kwargs)
     after = steps_per_second(REFERENCE_ENV, steps, obs_mode)
     reference = (before + after) / 2
     rows = [dict(env_id=REFERENCE_ENV, steps_per_s=reference, ratio=1.0)]

@@ -68,28 +68,71 @@ def _print_summary(cat, tasks, as_json: bool) -> int:
     return 0
 
 
-def cmd_render(args) -> int:
-    from maniladder_ms.render import render_task
+def _showcases() -> dict[str, str]:
+    from maniladder_ms.deformables.showcase import SHOWCASE_ENV_IDS
 
-    spec = _catalog().get(args.task)
-    out = args.out or Path(f"{spec.id}_seed{args.seed}.png")
-    path = render_task(spec.id, args.seed, out, domain_randomization=args.domain_randomization, size=args.size)
+    return SHOWCASE_ENV_IDS
+
+
+def _robots() -> tuple[str, ...]:
+    from maniladder_ms.agents import AGENT_UIDS
+
+    return AGENT_UIDS
+
+
+def _check_choice(kind: str, value: str, choices) -> None:
+    if value not in choices:
+        raise ValueError(f"unknown {kind} {value!r}; choose from: {', '.join(choices)}")
+
+
+def cmd_render(args) -> int:
+    from maniladder_ms import render
+
+    if [args.task, args.robot, args.scene].count(None) != 2:
+        raise ValueError("render takes exactly one of: a task id, --robot UID, --scene KIND")
+    if args.robot:
+        _check_choice("robot", args.robot, _robots())
+        path = render.render_agent(args.robot, args.seed, args.out or Path(f"agent_{args.robot}.png"), size=args.size)
+    elif args.scene:
+        from maniladder_ms.deformables.showcase import render_showcase
+
+        _check_choice("scene", args.scene, sorted(_showcases()))
+        path = render_showcase(args.scene, args.out or Path(f"scene_{args.scene}.png"), seed=args.seed, size=args.size)
+    else:
+        spec = _catalog().get(args.task)
+        out = args.out or Path(f"{spec.id}_seed{args.seed}.png")
+        path = render.render_task(spec.id, args.seed, out, domain_randomization=args.domain_randomization, size=args.size)
     print(f"wrote {path}")
     return 0
 
 
+def _expand(kind: str, values: list[str], choices) -> list[str]:
+    """`all` -> every choice; otherwise checked values."""
+    if values == ["all"]:
+        return list(choices)
+    for v in values:
+        _check_choice(kind, v, choices)
+    return values
+
+
 def cmd_bench(args) -> int:
-    from maniladder_ms.bench import bench
+    from maniladder_ms.bench import bench, env_target
 
     cat = _catalog()
-    specs = [cat.get(t) for t in args.tasks] if args.tasks else cat.filter(implemented=True)
-    for spec in specs:
-        if not spec.implemented:
-            raise CatalogError(f"task {spec.id} is not implemented yet")
-    rows = bench([s.env_id for s in specs], steps=args.steps, obs_mode=args.obs_mode,
+    targets = []
+    if args.tasks or not (args.robot or args.scene):
+        specs = [cat.get(t) for t in args.tasks] if args.tasks else cat.filter(implemented=True)
+        for spec in specs:
+            if not spec.implemented:
+                raise CatalogError(f"task {spec.id} is not implemented yet")
+        targets += [env_target(s.env_id) for s in specs]
+    targets += [env_target("ManiLadder-AgentGallery-v1", robot_uids=uid) for uid in _expand("robot", args.robot, _robots())]
+    showcases = _showcases()
+    targets += [env_target(showcases[k]) for k in _expand("scene", args.scene, sorted(showcases))]
+    rows = bench(targets, steps=args.steps, obs_mode=args.obs_mode,
                  progress=lambda e: print(f"  measuring {e} ...", file=sys.stderr))
     print_table(("env", "steps/s", "ratio to PickCube-v1"),
-                 [(r["env_id"], f"{r['steps_per_s']:.0f}", f"{r['ratio']:.2f}") for r in rows])
+                [(r["env_id"], f"{r['steps_per_s']:.0f}", f"{r['ratio']:.2f}") for r in rows])
     return 0
 
 
@@ -108,8 +151,10 @@ def build_parser() -> argparse.ArgumentParser:
     ls.add_argument("--summary", action="store_true", help="implemented vs catalog counts per level and suite")
     ls.set_defaults(func=cmd_list)
 
-    rd = sub.add_parser("render", help="one PNG of a task from all its cameras")
-    rd.add_argument("task", help="task id, e.g. PickPlacePen")
+    rd = sub.add_parser("render", help="one PNG of a task (or an agent, or a deformable showcase) from all its cameras")
+    rd.add_argument("task", nargs="?", help="task id, e.g. PickPlacePen")
+    rd.add_argument("--robot", help="show an agent instead (ml_panda, ml_panda_leap, ...), with hand close-ups")
+    rd.add_argument("--scene", help="show a deformable showcase instead (rope, towel, shirt, bag, tent, clay, liquid, granular)")
     rd.add_argument("--seed", type=int, default=0)
     rd.add_argument("--out", type=Path, help="PNG path (default: <task>_seed<seed>.png)")
     rd.add_argument("--size", type=int, default=256, help="pixels per camera image")
@@ -117,7 +162,9 @@ def build_parser() -> argparse.ArgumentParser:
     rd.set_defaults(func=cmd_render)
 
     bn = sub.add_parser("bench", help="control steps/s of tasks as ratios to PickCube-v1 (same process)")
-    bn.add_argument("tasks", nargs="*", help="task ids (default: all implemented)")
+    bn.add_argument("tasks", nargs="*", help="task ids (default: all implemented, unless --robot / --scene)")
+    bn.add_argument("--robot", action="append", default=[], help="an agent's empty-scene rate (repeatable; 'all')")
+    bn.add_argument("--scene", action="append", default=[], help="a deformable showcase (repeatable; 'all')")
     bn.add_argument("--steps", type=int, default=300)
     bn.add_argument("--obs-mode", default="state")
     bn.set_defaults(func=cmd_bench)

@@ -54,3 +54,35 @@ def render_task(task_id: str, seed: int, out: Path, domain_randomization: bool =
         return out
     finally:
         env.close()
+
+
+def render_agent(uid: str, seed: int, out: Path, size: int = RENDER_CAMERA_SIZE) -> Path:
+    """The agent at rest in the empty scene beside a 5 cm cube: every camera, plus a close-up of each hand."""
+    import gymnasium as gym
+    from mani_skill.utils import sapien_utils
+
+    import maniladder_ms  # noqa: F401  (registers the agents and the gallery)
+
+    env = gym.make("ManiLadder-AgentGallery-v1", robot_uids=uid, obs_mode="rgb", test_object="cube",
+                   render_mode="rgb_array", robot_init_qpos_noise=0.0,
+                   sensor_configs=dict(width=size, height=size), human_render_camera_configs=dict(width=size, height=size))
+    try:
+        env.reset(seed=seed)
+        base = env.unwrapped
+        images = camera_images(env)
+        agent = base.agent
+        tcps = agent.tcps if hasattr(agent, "tcps") else {"hand": agent.tcp}
+        camera = base.scene.human_render_cameras["render_camera"].camera
+        for side, tcp in tcps.items():
+            # the hand's middle: the tcp of a LEAP hand lies 15 cm out from the flange, a gripper's 10 cm
+            target = tcp.pose.p[0].cpu().numpy() + np.array([0.0, 0.0, 0.06 if "leap" in uid else 0.03])
+            # from the front-right and below: palm, fingers and thumb in view
+            camera.set_local_pose(sapien_utils.look_at(target + np.array([0.2, -0.15, -0.1]), target).sp)
+            base.scene.update_render()
+            images[f"{side} close-up"] = base.render()[0].cpu().numpy()
+        out = Path(out)
+        out.parent.mkdir(parents=True, exist_ok=True)
+        tile(images, f"agent {uid} (rest pose, seed {seed})").save(out)
+        return out
+    finally:
+        env.close()

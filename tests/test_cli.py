@@ -54,6 +54,30 @@ def test_bench_prints_ratios(capsys):
     assert float(line.split()[-1]) > 0
 
 
+def test_render_agent_and_showcase(tmp_path, capsys):
+    out = tmp_path / "leap.png"
+    assert main(["render", "--robot", "ml_panda_leap", "--out", str(out), "--size", "96"]) == 0
+    assert np.asarray(Image.open(out)).shape[1] == 5 * 96  # front, left, top, wrist + the hand close-up
+    out = tmp_path / "towel.png"
+    assert main(["render", "--scene", "towel", "--out", str(out), "--size", "96"]) == 0
+    assert out.exists()
+
+
+def test_render_and_bench_refuse_bad_targets(capsys):
+    assert main(["render", "--robot", "ml_panda_octopus"]) == 2
+    assert "unknown robot 'ml_panda_octopus'" in capsys.readouterr().err
+    assert main(["render", "PickPlacePen", "--scene", "rope"]) == 2
+    assert "exactly one of" in capsys.readouterr().err
+    assert main(["bench", "--scene", "jelly"]) == 2
+    assert "unknown scene 'jelly'" in capsys.readouterr().err
+
+
+def test_bench_agents_and_showcases(capsys):
+    assert main(["bench", "--robot", "ml_dual_panda_leap", "--scene", "rope", "--steps", "10"]) == 0
+    out = capsys.readouterr().out
+    assert "ManiLadder-AgentGallery-v1 [ml_dual_panda_leap]" in out and "ManiLadderShowcase-Rope-v1" in out
+
+
 def test_console_script_is_installed():
     exe = Path(sys.executable).with_name("maniladder")
     result = subprocess.run([str(exe), "list", "--level", "4", "--json"], capture_output=True, text=True, check=True)

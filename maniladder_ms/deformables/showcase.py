@@ -1,7 +1,7 @@
 """One small demo scene per deformable kind, on the ManiLadder table with the default Panda.
 
 They are not ladder tasks (task_id=None): each shows one builder of `maniladder_ms.deformables`
-at work, exposes its metrics in `info`, and is what `scripts/bench_deformables.py` times. Every
+at work, exposes its metrics in `info`, and is what `maniladder bench --scene <kind>` times. Every
 scene holds at least one dynamic actor besides the deformable (ManiSkill 3.0.1's set_state fails
 on scenes without one). The state obs carries the deformable's points, so a state round trip
 checks them too.
