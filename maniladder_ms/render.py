@@ -36,6 +36,14 @@ def tile(images: dict[str, np.ndarray], title: str = "") -> Image.Image:
     return canvas
 
 
+def save_tiled(images: dict[str, np.ndarray], title: str, out: Path) -> Path:
+    """`tile` the images under `title` and write them as a PNG at `out` (folders created)."""
+    out = Path(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tile(images, title).save(out)
+    return out
+
+
 def render_task(task_id: str, seed: int, out: Path, domain_randomization: bool = False,
                 size: int = RENDER_CAMERA_SIZE) -> Path:
     import maniladder_ms
@@ -48,10 +56,7 @@ def render_task(task_id: str, seed: int, out: Path, domain_randomization: bool =
         env.reset(seed=seed)
         spec = env.unwrapped.task_spec
         title = f"{spec.id}  ({spec.suite}, seed {seed}{', domain randomisation' if domain_randomization else ''})"
-        out = Path(out)
-        out.parent.mkdir(parents=True, exist_ok=True)
-        tile(camera_images(env), title).save(out)
-        return out
+        return save_tiled(camera_images(env), title, out)
     finally:
         env.close()
 
@@ -80,9 +85,6 @@ def render_agent(uid: str, seed: int, out: Path, size: int = RENDER_CAMERA_SIZE)
             camera.set_local_pose(sapien_utils.look_at(target + np.array([0.2, -0.15, -0.1]), target).sp)
             base.scene.update_render()
             images[f"{side} close-up"] = base.render()[0].cpu().numpy()
-        out = Path(out)
-        out.parent.mkdir(parents=True, exist_ok=True)
-        tile(images, f"agent {uid} (rest pose, seed {seed})").save(out)
-        return out
+        return save_tiled(images, f"agent {uid} (rest pose, seed {seed})", out)
     finally:
         env.close()

@@ -332,7 +332,7 @@ def render_showcase(kind: str, out: Path, seed: int = 0, settle_steps: int = 20,
     """Save one PNG with every camera of the `kind` showcase after `settle_steps` of a still robot."""
     import gymnasium as gym
 
-    from maniladder_ms.render import camera_images, tile
+    from maniladder_ms.render import camera_images, save_tiled
 
     env = gym.make(SHOWCASE_ENV_IDS[kind], obs_mode="rgb", control_mode="pd_joint_delta_pos",
                    sensor_configs=dict(width=size, height=size))
@@ -343,9 +343,6 @@ def render_showcase(kind: str, out: Path, seed: int = 0, settle_steps: int = 20,
         for _ in range(settle_steps):
             env.step(still)
         title = f"{env.unwrapped.SHOWCASE_TITLE}  (seed {seed}, after {settle_steps} steps)"
-        out = Path(out)
-        out.parent.mkdir(parents=True, exist_ok=True)
-        tile(camera_images(env), title).save(out)
-        return out
+        return save_tiled(camera_images(env), title, out)
     finally:
         env.close()
