@@ -16,7 +16,12 @@ import torch
 from mani_skill.agents.controllers.pd_base_vel import PDBaseVelController
 from mani_skill.agents.controllers.pd_ee_pose import PDEEPoseController
 from mani_skill.agents.controllers.pd_joint_pos import PDJointPosController, PDJointPosMimicController
-from mani_skill.utils.geometry.rotation_conversions import matrix_to_axis_angle, matrix_to_euler_angles, quaternion_to_matrix
+from mani_skill.utils.geometry.rotation_conversions import (
+    axis_angle_to_matrix,
+    matrix_to_axis_angle,
+    matrix_to_euler_angles,
+    quaternion_to_matrix,
+)
 
 # LEAP grasp synergies: 16 joint targets (LEAP order j0..j15: index, middle, ring, thumb x 4).
 # MCP side joints (j0, j4, j8) stay 0. "power" closes on an object centred at the hand's tcp (the
@@ -46,11 +51,10 @@ def hold_action(agent, qpos: torch.Tensor | None = None) -> torch.Tensor:
         qpos = agent.robot.get_drive_targets()
     parts = []
     for ctrl in _controllers(agent).values():
-        idx = ctrl.active_joint_indices
         n = ctrl.single_action_space.shape[0]
-        if isinstance(ctrl, PDBaseVelController) or isinstance(ctrl, PDEEPoseController):
-            parts.append(torch.zeros(qpos.shape[0], n, device=qpos.device))
-        elif isinstance(ctrl, PDJointPosController) and ctrl.config.use_delta:
+        # velocity and delta controllers hold with a zero action
+        if isinstance(ctrl, (PDBaseVelController, PDEEPoseController)) or (
+                isinstance(ctrl, PDJointPosController) and ctrl.config.use_delta):
             parts.append(torch.zeros(qpos.shape[0], n, device=qpos.device))
         else:
             parts.append(_joint_action(ctrl, qpos))
@@ -65,12 +69,6 @@ def _joint_action(ctrl, qpos: torch.Tensor) -> torch.Tensor:
         low, high = float(np.min(ctrl.config.lower)), float(np.max(ctrl.config.upper))
         q = 2 * (q - low) / (high - low) - 1
     return q.float()
-
-
-def _axis_angle_to_matrix(v: torch.Tensor) -> torch.Tensor:
-    from mani_skill.utils.geometry.rotation_conversions import axis_angle_to_matrix
-
-    return axis_angle_to_matrix(v)
 
 
 def _pose_error(cur_p, cur_q, tgt_p, tgt_q):
@@ -126,7 +124,7 @@ class Driver:
         # the controller reads [3:6] as XYZ Euler angles of the rotation delta; ManiSkill 3.0.1 scales
         # them by rot_lower (-0.1), so +1 turns by -0.1 rad: send the negated, limited Euler delta
         step = dr * (self.rot_gain * torch.clamp(0.1 / err_r.clamp(min=1e-9), max=1.0)).unsqueeze(1)
-        euler = matrix_to_euler_angles(_axis_angle_to_matrix(step), "XYZ")
+        euler = matrix_to_euler_angles(axis_angle_to_matrix(step), "XYZ")
         a = torch.cat([(dp * self.pos_gain / 0.1).clamp(-1, 1), -euler / 0.1], dim=1)
         return a, dp.norm(dim=1), err_r
 

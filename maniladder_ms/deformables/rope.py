@@ -37,8 +37,8 @@ MIDDLE_LINK_MASS_FRACTION = 0.5
 # (low 16 bits) is equal: rope capsules get their own group-3 id, so their group-2 bits only act
 # among rope capsules, never against a robot's (which use the same bits for their own pairs)
 ROPE_GROUP_ID = 0x2C0E
-NEIGHBOUR_BITS = 32
-MAX_DEPENETRATION_VELOCITY = 0.3  # m/s  # capsules i and i +- 31 share a bit too: ropes beyond 31 capsules miss those pairs
+NEIGHBOUR_BITS = 32  # capsules i and i +- 31 share a bit too: ropes beyond 31 capsules miss those pairs
+MAX_DEPENETRATION_VELOCITY = 0.3  # m/s
 
 
 @dataclass(frozen=True)
