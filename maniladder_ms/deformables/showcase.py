@@ -23,6 +23,7 @@ from mani_skill.utils.structs.pose import Pose
 from maniladder_ms.envs import ManiLadderEnv
 from maniladder_ms.geometry import yaw_quat
 from maniladder_ms.objects import containers
+from maniladder_ms.objects.tabletop import build_upright_cylinder
 
 from . import clay, cloth, metrics, particles, rope
 
@@ -59,18 +60,6 @@ class ShowcaseEnv(ManiLadderEnv):
         return obs
 
 
-def _build_weight(scene, name: str, radius: float, half_height: float, color) -> "Actor":
-    """An upright cylinder (a peg or a weight) standing on z = 0."""
-    builder = scene.create_actor_builder()
-    up = sapien.Pose(q=[0.7071068, 0, 0.7071068, 0])  # SAPIEN cylinders lie along x
-    builder.add_cylinder_collision(pose=up, radius=radius, half_length=half_height, density=800)
-    if scene.can_render():
-        mat = sapien.render.RenderMaterial(base_color=list(color), roughness=0.5)
-        builder.add_cylinder_visual(pose=up, radius=radius, half_length=half_height, material=mat)
-    builder.initial_pose = sapien.Pose(p=[0, 0, half_height])
-    return builder.build(name=name)
-
-
 @_register("rope")
 class RopeShowcaseEnv(ShowcaseEnv):
     """A 40 cm, 20-capsule rope lying in a gentle S on the table beside a free-standing peg."""
@@ -83,7 +72,8 @@ class RopeShowcaseEnv(ShowcaseEnv):
     def _load_scene(self, options: dict):
         super()._load_scene(options)
         self.rope = rope.build_rope(self.scene, "rope", self.rope_config)
-        self.peg = _build_weight(self.scene, "peg", self.peg_radius, self.peg_half_height, (0.3, 0.5, 0.3, 1))
+        self.peg = build_upright_cylinder(self.scene, "peg", self.peg_radius, self.peg_half_height, 800,
+                                          (0.3, 0.5, 0.3, 1))
 
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
         super()._initialize_episode(env_idx, options)

@@ -1,7 +1,8 @@
-"""Small rigid table-top objects made from primitives: pen, tray."""
+"""Small rigid table-top objects made from primitives: pen, tray, upright cylinder."""
 
 from __future__ import annotations
 
+import numpy as np
 import sapien
 import sapien.render
 
@@ -55,4 +56,17 @@ def build_tray(
         builder.add_box_collision(pose=sapien.Pose(p=centre), half_size=half, density=WOOD_DENSITY)
         builder.add_box_visual(pose=sapien.Pose(p=centre), half_size=half, material=mat)
     builder.initial_pose = sapien.Pose()
+    return builder.build(name=name)
+
+
+def build_upright_cylinder(scene: ManiSkillScene, name: str, radius: float, half_height: float, density: float,
+                           color) -> "Actor":
+    """A cylinder standing on z = 0 (a can, a peg, a weight); its origin is its centre."""
+    builder = scene.create_actor_builder()
+    upright = sapien.Pose(q=[np.cos(np.pi / 4), 0, np.sin(np.pi / 4), 0])  # SAPIEN cylinders lie along x
+    builder.add_cylinder_collision(upright, radius=radius, half_length=half_height, density=density)
+    if scene.can_render():
+        material = sapien.render.RenderMaterial(base_color=list(color), roughness=0.5)
+        builder.add_cylinder_visual(upright, radius=radius, half_length=half_height, material=material)
+    builder.initial_pose = sapien.Pose(p=[0, 0, half_height])
     return builder.build(name=name)
