@@ -33,9 +33,8 @@ import torch
 
 from mani_skill.envs.scene import ManiSkillScene
 from mani_skill.utils.structs.actor import Actor
-from mani_skill.utils.structs.pose import Pose
 
-from maniladder_ms.objects.containers import set_contact_offset
+from .spheres import SphereSet, build_spheres
 
 CONTACT_OFFSET = 0.002  # m: the lattice packs spheres within a millimetre of each other
 
@@ -91,14 +90,13 @@ def _face_links(positions: np.ndarray, spacing: float) -> list[tuple[int, int]]:
     return links
 
 
-class Clay:
-    """A built clay body: `particles` (one ManiSkill Actor each), a merged view, the link `drives`,
-    the linked index pairs and the rest offsets `rest` [B, L, 3] the drives pull towards."""
+class Clay(SphereSet):
+    """A built clay body: its particles (a `SphereSet`), the link `drives`, the linked index pairs and
+    the rest offsets `rest` [B, L, 3] the drives pull towards."""
 
-    def __init__(self, particles: list[Actor], merged: Actor, drives: list, links: list[tuple[int, int]],
+    def __init__(self, spheres: list[Actor], name: str, drives: list, links: list[tuple[int, int]],
                  layout: np.ndarray, config: ClayConfig, num_envs: int, device):
-        self.particles = particles
-        self.merged = merged
+        super().__init__(spheres, name)
         self.drives = drives
         self.layout = layout
         self.config = config
@@ -108,19 +106,12 @@ class Clay:
         self.initial_rest = offsets
         self.rest = offsets[None].repeat(num_envs, 1, 1)
 
-    def positions(self) -> torch.Tensor:
-        """Particle centres, [B, N, 3]."""
-        return self.merged.pose.p.reshape(len(self.particles), -1, 3).transpose(0, 1)
-
     def reset(self, env_idx: torch.Tensor, origin: torch.Tensor):
         """Put the envs' clay back to its rest shape with its lowest particles' centres at `origin` [b, 3]."""
-        n, b = len(self.particles), len(env_idx)
         local = torch.as_tensor(self.layout, dtype=torch.float32, device=origin.device)
-        xyz = (origin[None] + local[:, None]).reshape(-1, 3)
-        self.merged.set_pose(Pose.create_from_pq(xyz))
-        self.merged.set_linear_velocity(torch.zeros(n * b, 3, device=origin.device))
+        self.place((origin[None] + local[:, None]).reshape(-1, 3))
         self.rest[env_idx] = self.initial_rest
-        self._push_targets(env_idx, torch.ones(b, len(self.drives), dtype=torch.bool, device=origin.device))
+        self._push_targets(env_idx, torch.ones(len(env_idx), len(self.drives), dtype=torch.bool, device=origin.device))
 
     def relax(self):
         """Plastic step: clamp every link's strain (offset - rest) to `yield_distance` by moving its rest offset."""
@@ -158,18 +149,14 @@ def build_clay(scene: ManiSkillScene, name: str, layout: np.ndarray, config: Cla
     mass = config.density * config.spacing**3
     density = mass / (4 / 3 * np.pi * config.radius**3)
     render_mat = sapien.render.RenderMaterial(base_color=list(config.color), roughness=0.9) if scene.can_render() else None
-    particles = []
-    for i, p in enumerate(layout):
-        builder = scene.create_actor_builder()
-        builder.add_sphere_collision(radius=config.radius, material=material, density=density)
-        if render_mat is not None:  # drawn a little larger than they collide, so the body reads as one lump
-            builder.add_sphere_visual(radius=config.spacing * 0.62, material=render_mat)
-        builder.initial_pose = sapien.Pose(p=[float(p[0]), float(p[1]), float(p[2]) + 1.0])
-        actor = builder.build(name=f"{name}_{i}")
-        set_contact_offset(actor, CONTACT_OFFSET)
-        for body in actor._bodies:  # translation only: link offsets stay in the world frame
+
+    def add_visual(builder, i: int):  # drawn a little larger than they collide, so the body reads as one lump
+        builder.add_sphere_visual(radius=config.spacing * 0.62, material=render_mat)
+
+    particles = build_spheres(scene, name, layout, config.radius, material, density, CONTACT_OFFSET, add_visual)
+    for particle in particles:
+        for body in particle._bodies:  # translation only: link offsets stay in the world frame
             body.set_locked_motion_axes([False, False, False, True, True, True])
-        particles.append(actor)
     links = _face_links(layout, config.spacing)
     drives = []
     for i, j in links:
@@ -178,7 +165,7 @@ def build_clay(scene: ManiSkillScene, name: str, layout: np.ndarray, config: Cla
         drive.set_drive_property_y(config.stiffness, config.damping)
         drive.set_drive_property_z(config.stiffness, config.damping)
         drives.append(drive)
-    return Clay(particles, Actor.merge(particles, name=name), drives, links, layout, config, scene.num_envs, scene.device)
+    return Clay(particles, name, drives, links, layout, config, scene.num_envs, scene.device)
 
 
 # ---- metrics --------------------------------------------------------------------------------------

@@ -38,7 +38,7 @@ from mani_skill.envs.scene import ManiSkillScene
 from mani_skill.utils.structs.actor import Actor
 from mani_skill.utils.structs.pose import Pose
 
-from maniladder_ms.objects.containers import set_contact_offset
+from .spheres import SphereSet, build_spheres
 
 CONTACT_OFFSET = 0.003  # m: small, so a sheet lying on itself tracks few contact pairs
 
@@ -164,32 +164,23 @@ def bag(rows: int = 6, cols: int = 6, handle_length: int = 5, spacing: float = C
     return ClothLayout(np.concatenate(positions), links, back_border | front_border, named, cords=handles)
 
 
-class Cloth:
-    """A built sheet: `particles` (one ManiSkill Actor each, batched over envs), a merged view of
-    them, the `drives` linking them and the `layout` it was made from."""
+class Cloth(SphereSet):
+    """A built sheet: its particles (a `SphereSet`), the `drives` linking them and the `layout` it was made from."""
 
-    def __init__(self, particles: list[Actor], merged: Actor, drives: list, layout: ClothLayout, config: ClothConfig):
-        self.particles = particles
-        self.merged = merged
+    def __init__(self, spheres: list[Actor], name: str, drives: list, layout: ClothLayout, config: ClothConfig):
+        super().__init__(spheres, name)
         self.drives = drives
         self.layout = layout
         self.config = config
 
-    def positions(self) -> torch.Tensor:
-        """Particle centres, [B, N, 3]."""
-        return self.merged.pose.p.reshape(len(self.particles), -1, 3).transpose(0, 1)
-
     def set_rest_shape(self, pose: Pose):
         """Lay the sheet in its rest shape at `pose` (batched over the envs being reset), at rest."""
         local = torch.as_tensor(self.layout.positions, dtype=torch.float32, device=pose.device)
-        n, b = len(self.particles), pose.p.shape[0]
+        n, b = len(self.spheres), pose.p.shape[0]
         world = pose.to_transformation_matrix()  # [b, 4, 4]
         xyz = torch.einsum("bij,nj->nbi", world[:, :3, :3], local) + world[None, :, :3, 3]
         q = pose.q[None].expand(n, b, 4)
-        self.merged.set_pose(Pose.create_from_pq(xyz.reshape(-1, 3), q.reshape(-1, 4)))
-        zeros = torch.zeros(n * b, 3, device=pose.device)
-        self.merged.set_linear_velocity(zeros)
-        self.merged.set_angular_velocity(zeros)
+        self.place(xyz.reshape(-1, 3), q.reshape(-1, 4))
 
 
 def build_cloth(scene: ManiSkillScene, name: str, layout: ClothLayout, config: ClothConfig = ClothConfig()) -> Cloth:
@@ -203,20 +194,16 @@ def build_cloth(scene: ManiSkillScene, name: str, layout: ClothLayout, config: C
             kind: sapien.render.RenderMaterial(base_color=list(color), roughness=0.9)
             for kind, color in (("inner", config.color), ("border", config.border_color))
         }
-    particles = []
-    for i, p in enumerate(layout.positions):
-        builder = scene.create_actor_builder()
-        builder.add_sphere_collision(radius=config.radius, material=material, density=density)
-        if scene.can_render() and i in layout.cords:
+
+    def add_visual(builder, i: int):
+        if i in layout.cords:
             builder.add_sphere_visual(radius=config.radius, material=colors["border"])
-        elif scene.can_render():
+        else:
             builder.add_box_visual(half_size=tile, material=colors["border" if i in layout.border else "inner"])
-        builder.initial_pose = sapien.Pose(p=[float(p[0]), float(p[1]), float(p[2]) + 1.0])
-        actor = builder.build(name=f"{name}_{i}")
-        set_contact_offset(actor, CONTACT_OFFSET)
-        particles.append(actor)
-    drives = [_link(scene, particles, layout.positions, i, j, config) for i, j in layout.links]
-    return Cloth(particles, Actor.merge(particles, name=name), drives, layout, config)
+
+    spheres = build_spheres(scene, name, layout.positions, config.radius, material, density, CONTACT_OFFSET, add_visual)
+    drives = [_link(scene, spheres, layout.positions, i, j, config) for i, j in layout.links]
+    return Cloth(spheres, name, drives, layout, config)
 
 
 def _link(scene: ManiSkillScene, particles: list[Actor], rest: np.ndarray, i: int, j: int, config: ClothConfig):

@@ -24,7 +24,9 @@ from mani_skill.envs.scene import ManiSkillScene
 from mani_skill.utils.structs.actor import Actor
 from mani_skill.utils.structs.pose import Pose
 
-from maniladder_ms.objects.containers import ContainerShape, set_contact_offset
+from maniladder_ms.objects.containers import ContainerShape
+
+from .spheres import SphereSet, build_spheres
 
 
 @dataclass(frozen=True)
@@ -48,46 +50,31 @@ LIQUID = ParticleConfig()
 GRANULAR = ParticleConfig(radius=0.006, density=1200.0, friction=0.9, color=(0.55, 0.32, 0.15, 1))
 
 
-class Particles:
-    """A built set of spheres: `actors` (one ManiSkill Actor per sphere, batched over envs) and a merged view."""
+class Particles(SphereSet):
+    """A built set of liquid / granular spheres (a `SphereSet`) and the config they were made from."""
 
-    def __init__(self, actors: list[Actor], merged: Actor, config: ParticleConfig):
-        self.actors = actors
-        self.merged = merged
+    def __init__(self, spheres: list[Actor], name: str, config: ParticleConfig):
+        super().__init__(spheres, name)
         self.config = config
-
-    def positions(self) -> torch.Tensor:
-        """Sphere centres, [B, N, 3]."""
-        n = len(self.actors)
-        return self.merged.pose.p.reshape(n, -1, 3).transpose(0, 1)
 
     def set_positions(self, xyz: torch.Tensor):
         """Place the spheres at `xyz` [b, N, 3] (b = envs being reset), at rest."""
-        flat = xyz.transpose(0, 1).reshape(-1, 3)  # the merged view is sphere-major
-        self.merged.set_pose(Pose.create_from_pq(flat))
-        self.merged.set_linear_velocity(torch.zeros_like(flat))
-        self.merged.set_angular_velocity(torch.zeros_like(flat))
+        self.place(xyz.transpose(0, 1).reshape(-1, 3))
 
 
 def build_particles(scene: ManiSkillScene, name: str, config: ParticleConfig) -> Particles:
     """Build `config.count` spheres named `<name>_<i>`; place them with `Particles.set_positions`."""
     material = physx.PhysxMaterial(config.friction, config.friction, config.restitution)
     render_mat = sapien.render.RenderMaterial(base_color=list(config.color), roughness=0.2) if scene.can_render() else None
-    actors = []
-    for i in range(config.count):
-        builder = scene.create_actor_builder()
-        builder.add_sphere_collision(radius=config.radius, material=material, density=config.density)
-        if render_mat is not None:
-            builder.add_sphere_visual(radius=config.radius, material=render_mat)
-        # spread out at build time so they never start inside each other
-        builder.initial_pose = sapien.Pose(p=[3 * config.radius * i, 0, 1])
-        actors.append(builder.build(name=f"{name}_{i}"))
-    for actor in actors:
-        # ManiSkill's default (2 cm) is bigger than a particle: each sphere would track contacts with
-        # dozens of neighbours, the main cost of a particle scene
-        set_contact_offset(actor, CONTACT_OFFSET_FRACTION * config.radius)
-    return Particles(actors, Actor.merge(actors, name=name), config)
 
+    def add_visual(builder, i: int):
+        builder.add_sphere_visual(radius=config.radius, material=render_mat)
+
+    # spread out at build time so they never start inside each other
+    spread = np.stack([3 * config.radius * np.arange(config.count), np.zeros(config.count), np.zeros(config.count)], axis=1)
+    spheres = build_spheres(scene, name, spread, config.radius, material, config.density,
+                            CONTACT_OFFSET_FRACTION * config.radius, add_visual)
+    return Particles(spheres, name, config)
 
 
 def pack_in_container(shape: ContainerShape, count: int, radius: float, generator: torch.Generator = None) -> torch.Tensor:
