@@ -172,8 +172,8 @@ def cached_parts(shape: ContainerShape) -> tuple[Path, list[Path]]:
 
 
 def build_container(scene: ManiSkillScene, name: str, shape: ContainerShape, color=(0.9, 0.9, 0.92, 1),
-                    density: float = CERAMIC_DENSITY, friction: float = 0.6, kinematic: bool = False):
-    """Build the container as an actor (dynamic, or kinematic to stay put), resting on z = 0."""
+                    density: float = CERAMIC_DENSITY, friction: float = 0.6):
+    """Build the container as a dynamic actor resting on z = 0."""
     visual, parts = cached_parts(shape)
     builder = scene.create_actor_builder()
     material = physx.PhysxMaterial(friction, friction, 0.0)
@@ -188,7 +188,7 @@ def build_container(scene: ManiSkillScene, name: str, shape: ContainerShape, col
         if render_mat is not None:
             builder.add_box_visual(pose=pose, half_size=shape.handle, material=render_mat)
     builder.initial_pose = sapien.Pose()
-    actor = builder.build_kinematic(name=name) if kinematic else builder.build(name=name)
+    actor = builder.build(name=name)
     set_contact_offset(actor, CONTACT_OFFSET)
     return actor
 
