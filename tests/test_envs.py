@@ -14,6 +14,12 @@ from maniladder_ms.envs.scene import MAX_DISTRACTORS
 
 
 TASKS = [t.id for t in maniladder_ms.default_catalog().filter(implemented=True)]
+THIRD_VIEW_CAMERAS = {"front_camera", "left_camera", "top_camera"}
+
+
+def expected_cameras(base):
+    """The scene's third-view cameras plus the agent's wrist cameras (one per arm)."""
+    return THIRD_VIEW_CAMERAS | {config.uid for config in base.agent._sensor_configs}
 
 
 def flat(obs):
@@ -40,7 +46,7 @@ def test_registered_with_catalog_metadata(state_env):
     assert spec.env_id in gym.registry and spec.implemented
     assert REGISTERED_ENVS[spec.env_id].max_episode_steps == spec.horizon
     assert base.task_spec.level in (1, 2, 3, 4) and base.task_spec.skills
-    assert set(base._sensors) >= {"front_camera", "left_camera", "top_camera", "hand_camera"}
+    assert set(base._sensors) >= expected_cameras(base)
 
 
 def test_reset_and_step_state(state_env):
@@ -98,7 +104,7 @@ def test_rgb_obs_from_all_cameras(task_id):
     obs, _ = env.reset(seed=0)
     obs, *_ = env.step(env.action_space.sample())
     cams = obs["sensor_data"]
-    assert set(cams) == {"front_camera", "left_camera", "top_camera", "hand_camera"}
+    assert set(cams) == expected_cameras(env.unwrapped)
     for name, data in cams.items():
         img = data["rgb"]
         assert img.shape == (1, 128, 128, 3) and img.dtype == torch.uint8

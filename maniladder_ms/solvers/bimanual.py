@@ -1,0 +1,105 @@
+"""Two-arm solver phases on `DrivenSolver`: handing an object from one arm to the other, and lifting one
+object with both arms. They go through DrivenSolver's grasp / release, so the same phases drive the
+grippers of `ml_dual_panda` and the LEAP hands of `ml_dual_panda_leap`. Poses are world-frame, batched.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import torch
+
+from mani_skill.utils.geometry.rotation_conversions import matrix_to_quaternion
+
+from maniladder_ms.agents.helpers import LEAP_SYNERGIES
+
+from .driven import DrivenSolver
+
+LIFT_STEP = 0.01  # metres per control step of a two-arm lift: both targets rise together
+
+
+@dataclass
+class Grasp:
+    """Where one arm takes hold of an object: its arm and end-effector parts, the TCP pose (p, q) of the
+    grasp, and `approach`, the world offset from `p` where the arm lines up before moving straight in."""
+
+    arm: str
+    ee: str
+    p: torch.Tensor
+    q: torch.Tensor
+    approach: torch.Tensor
+
+    @property
+    def lined_up(self) -> tuple[torch.Tensor, torch.Tensor]:
+        return self.p + self.approach, self.q
+
+
+def tcp_quat(pointing: torch.Tensor, closing: torch.Tensor) -> torch.Tensor:
+    """(n, 4) wxyz quaternions of TCPs whose z axis (out of the palm) is `pointing` and whose fingers close
+    along `closing` (the TCP's y axis; made orthogonal to `pointing`); both (n, 3) world directions."""
+    z = torch.nn.functional.normalize(pointing, dim=1)
+    y = torch.nn.functional.normalize(closing - (closing * z).sum(1, keepdim=True) * z, dim=1)
+    return matrix_to_quaternion(torch.stack([torch.cross(y, z, dim=1), y, z], dim=2))
+
+
+def line_up(s: DrivenSolver, grasp: Grasp):
+    """Send an arm towards its approach pose without waiting: it keeps servoing there while the solver
+    runs other phases (the taker of a handover lines up while the giver picks the object)."""
+    s.arm_targets[grasp.arm] = grasp.lined_up
+
+
+def reach(s: DrivenSolver, grasps: list[Grasp], line_up_steps: int = 60, move_in_steps: int = 40):
+    """All arms line up at their approach poses together, then move straight in to their grasp poses
+    (end effectors open; LEAP hands take their preshape once lined up)."""
+    s.move({g.arm: g.lined_up for g in grasps}, max_steps=line_up_steps)
+    leap = [g.ee for g in grasps if s.is_leap(g.ee)]
+    for ee in leap:
+        s.set_ee(ee, "preshape", steps=0)
+    for _ in range(5 if leap else 0):
+        s.step()
+    s.move({g.arm: (g.p, g.q) for g in grasps}, max_steps=move_in_steps, pos_tol=0.003)
+
+
+def grasp_together(s: DrivenSolver, ee_parts: list[str]):
+    """Close several grippers / hands at once (DrivenSolver.grasp closes one at a time)."""
+    if len(ee_parts) == 1:
+        return s.grasp(ee_parts[0])
+    leap = [ee for ee in ee_parts if s.is_leap(ee)]
+    for ee in ee_parts:
+        if ee not in leap:
+            s.set_ee(ee, [-1.0], steps=0)
+    if not leap:
+        for _ in range(10):
+            s.step()
+        return
+    # the hands' slow closing ramp (Driver.close_hand), run for all hands in the same steps
+    ramp, hold = 40, 8
+    start = {ee: s.ee_cmd[ee].clone() for ee in leap}
+    goal = torch.as_tensor(LEAP_SYNERGIES["power"], dtype=torch.float32, device=s.base.device)
+    for k in range(1, ramp + hold + 1):
+        for ee in leap:
+            s.set_ee(ee, start[ee] + (goal - start[ee]) * min(k, ramp) / ramp, steps=0)
+        s.step()
+
+
+def hand_over(s: DrivenSolver, giver_arm: str, giver_ee: str, taker: Grasp, giver_retreat: torch.Tensor,
+              release_steps: int = 5):
+    """The giver holds the object still where the taker can reach it; the taker reaches its grasp and
+    closes, then the giver opens and backs off by `giver_retreat` (world offset)."""
+    reach(s, [taker])
+    s.grasp(taker.ee)
+    s.release(giver_ee, steps=release_steps)
+    tcp = s.tcp(giver_arm)
+    s.move({giver_arm: (tcp.p + giver_retreat, tcp.q)}, max_steps=30, pos_tol=0.02)
+
+
+def lift_together(s: DrivenSolver, grasps: list[Grasp], height: float):
+    """Both arms reach their grasps on one object, close together, and lift it by `height`: their targets
+    rise by the same `LIFT_STEP` each control step, so the object stays level."""
+    reach(s, grasps)
+    grasp_together(s, [g.ee for g in grasps])
+    up = torch.tensor([0.0, 0.0, 1.0], device=s.base.device)
+    steps = max(1, round(height / LIFT_STEP))
+    for k in range(1, steps + 1):
+        s.step({g.arm: (g.p + up * height * k / steps, g.q) for g in grasps})
+    s.move({g.arm: (g.p + up * height, g.q) for g in grasps}, max_steps=20)
