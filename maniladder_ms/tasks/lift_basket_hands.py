@@ -1,0 +1,116 @@
+"""LiftBasketHands (L1 rigid DX): lift a basket by its two side handles with both LEAP hands."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import torch
+
+from mani_skill.utils.structs.pose import Pose
+
+from maniladder_ms.agents.hand_contact import LeapContacts
+from maniladder_ms.agents.helpers import top_down_quat
+from maniladder_ms.envs import ManiLadderEnv, register_task
+from maniladder_ms.geometry import yaw_quat
+from maniladder_ms.objects.basket import BasketShape, build_basket, tilt
+from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
+from maniladder_ms.solvers.bimanual import Grasp, lift_together
+from maniladder_ms.solvers.driven import DrivenSolver
+
+SIDES = {"left": 1, "right": -1}  # the left hand takes the +y handle
+
+
+@register_task("LiftBasketHands")
+class LiftBasketHandsEnv(ManiLadderEnv):
+    """**Task:** lift a basket off the table by its two side handles, one LEAP hand on each, keeping it level.
+
+    **Randomisation:** the basket (inner 16 x 22 cm at the floor, 16 x 22 -> 18 x 24 cm tapered, 10 cm
+    deep, 300 g; bar handles on the +-y sides) stands with its centre uniform in x in [-0.13, -0.07],
+    y in [-0.03, 0.03] and its yaw uniform in [-15, 15] degrees.
+
+    **Success:** the basket's bottom is at least `lift_height` = 10 cm above the table, it is tilted by
+    less than `max_tilt` = 15 degrees, and each hand is holding it (a finger and the thumb or palm touch it).
+    """
+
+    SUPPORTED_ROBOTS = ["ml_dual_panda_leap"]
+    TASK_REGION = (-0.25, 0.05, -0.3, 0.3)
+    basket_shape = BasketShape()
+    basket_mass = 0.3
+    lift_height = 0.1
+    max_tilt = np.deg2rad(15)
+
+    def _load_scene(self, options: dict):
+        super()._load_scene(options)
+        self.basket = build_basket(self.scene, "basket", self.basket_shape, self.basket_mass, color=(0.75, 0.5, 0.25, 1))
+        self.hands = {side: LeapContacts(self.agent, f"{side}_") for side in SIDES}
+
+    def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
+        super()._initialize_episode(env_idx, options)
+        with torch.device(self.device):
+            b = len(env_idx)
+            xyz = torch.stack([torch.rand(b) * 0.06 - 0.13, torch.rand(b) * 0.06 - 0.03, torch.zeros(b)], dim=1)
+            yaw = (torch.rand(b) * 2 - 1) * np.deg2rad(15)
+            self.basket.set_pose(Pose.create_from_pq(xyz, yaw_quat(yaw)))
+
+    def handle_centres(self) -> dict[str, torch.Tensor]:
+        """World centres of the left (+y) and right (-y) handle bars, (num_envs, 3) each."""
+        return {side: (self.basket.pose * Pose.create_from_pq(
+            torch.as_tensor(self.basket_shape.handle_centre(sign), dtype=torch.float32, device=self.device)[None])).p
+            for side, sign in SIDES.items()}
+
+    def _get_obs_extra(self, info: dict):
+        obs = dict(left_tcp_pose=self.agent.tcps["left"].pose.raw_pose, right_tcp_pose=self.agent.tcps["right"].pose.raw_pose,
+                   left_grasped=info["left_grasped"], right_grasped=info["right_grasped"])
+        if "state" in self.obs_mode:
+            handles = self.handle_centres()
+            obs.update(basket_pose=self.basket.pose.raw_pose,
+                       left_tcp_to_handle=handles["left"] - self.agent.tcps["left"].pose.p,
+                       right_tcp_to_handle=handles["right"] - self.agent.tcps["right"].pose.p)
+        return obs
+
+    def evaluate(self):
+        left = self.hands["left"].is_grasping(self.scene, self.basket)
+        right = self.hands["right"].is_grasping(self.scene, self.basket)
+        is_lifted = self.basket.pose.p[:, 2] >= self.lift_height
+        is_level = tilt(self.basket) < self.max_tilt
+        return {
+            "success": is_lifted & is_level & left & right,
+            "is_lifted": is_lifted,
+            "is_level": is_level,
+            "left_grasped": left,
+            "right_grasped": right,
+        }
+
+    def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
+        handles = self.handle_centres()
+        reward = torch.zeros(self.num_envs, device=self.device)
+        for side in SIDES:
+            reach = torch.linalg.norm(handles[side] - self.agent.tcps[side].pose.p, dim=1)
+            reward += 0.5 * (1 - torch.tanh(5 * reach)) + 0.5 * info[f"{side}_grasped"]
+        both = (info["left_grasped"] & info["right_grasped"]).float()
+        height = (self.basket.pose.p[:, 2] / self.lift_height).clamp(max=1)
+        reward += 2 * both * height * info["is_level"]
+        reward[info["success"]] = 5
+        return reward
+
+    def compute_normalized_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
+        return self.compute_dense_reward(obs, action, info) / 5
+
+
+@register_solver("LiftBasketHands", control_modes=TCP_DELTA_MODES)
+def solve_lift_basket_hands(env, seed: int) -> dict:
+    """Each hand takes its handle from above (fingers over the outside of the bar, thumb in the gap
+    behind it), both close together and lift 15 cm in step."""
+    with DrivenSolver.episode(env, seed) as s:
+        task: LiftBasketHandsEnv = env.unwrapped
+        n = task.num_envs
+        basket_yaw = 2 * torch.atan2(task.basket.pose.q[:, 3], task.basket.pose.q[:, 0])
+        handles = task.handle_centres()
+        up = torch.tensor([0.0, 0.0, 0.06], device=task.device)
+        grasps = [Grasp(f"{side}_arm", f"{side}_hand", handles[side] + torch.tensor([0, 0, 0.006], device=task.device),
+                        top_down_quat(basket_yaw + sign * np.pi / 2, n, device=task.device), up)
+                  for side, sign in SIDES.items()]
+        lift_together(s, grasps, 0.15)
+        s.hold_until_success()
+        return s.info
