@@ -4,17 +4,19 @@ import pytest
 
 from maniladder_ms.solvers import sweep
 
+TASKS = ["HandoverCube", "LiftWideBox"]
+
 
 def successes(task_id, seeds):
     return sum(row["success"] for row in sweep(task_id, seeds))
 
 
-@pytest.mark.parametrize("task_id", ["HandoverCube"])
+@pytest.mark.parametrize("task_id", TASKS)
 def test_solver_short(task_id):
     assert successes(task_id, range(3)) >= 2
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("task_id", ["HandoverCube"])
+@pytest.mark.parametrize("task_id", TASKS)
 def test_solver_50_seeds(task_id):
     assert successes(task_id, range(100, 150)) >= 45

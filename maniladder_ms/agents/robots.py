@@ -153,17 +153,20 @@ class _MLAgent(BaseAgent):
 
     arm_joint_names: list[str] = ARM_JOINTS
 
-    # prefixes of the LEAP hands this agent carries; each hand's links (and the wrist link it sits on)
-    # share a collision-group bit so they do not collide with each other: the published link meshes
-    # interleave at the joints, and their bounding boxes (our collision shapes) overlap there
+    # prefixes of the hands (LEAP hands, grippers) of the agents that need it; each hand's links (and the
+    # `wrist_links` it sits on) share a collision-group bit so they do not collide with each other: the
+    # published LEAP link meshes interleave at the joints, and their bounding boxes (our collision shapes)
+    # overlap there
     hand_prefixes: tuple[str, ...] = ()
     HAND_GROUP_BITS = (25, 26)  # bits of PhysX collision group 2 (ManiSkill uses 29-31 elsewhere)
+    # the links (besides a hand's `leap_*` links) that share its bit
+    wrist_links: tuple[str, ...] = ("camera_link", "panda_link7")
 
     def _after_loading_articulation(self):
         super()._after_loading_articulation()
         for prefix, bit in zip(self.hand_prefixes, self.HAND_GROUP_BITS):
             for link in self.robot.get_links():
-                if link.name.startswith(prefix + "leap_") or link.name in (prefix + "camera_link", prefix + "panda_link7"):
+                if link.name.startswith(prefix + "leap_") or link.name in [prefix + w for w in self.wrist_links]:
                     link.set_collision_group_bit(group=2, bit_idx=bit, bit=1)
 
     def _after_init(self):
@@ -288,6 +291,11 @@ class MLDualPanda(_DualArm):
     """
 
     uid = "ml_dual_panda"
+    # the gripper and the wrist links do not collide with each other, as the Panda's SRDF (which
+    # ManiSkill's single Panda loads) has it: folded wrists otherwise jam the hand into link 5
+    hand_prefixes = ("left_", "right_")
+    wrist_links = ("panda_hand", "panda_leftfinger", "panda_rightfinger", "camera_link", "panda_link5",
+                   "panda_link6", "panda_link7")
     urdf_path = urdf_path("ml_dual_panda")
     urdf_config = dict(
         _materials=dict(gripper=dict(static_friction=2.0, dynamic_friction=2.0, restitution=0.0)),
