@@ -1,4 +1,5 @@
-"""Procedural containers (cup, glass, bowl, pitcher with spout, scoop) for liquid and granular tasks.
+"""Procedural containers (cup, glass, bowl, pitcher with spout, scoop, bottle) for liquid and granular tasks
+and for grasping.
 
 Each container is a solid of revolution about its local z axis (trimesh), origin at the centre of
 its bottom face, so it stands on the table at z = 0. Its collision is a convex decomposition by
@@ -41,7 +42,7 @@ CERAMIC_DENSITY = 1200.0  # kg/m^3, light enough for a Panda to lift a full pitc
 class ContainerShape:
     """A container as a revolved wall profile.
 
-    kind: a name (cup, glass, bowl, pitcher, scoop); inner: (z, inner radius) samples of the inner
+    kind: a name (cup, glass, bowl, pitcher, scoop, bottle); inner: (z, inner radius) samples of the inner
     wall from the inner floor (first) to the rim (last), metres; wall: wall thickness; floor: bottom
     thickness; spout: how far the pitcher's rim bulges out at +x (0: none); handle: half size (x, y, z)
     of a box handle on the -x side, or None.
@@ -122,6 +123,17 @@ def scoop(radius: float = 0.03, depth: float = 0.03, wall: float = 0.003, floor:
                           handle=(handle_length / 2, 0.008, 0.003))
 
 
+def bottle(radius: float = 0.03, body_height: float = 0.1, shoulder_height: float = 0.02,
+           neck_radius: float = 0.014, neck_height: float = 0.025, wall: float = 0.003,
+           floor: float = 0.006) -> ContainerShape:
+    """A bottle: straight body, conical shoulder, straight neck; radius and neck_radius are OUTER radii
+    (what a hand closes on)."""
+    r, n = radius - wall, neck_radius - wall
+    inner = ((floor, r), (body_height, r), (body_height + shoulder_height, n),
+             (body_height + shoulder_height + neck_height, n))
+    return ContainerShape("bottle", inner, wall, floor)
+
+
 def container_mesh(shape: ContainerShape) -> trimesh.Trimesh:
     """Watertight mesh of the container body (without the handle), origin at the bottom centre."""
     mesh = trimesh.creation.revolve(shape.profile(), sections=SECTIONS)
@@ -169,6 +181,12 @@ def cached_parts(shape: ContainerShape) -> tuple[Path, list[Path]]:
         parts.append(path)
     mesh.export(visual)  # written last: its presence marks a complete cache entry
     return visual, parts
+
+
+def density_for_mass(shape: ContainerShape, mass: float) -> float:
+    """Density that gives the built container (its convex parts, which fill some of the hollow) `mass` kg."""
+    _, parts = cached_parts(shape)
+    return mass / sum(trimesh.load(part).volume for part in parts)
 
 
 def build_container(scene: ManiSkillScene, name: str, shape: ContainerShape, color=(0.9, 0.9, 0.92, 1),
