@@ -4,7 +4,7 @@ import pytest
 
 from maniladder_ms.solvers import sweep
 
-TASKS = ["HandoverCube", "LiftWideBox"]
+TASKS = ["HandoverCube", "LiftWideBox", "PushBlocksBimanual"]
 
 
 def successes(task_id, seeds):

@@ -93,13 +93,20 @@ def hand_over(s: DrivenSolver, giver_arm: str, giver_ee: str, taker: Grasp, give
     s.move({giver_arm: (tcp.p + giver_retreat, tcp.q)}, max_steps=30, pos_tol=0.02)
 
 
+def glide(s: DrivenSolver, paths: dict, step_length: float = LIFT_STEP, settle_steps: int = 20):
+    """Move arms along straight lines together: `paths` maps arm -> (start p, end p, q); every control step
+    each target advances by its share of the way, the longest path by `step_length`, so all arrive at once."""
+    length = max(float((end - start).norm(dim=1).max()) for start, end, _ in paths.values())
+    steps = max(1, round(length / step_length))
+    for k in range(1, steps + 1):
+        s.step({arm: (start + (end - start) * k / steps, q) for arm, (start, end, q) in paths.items()})
+    s.move({arm: (end, q) for arm, (_, end, q) in paths.items()}, max_steps=settle_steps)
+
+
 def lift_together(s: DrivenSolver, grasps: list[Grasp], height: float):
     """Both arms reach their grasps on one object, close together, and lift it by `height`: their targets
-    rise by the same `LIFT_STEP` each control step, so the object stays level."""
+    rise together by `LIFT_STEP` a control step, so the object stays level."""
     reach(s, grasps)
     grasp_together(s, [g.ee for g in grasps])
-    up = torch.tensor([0.0, 0.0, 1.0], device=s.base.device)
-    steps = max(1, round(height / LIFT_STEP))
-    for k in range(1, steps + 1):
-        s.step({g.arm: (g.p + up * height * k / steps, g.q) for g in grasps})
-    s.move({g.arm: (g.p + up * height, g.q) for g in grasps}, max_steps=20)
+    up = torch.tensor([0.0, 0.0, height], device=s.base.device)
+    glide(s, {g.arm: (g.p, g.p + up, g.q) for g in grasps})

@@ -6,7 +6,6 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-import sapien
 import torch
 
 from mani_skill.utils.building import actors
@@ -15,18 +14,10 @@ from mani_skill.utils.structs.pose import Pose
 from maniladder_ms.agents.helpers import top_down_quat
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.geometry import yaw_of, yaw_quat
+from maniladder_ms.objects.markers import MARKER_THICKNESS, build_zone_marker
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.bimanual import Grasp, hand_over, line_up, tcp_quat
 from maniladder_ms.solvers.driven import DrivenSolver
-
-ZONE_THICKNESS = 0.002  # the zone marker is a flat tile on the table
-
-
-def build_zone_marker(scene, name: str, half_size: float, color) -> "Actor":
-    """A flat square tile marking a target zone: visual only (objects pass through it), kinematic."""
-    return actors.build_box(scene, [half_size, half_size, ZONE_THICKNESS / 2], color, name, body_type="kinematic",
-                            add_collision=False, initial_pose=sapien.Pose(p=[0, 0, ZONE_THICKNESS / 2]))
-
 
 @register_task("HandoverCube")
 class HandoverCubeEnv(ManiLadderEnv):
@@ -63,7 +54,7 @@ class HandoverCubeEnv(ManiLadderEnv):
                                     torch.full((b,), self.cube_half)], dim=1)
             self.cube.set_pose(Pose.create_from_pq(cube_xyz, yaw_quat(torch.rand(b) * np.pi / 2)))
             zone_xyz = torch.stack([torch.rand(b) * 0.15 - 0.15, -0.32 + torch.rand(b) * 0.1,
-                                    torch.full((b,), ZONE_THICKNESS / 2)], dim=1)
+                                    torch.full((b,), MARKER_THICKNESS / 2)], dim=1)
             self.zone.set_pose(Pose.create_from_pq(zone_xyz))
 
     def _get_obs_extra(self, info: dict):

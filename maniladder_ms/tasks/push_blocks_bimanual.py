@@ -1,0 +1,143 @@
+"""PushBlocksBimanual (L1 rigid DG): each arm pushes its own block into its own target zone."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import torch
+
+from mani_skill.utils.building import actors
+from mani_skill.utils.structs.pose import Pose
+
+from maniladder_ms.agents.helpers import top_down_quat
+from maniladder_ms.envs import ManiLadderEnv, register_task
+from maniladder_ms.geometry import yaw_quat
+from maniladder_ms.objects.markers import MARKER_THICKNESS, build_zone_marker
+from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
+from maniladder_ms.solvers.bimanual import glide
+from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver
+
+SIDES = {"left": 1.0, "right": -1.0}  # sign of y on each arm's side of the table
+BLOCK_COLORS = {"left": (0.85, 0.5, 0.1, 1), "right": (0.15, 0.35, 0.85, 1)}
+ZONE_COLORS = {"left": (0.95, 0.8, 0.5, 1), "right": (0.55, 0.7, 0.95, 1)}
+
+
+@register_task("PushBlocksBimanual")
+class PushBlocksBimanualEnv(ManiLadderEnv):
+    """**Task:** two blocks lie on the table, one in front of each arm, each with a target zone of its
+    own colour on the same side; each arm pushes its block into its zone (non-prehensile: the block may
+    not be lifted).
+
+    **Randomisation:** per side (left: y > 0, right: y < 0, mirrored ranges):
+    - the block (5 cm cube) has its centre uniform in x in [-0.2, -0.1], |y| in [0.15, 0.3], and a uniform
+      random yaw;
+    - its zone (12 cm square tile, axis-aligned) is centred 10-15 cm (uniform) away from the block, in a
+      direction within +-30 degrees (uniform) of straight ahead (+x), turned away from the centre line.
+
+    **Success:** each block's centre lies inside its own zone shrunk by `margin` = 2 cm on every side
+    (|dx|, |dy| <= 4 cm from the zone centre) and the block is on the table (centre less than 1 cm above
+    one half-size).
+    """
+
+    SUPPORTED_ROBOTS = ["ml_dual_panda"]
+    TASK_REGION = (-0.25, 0.1, -0.4, 0.4)
+    block_half = 0.025
+    zone_half = 0.06
+    margin = 0.02
+    on_table_tol = 0.01
+
+    def _load_scene(self, options: dict):
+        super()._load_scene(options)
+        self.blocks, self.zones = {}, {}
+        for side, sign in SIDES.items():
+            self.blocks[side] = actors.build_cube(
+                self.scene, half_size=self.block_half, color=BLOCK_COLORS[side], name=f"{side}_block",
+                initial_pose=Pose.create_from_pq([-0.15, sign * 0.2, self.block_half]).sp)
+            self.zones[side] = build_zone_marker(self.scene, f"{side}_zone", self.zone_half, ZONE_COLORS[side])
+
+    def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
+        super()._initialize_episode(env_idx, options)
+        with torch.device(self.device):
+            b = len(env_idx)
+            for side, sign in SIDES.items():
+                block = torch.stack([torch.rand(b) * 0.1 - 0.2, sign * (0.15 + torch.rand(b) * 0.15),
+                                     torch.full((b,), self.block_half)], dim=1)
+                self.blocks[side].set_pose(Pose.create_from_pq(block, yaw_quat(torch.rand(b) * np.pi / 2)))
+                heading = sign * torch.rand(b) * np.pi / 6
+                distance = 0.1 + torch.rand(b) * 0.05
+                zone = block + torch.stack([torch.cos(heading), torch.sin(heading), torch.zeros(b)], dim=1) * distance[:, None]
+                zone[:, 2] = MARKER_THICKNESS / 2
+                self.zones[side].set_pose(Pose.create_from_pq(zone))
+
+    def _get_obs_extra(self, info: dict):
+        obs = {f"{side}_tcp_pose": self.agent.tcps[side].pose.raw_pose for side in SIDES}
+        if "state" in self.obs_mode:
+            for side in SIDES:
+                obs[f"{side}_block_pose"] = self.blocks[side].pose.raw_pose
+                obs[f"{side}_zone_pos"] = self.zones[side].pose.p
+                obs[f"{side}_block_to_zone"] = self.zones[side].pose.p - self.blocks[side].pose.p
+        return obs
+
+    def evaluate(self):
+        info = {}
+        for side in SIDES:
+            offset = self.blocks[side].pose.p - self.zones[side].pose.p
+            in_zone = (offset[:, :2].abs() <= self.zone_half - self.margin).all(dim=1)
+            on_table = self.blocks[side].pose.p[:, 2] < self.block_half + self.on_table_tol
+            info[f"{side}_in_zone"] = in_zone & on_table
+        info["success"] = info["left_in_zone"] & info["right_in_zone"]
+        return info
+
+    def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
+        reward = torch.zeros(self.num_envs, device=self.device)
+        for side in SIDES:
+            block_p, zone_p = self.blocks[side].pose.p, self.zones[side].pose.p
+            heading = torch.nn.functional.normalize((zone_p - block_p)[:, :2], dim=1)
+            # the TCP belongs behind the block, on the far side from the zone
+            behind = block_p[:, :2] - heading * (self.block_half + 0.02)
+            reach = torch.linalg.norm(behind - self.agent.tcps[side].pose.p[:, :2], dim=1)
+            to_zone = torch.linalg.norm((zone_p - block_p)[:, :2], dim=1)
+            reward += (1 - torch.tanh(5 * reach)) + 2 * (1 - torch.tanh(5 * to_zone)) + info[f"{side}_in_zone"]
+        reward[info["success"]] = 8
+        return reward
+
+    def compute_normalized_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
+        return self.compute_dense_reward(obs, action, info) / 8
+
+
+PUSH_HEIGHT = 0.02  # TCP height while pushing: the closed fingertips just clear the table
+BEHIND = 0.025  # gap between the fingers and the block before the push
+FINGER_HALF = 0.01  # the closed fingers' half thickness along the push
+PUSH_STEP = 0.008  # metres per control step (16 cm/s): the block does not slide on ahead of the fingers
+
+
+@register_solver("PushBlocksBimanual", control_modes=TCP_DELTA_MODES)
+def solve_push_blocks_bimanual(env, seed: int) -> dict:
+    """Both arms at once: closed gripper down behind the block on the line through the zone centre,
+    push along that line until the block centre is on the zone centre, rise."""
+    with DrivenSolver.episode(env, seed) as s:
+        task: PushBlocksBimanualEnv = env.unwrapped
+        n, device = task.num_envs, task.device
+        starts, ends = {}, {}
+        for side in SIDES:
+            block_p, zone_p = task.blocks[side].pose.p.clone(), task.zones[side].pose.p.clone()
+            heading = (zone_p - block_p) * torch.tensor([1.0, 1.0, 0.0], device=device)
+            heading = torch.nn.functional.normalize(heading, dim=1)
+            contact = task.block_half + FINGER_HALF  # TCP to block centre when touching
+            start, end = block_p - heading * (contact + BEHIND), zone_p - heading * contact
+            start[:, 2] = end[:, 2] = PUSH_HEIGHT
+            # fingers side by side across the push line: closing axis (the TCP's y) perpendicular to it
+            yaw = torch.atan2(heading[:, 1], heading[:, 0])
+            starts[side], ends[side] = (start, top_down_quat(yaw, n, device)), end
+        for side in SIDES:
+            s.grip(True, f"{side}_gripper", steps=0)
+        s.move({f"{side}_arm": (s.above(p, APPROACH_HEIGHT), q) for side, (p, q) in starts.items()}, max_steps=60,
+               pos_tol=0.01)
+        s.move({f"{side}_arm": (p, q) for side, (p, q) in starts.items()}, max_steps=30)
+        glide(s, {f"{side}_arm": (p, ends[side], q) for side, (p, q) in starts.items()}, step_length=PUSH_STEP,
+              settle_steps=10)
+        s.move({f"{side}_arm": (s.above(ends[side], 0.05), q) for side, (_, q) in starts.items()}, max_steps=15,
+               pos_tol=0.02)
+        s.hold_until_success()
+        return s.info
