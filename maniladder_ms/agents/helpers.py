@@ -38,6 +38,9 @@ LEAP_SYNERGIES = {
     "power": np.array([0.0, 1.5, 0.6, 0.4, 0.0, 1.5, 0.6, 0.4, 0.0, 1.5, 0.6, 0.4, 1.6, 0.6, 0.8, 0.8]),
     # index + thumb tips meet, middle/ring tucked away
     "pinch": np.array([0.0, 1.1, 0.6, 0.4, 0.0, 0.2, 0.2, 0.2, 0.0, 0.2, 0.2, 0.2, 1.6, 0.4, 0.5, 0.5]),
+    # index bent 90 degrees at its knuckle, straight (points down from a top-down hand), middle/ring curled
+    # at PIP/DIP, thumb flat: the index tip is the lowest point by 9 cm, for pressing buttons
+    "point": np.array([0.0, 1.57, 0.0, 0.0, 0.0, 0.0, 1.6, 1.6, 0.0, 0.0, 1.6, 1.6, 0.0, 0.0, 0.0, 0.0]),
 }
 
 

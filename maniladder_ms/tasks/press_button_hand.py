@@ -1,0 +1,106 @@
+"""PressButtonHand (L1 rigid SX): press a large push button down with the LEAP hand's index finger."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import torch
+
+from mani_skill.utils.structs.pose import Pose
+
+from maniladder_ms.agents.helpers import top_down_quat
+from maniladder_ms.envs import ManiLadderEnv, register_task
+from maniladder_ms.geometry import yaw_quat
+from maniladder_ms.objects.controls import ButtonShape, build_push_button, button_travel
+from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
+from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver
+
+# centre of the index fingertip's end face in the tip link's frame (the end of its collision box,
+# scripts/make_agents.py: the finger runs along the link's -y)
+INDEX_TIP_END = (0.0, -0.0495, 0.0145)
+
+
+@register_task("PressButtonHand")
+class PressButtonHandEnv(ManiLadderEnv):
+    """**Task:** press a large push button (5 cm cap on a 9 cm housing, 1.2 cm travel, spring-returned)
+    all the way down with the LEAP hand.
+
+    **Randomisation:** the button's centre uniform in x in [-0.2, -0.05], y in [-0.15, 0.15]; its
+    housing's yaw uniform in [0, pi/2).
+
+    **Success:** the cap is pressed down by >= `press_fraction` = 80% of its travel (>= 9.6 mm).
+    """
+
+    SUPPORTED_ROBOTS = ["ml_panda_leap"]
+    TASK_REGION = (-0.25, 0.0, -0.2, 0.2)
+    button_shape = ButtonShape()
+    press_fraction = 0.8
+
+    def _load_scene(self, options: dict):
+        super()._load_scene(options)
+        self.button = build_push_button(self.scene, "button", self.button_shape, housing_color=(0.3, 0.3, 0.32, 1),
+                                        cap_color=(0.85, 0.1, 0.1, 1))
+        self.index_tip = self.agent.link("leap_index_tip")
+        self.index_tip_end = Pose.create_from_pq(p=torch.tensor([INDEX_TIP_END], device=self.device))
+
+    def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
+        super()._initialize_episode(env_idx, options)
+        with torch.device(self.device):
+            b = len(env_idx)
+            xyz = torch.stack([torch.rand(b) * 0.15 - 0.2, torch.rand(b) * 0.3 - 0.15, torch.zeros(b)], dim=1)
+            self.button.set_pose(Pose.create_from_pq(xyz, yaw_quat(torch.rand(b) * np.pi / 2)))
+            self.button.set_qpos(torch.zeros(b, 1))
+            self.button.set_qvel(torch.zeros(b, 1))
+
+    def _cap_top(self) -> torch.Tensor:
+        """World position of the released cap's top centre."""
+        return self.button.pose.p + torch.tensor([0, 0, self.button_shape.cap_top], device=self.device)
+
+    def fingertip(self) -> torch.Tensor:
+        """World position of the index fingertip (its end face's centre)."""
+        return (self.index_tip.pose * self.index_tip_end).p
+
+    def _get_obs_extra(self, info: dict):
+        obs = dict(tcp_pose=self.agent.tcp.pose.raw_pose)
+        if "state" in self.obs_mode:
+            obs.update(button_pose=self.button.pose.raw_pose, travel=info["travel"],
+                       fingertip_to_cap=self._cap_top() - self.fingertip())
+        return obs
+
+    def evaluate(self):
+        travel = button_travel(self.button)
+        pressed = travel >= self.press_fraction * self.button_shape.travel
+        return {"success": pressed, "travel": travel}
+
+    def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
+        reach = 1 - torch.tanh(5 * torch.linalg.norm(self._cap_top() - self.fingertip(), dim=1))
+        press = (info["travel"] / (self.press_fraction * self.button_shape.travel)).clamp(0, 1)
+        reward = reach + 2 * press
+        reward[info["success"]] = 4
+        return reward
+
+    def compute_normalized_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
+        return self.compute_dense_reward(obs, action, info) / 4
+
+
+@register_solver("PressButtonHand", control_modes=TCP_DELTA_MODES)
+def solve_press_button_hand(env, seed: int) -> dict:
+    """Point the index finger down, bring its tip above the cap's centre, press the cap down to its stop."""
+    with DrivenSolver.episode(env, seed) as s:
+        task: PressButtonHandEnv = env.unwrapped
+        q = top_down_quat(0.0, task.num_envs, device=task.device)
+        s.set_ee("hand", "point", steps=1)
+        above = task._cap_top() + torch.tensor([0, 0, APPROACH_HEIGHT], device=task.device)
+        s.move({"arm": (above, q)}, max_steps=40)
+        # the fingertip's offset from the tcp, the finger pointing (world frame; the hand keeps its orientation)
+        tip_offset = task.fingertip() - task.agent.tcp.pose.p
+        s.move({"arm": (above - tip_offset, q)}, max_steps=30)
+        # aim past the bottom stop: the arm yields a few mm to the spring before the cap gets there
+        pressed = task._cap_top() - torch.tensor([0, 0, task.button_shape.travel + PRESS_PAST_STOP], device=task.device)
+        s.move({"arm": (pressed - tip_offset, q)}, max_steps=15)
+        s.hold_until_success()
+        return s.info
+
+
+PRESS_PAST_STOP = 0.004
