@@ -9,7 +9,8 @@ from mani_skill.agents.registration import REGISTERED_AGENTS
 
 import maniladder_ms  # noqa: F401  (registers the agents)
 from maniladder_ms.agents import AGENT_UIDS
-from maniladder_ms.agents.helpers import Driver, drive_base_to, hold_action, top_down_quat
+from maniladder_ms.agents.helpers import Driver, drive_base_to, hold_action
+from maniladder_ms.solvers.driven import DrivenSolver
 from maniladder_ms.agents.gallery import CUBE_HALF, CYLINDER_HALF_LENGTH
 
 MODES = ("pd_joint_pos", "pd_joint_delta_pos", "pd_ee_delta_pose")
@@ -139,9 +140,8 @@ def grasp_and_lift(env, seed: int, arm: str, ee_part: str, leap: bool, height: f
     keeps holding the lifted pose."""
     env.reset(seed=seed)
     base = env.unwrapped
-    driver = Driver(env)
+    solver = DrivenSolver(env)
     obj = base.object
-    n = base.num_envs
     # the cube is grasped at its centre, the standing cylinder 3.5 cm below its top
     p = obj.pose.p.clone()
     if base.test_object == "cylinder":
@@ -149,19 +149,9 @@ def grasp_and_lift(env, seed: int, arm: str, ee_part: str, leap: bool, height: f
     # object yaw (mod 90 degrees) so the fingers close on two faces
     w, z = obj.pose.q[:, 0], obj.pose.q[:, 3]
     yaw = torch.remainder(2 * torch.atan2(z, w) + np.pi / 4, np.pi / 2) - np.pi / 4
-    q = top_down_quat(yaw, n)
-    if not leap:
-        driver.grip(False, ee_part, steps=1)
-    driver.move({arm: (p + torch.tensor([0, 0, 0.1]), q)}, max_steps=60)
-    if leap:  # thumb under the palm only once above the object; the LEAP tcp is the power grasp's centre
-        driver.set_ee(ee_part, "preshape", steps=5)
-    driver.move({arm: (p, q)}, max_steps=40, pos_tol=0.003)
-    if leap:
-        driver.close_hand(ee_part, "power")
-    else:
-        driver.grip(True, ee_part, steps=10)
-    driver.move({arm: (p + torch.tensor([0, 0, height]), q)}, max_steps=40)
-    return driver
+    assert solver.is_leap(ee_part) == leap
+    solver.pick(arm, ee_part, p, yaw, lift=height)
+    return solver
 
 
 # (uid, arm, end effector, LEAP?, object world xy): every hand and gripper, both sides of the dual agents

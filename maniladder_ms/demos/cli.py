@@ -5,6 +5,8 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+from maniladder_ms.solvers import JOINT_TARGET_MODES
+
 from .recording import DEFAULT_CONTROL_MODES
 
 
@@ -25,12 +27,12 @@ def _selected_tasks(args):
 
 
 def cmd_generate(args) -> int:
-    from .recording import generate
+    from .recording import default_control_modes, generate
 
     if not (args.task or args.level or args.suite):
         raise ValueError("name a task, or --level N / --suite S")
     for spec in _selected_tasks(args):
-        for mode in args.control_mode or DEFAULT_CONTROL_MODES:
+        for mode in args.control_mode or default_control_modes(spec.id):
             r = generate(spec.id, args.num, args.out, seed=args.seed, control_mode=mode, obs_mode=args.obs_mode,
                          workers=args.workers, overwrite=args.overwrite)
             print(f"{r.task_id} [{mode}]: {r.kept} demos -> {r.path}  "
@@ -87,8 +89,8 @@ def add_parser(sub):
     gen.add_argument("--out", type=Path, default=Path("demos"))
     gen.add_argument("--seed", type=int, default=0, help="first seed tried")
     gen.add_argument("--obs-mode", default="none", help="obs recorded with the demo (default none: convert later)")
-    gen.add_argument("--control-mode", action="append", choices=("pd_joint_pos", "pd_joint_delta_pos", "pd_ee_delta_pose"),
-                     help=f"repeatable; default {' and '.join(DEFAULT_CONTROL_MODES)}")
+    gen.add_argument("--control-mode", action="append", choices=JOINT_TARGET_MODES,
+                     help=f"repeatable; default those of {' and '.join(DEFAULT_CONTROL_MODES)} the task's solver drives")
     gen.add_argument("--workers", type=int, default=1, help="processes")
     gen.add_argument("--overwrite", action="store_true", help="replace an existing dataset file")
     gen.set_defaults(func=cmd_generate)

@@ -18,12 +18,17 @@ import h5py
 from tqdm import tqdm
 
 from maniladder_ms.evaluation import EVAL_SEED_BASE as MAX_DEMO_SEED
-from maniladder_ms.solvers.adapters import ADAPTABLE_MODES
+from maniladder_ms.solvers import solver_for
 
 from .files import ENV_ID_PREFIX, DemoFileError, demo_path, json_path
 
 CHUNK_SIZE = 5
 DEFAULT_CONTROL_MODES = ("pd_joint_pos", "pd_ee_delta_pose")
+
+
+def default_control_modes(task_id: str) -> tuple[str, ...]:
+    """The modes `demos generate` records when none is named: those of DEFAULT_CONTROL_MODES the solver drives."""
+    return tuple(m for m in DEFAULT_CONTROL_MODES if m in solver_for(task_id).control_modes)
 
 
 @dataclass
@@ -96,8 +101,9 @@ def generate(
     spec = default_catalog().get(task_id)
     if not (0 <= seed and seed + max_attempts_for(num, max_attempts) <= MAX_DEMO_SEED):
         raise ValueError(f"demo seeds must stay in [0, {MAX_DEMO_SEED}): evaluation seeds start there")
-    if control_mode not in ADAPTABLE_MODES:
-        raise ValueError(f"control mode {control_mode!r}: demos are recorded in one of {', '.join(ADAPTABLE_MODES)}")
+    modes = solver_for(spec.id).control_modes
+    if control_mode not in modes:
+        raise ValueError(f"control mode {control_mode!r}: {spec.id} demos are recorded in one of {', '.join(modes)}")
     out = demo_path(out_dir, spec.id, obs_mode, control_mode)
     parts_dir = out.parent / ".parts" / control_mode
     if out.exists() or json_path(out).exists():

@@ -44,7 +44,7 @@ from typing import Any, Optional
 
 import numpy as np
 
-from maniladder_ms.catalog import TaskSpec
+from maniladder_ms.catalog import TaskSpec, default_catalog
 
 
 class PolicyError(RuntimeError):
@@ -85,23 +85,26 @@ class RandomPolicy:
 
 
 class SolverPolicy:
-    """The task's scripted solver (`maniladder_ms.solvers`): an env-driving oracle in pd_joint_pos."""
+    """The task's scripted solver (`maniladder_ms.solvers`): an env-driving oracle in its own control mode."""
 
     name = "solver"
     obs_mode = "none"
-    control_mode = "pd_joint_pos"
 
     def supports(self, spec: TaskSpec):
         from maniladder_ms.solvers import SOLVERS
 
         return True if spec.id in SOLVERS else f"no scripted solver registered for {spec.id}"
 
+    def env_kwargs(self, spec: TaskSpec) -> dict:
+        from maniladder_ms.solvers import solver_for
+
+        return {"control_mode": solver_for(spec.id).control_mode}
+
     def run_episode(self, env, ctx: EpisodeContext):
-        from maniladder_ms.solvers import SOLVERS
-        from maniladder_ms.solvers import PlanningFailed
+        from maniladder_ms.solvers import PlanningFailed, solver_for
 
         try:
-            SOLVERS[ctx.spec.id](env, ctx.seed)
+            solver_for(ctx.spec.id).run(env, ctx.seed)
         except PlanningFailed as e:  # the oracle failed this episode: a failure, not a bug
             return {"note": f"planning failed: {e}"[:200]}
         return None
@@ -144,8 +147,9 @@ class ReplayPolicy:
                 raise PolicyError(f"replay: {meta_path} is not a ManiSkill trajectory json (missing {e})") from None
             candidates.setdefault(env_id, []).append((h5, episodes))
         for env_id, found in candidates.items():
-            if len(found) > 1:  # several control modes of one task: the solvers' own mode replays exactly
-                native = [c for c in found if {ep.get("control_mode") for ep in c[1]} == {SolverPolicy.control_mode}]
+            if len(found) > 1:  # several control modes of one task: the solver's own mode replays exactly
+                own = _solver_control_mode(env_id)
+                native = [c for c in found if {ep.get("control_mode") for ep in c[1]} == {own}]
                 if len(native) != 1:
                     raise PolicyError(f"replay: several demo files for {env_id} ({', '.join(str(c[0]) for c in found)}); "
                                       "give one file with replay:<file.h5>")
@@ -276,6 +280,13 @@ def policy_label(spec: str) -> str:
         target, attr = spec.rsplit(":", 1)
         spec = f"{Path(target).stem if target.endswith('.py') else target.split('.')[-1]}-{attr}"
     return re.sub(r"[^A-Za-z0-9_.-]+", "-", spec).strip("-") or "policy"
+
+
+def _solver_control_mode(env_id: str) -> Optional[str]:
+    from maniladder_ms.solvers import SOLVERS
+
+    spec = next((t for t in default_catalog() if t.env_id == env_id), None)
+    return SOLVERS[spec.id].control_mode if spec is not None and spec.id in SOLVERS else None
 
 
 def policy_env_kwargs(policy, spec: TaskSpec, obs_mode: str) -> dict:

@@ -43,20 +43,25 @@ def build_tray(
     """
     builder = scene.create_actor_builder()
     mat = sapien.render.RenderMaterial(base_color=list(color), roughness=0.6)
+    for centre, half in open_box_parts(inner_half_size, wall_height, wall_thickness, base_thickness):
+        builder.add_box_collision(pose=sapien.Pose(p=centre), half_size=half, density=WOOD_DENSITY)
+        builder.add_box_visual(pose=sapien.Pose(p=centre), half_size=half, material=mat)
+    builder.initial_pose = sapien.Pose()
+    return builder.build(name=name)
+
+
+def open_box_parts(inner_half_size: tuple[float, float], wall_height: float, wall_thickness: float,
+                   base_thickness: float) -> list[tuple[list[float], list[float]]]:
+    """(centre, half size) boxes of an open box standing on z = 0: base plate, walls at +-x, walls at +-y."""
     ix, iy = inner_half_size
     t = wall_thickness
-    parts = [  # (centre, half size)
+    return [
         ([0, 0, base_thickness / 2], [ix + t, iy + t, base_thickness / 2]),
         ([ix + t / 2, 0, wall_height / 2], [t / 2, iy + t, wall_height / 2]),
         ([-ix - t / 2, 0, wall_height / 2], [t / 2, iy + t, wall_height / 2]),
         ([0, iy + t / 2, wall_height / 2], [ix, t / 2, wall_height / 2]),
         ([0, -iy - t / 2, wall_height / 2], [ix, t / 2, wall_height / 2]),
     ]
-    for centre, half in parts:
-        builder.add_box_collision(pose=sapien.Pose(p=centre), half_size=half, density=WOOD_DENSITY)
-        builder.add_box_visual(pose=sapien.Pose(p=centre), half_size=half, material=mat)
-    builder.initial_pose = sapien.Pose()
-    return builder.build(name=name)
 
 
 def build_upright_cylinder(scene: ManiSkillScene, name: str, radius: float, half_height: float, density: float,

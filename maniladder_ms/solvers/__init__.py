@@ -1,35 +1,63 @@
 """Scripted demo solvers: the registry, and per-embodiment motion helpers.
 
 Each task's solver lives beside the task (in its module under `maniladder_ms/tasks/`) and registers
-itself here with `@register_solver(<task id>)`; `solve(env, seed)` finds and runs it.
+itself here with `@register_solver(<task id>, control_modes=...)`; `solve(env, seed)` finds and runs it.
+
+A solver drives the env in one of the control modes it was registered with: mplib solvers
+(`solvers.panda`) command joint targets that `JointTargetAdapter` re-expresses in any of
+`JOINT_TARGET_MODES`; closed-loop TCP solvers (`solvers.driven`, hands and dual arms) run in
+`pd_ee_delta_pose` only. The first mode is the solver's own: sweeps and evaluation use it.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Callable
 
-SOLVERS: dict[str, Callable] = {}
+JOINT_TARGET_MODES = ("pd_joint_pos", "pd_joint_delta_pos", "pd_ee_delta_pose")
+TCP_DELTA_MODES = ("pd_ee_delta_pose",)
+
+
+@dataclass(frozen=True)
+class Solver:
+    run: Callable  # (env, seed) -> info dict of the last step
+    control_modes: tuple[str, ...]
+
+    @property
+    def control_mode(self) -> str:
+        return self.control_modes[0]
+
+
+SOLVERS: dict[str, Solver] = {}
 
 
 class PlanningFailed(RuntimeError):
     """A solver's planner found no path to a requested pose: the episode fails, it is not a bug."""
 
 
-def register_solver(*task_ids: str):
+def register_solver(*task_ids: str, control_modes: tuple[str, ...] = JOINT_TARGET_MODES):
     def decorate(fn):
         for task_id in task_ids:
-            SOLVERS[task_id] = fn
+            SOLVERS[task_id] = Solver(fn, tuple(control_modes))
         return fn
 
     return decorate
 
 
-def solve(env, seed: int) -> dict:
-    """Reset `env` with `seed` and run its task's scripted solver; returns the final step's info dict."""
-    task_id = env.unwrapped.task_spec.id
+def solver_for(task_id: str) -> Solver:
     if task_id not in SOLVERS:
         raise KeyError(f"no scripted solver registered for task {task_id}")
-    return SOLVERS[task_id](env, seed)
+    return SOLVERS[task_id]
+
+
+def solve(env, seed: int) -> dict:
+    """Reset `env` with `seed` and run its task's scripted solver; returns the final step's info dict."""
+    solver = solver_for(env.unwrapped.task_spec.id)
+    mode = env.unwrapped.control_mode
+    if mode not in solver.control_modes:
+        raise ValueError(f"the {env.unwrapped.task_spec.id} solver drives {', '.join(solver.control_modes)}; "
+                         f"the env is in {mode!r}")
+    return solver.run(env, seed)
 
 
 def solve_within_horizon(env, seed: int) -> dict:
@@ -52,7 +80,8 @@ def sweep(task_id: str, seeds, progress: bool = False, **make_kwargs) -> list[di
     from tqdm import tqdm
 
     make_kwargs.setdefault("obs_mode", "state")
-    env = maniladder_ms.make(task_id, control_mode="pd_joint_pos", **make_kwargs)
+    make_kwargs.setdefault("control_mode", solver_for(task_id).control_mode)
+    env = maniladder_ms.make(task_id, **make_kwargs)
     try:
         rows = [dict(seed=seed, **solve_within_horizon(env, seed))
                 for seed in tqdm(list(seeds), desc=f"{task_id} solver", disable=not progress)]

@@ -15,7 +15,7 @@ import torch
 from mani_skill.utils.geometry.rotation_conversions import matrix_to_euler_angles, quaternion_to_matrix
 from mani_skill.utils.structs.pose import Pose
 
-ADAPTABLE_MODES = ("pd_joint_pos", "pd_joint_delta_pos", "pd_ee_delta_pose")
+from . import JOINT_TARGET_MODES
 
 
 class JointTargetAdapter(gym.Wrapper):
@@ -25,8 +25,8 @@ class JointTargetAdapter(gym.Wrapper):
         super().__init__(env)
         base = env.unwrapped
         self.mode = base.control_mode
-        if self.mode not in ADAPTABLE_MODES:
-            raise ValueError(f"solvers can record in {', '.join(ADAPTABLE_MODES)}; not in {self.mode!r}")
+        if self.mode not in JOINT_TARGET_MODES:
+            raise ValueError(f"joint-target solvers can record in {', '.join(JOINT_TARGET_MODES)}; not in {self.mode!r}")
         self.arm = base.agent.controller.controllers["arm"]
         self.n_arm = len(self.arm.joints)
         if self.mode == "pd_ee_delta_pose":

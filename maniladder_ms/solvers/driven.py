@@ -1,0 +1,83 @@
+"""Closed-loop TCP solvers for every agent (`pd_ee_delta_pose` through `agents.helpers.Driver`).
+
+The LEAP hands and the dual-arm agents have no motion planner here; their task solvers servo TCP
+targets with `DrivenSolver` and compose its phases: top-down picks with a gripper or a hand's power
+grasp, lifts, releases. All targets are world-frame, batched over the env's sub-scenes.
+"""
+
+from __future__ import annotations
+
+from contextlib import contextmanager
+
+import torch
+
+from maniladder_ms.agents.helpers import Driver, top_down_quat
+
+APPROACH_HEIGHT = 0.1  # metres above a grasp where the vertical descent starts
+
+
+class DrivenSolver(Driver):
+    """`Driver` plus the phases task solvers share; `info` is the last step's info dict."""
+
+    @classmethod
+    @contextmanager
+    def episode(cls, env, seed: int):
+        """Reset `env` with `seed` and yield a solver for it."""
+        env.reset(seed=seed)
+        yield cls(env)
+
+    @property
+    def info(self) -> dict:
+        return {} if self.last is None else self.last[-1]
+
+    def is_leap(self, ee_part: str) -> bool:
+        return ee_part.endswith("hand")
+
+    @staticmethod
+    def neutral_yaw(yaw: torch.Tensor, period: float) -> torch.Tensor:
+        """Of the grasp yaws equivalent to `yaw` modulo `period` (a symmetric object or gripper), the one
+        nearest 0, the rest pose's: the wrist stays mid-range (the yaw nearest the current TCP can
+        lie past a joint limit after a tilted move)."""
+        return torch.remainder(yaw + period / 2, period) - period / 2
+
+    def above(self, p: torch.Tensor, height: float) -> torch.Tensor:
+        return p + torch.tensor([0.0, 0.0, height], device=p.device)
+
+    def pick(self, arm: str, ee_part: str, center: torch.Tensor, yaw, lift: float = 0.1,
+             approach: float = APPROACH_HEIGHT):
+        """Top-down grasp at `center` (the TCP goes there: a gripper's finger centre, a LEAP hand's power
+        grasp centre), fingers closing across `yaw`; then lift by `lift`."""
+        q = top_down_quat(yaw, self.base.num_envs, device=center.device)
+        self.release(ee_part, steps=1)
+        self.move({arm: (self.above(center, approach), q)}, max_steps=60)
+        if self.is_leap(ee_part):  # thumb under the palm only once above the object (it sweeps objects over)
+            self.set_ee(ee_part, "preshape", steps=5)
+        self.move({arm: (center, q)}, max_steps=40, pos_tol=0.003)
+        self.grasp(ee_part)
+        if lift:
+            self.move({arm: (self.above(center, lift), q)}, max_steps=40)
+
+    def grasp(self, ee_part: str):
+        if self.is_leap(ee_part):
+            self.close_hand(ee_part, "power")
+        else:
+            self.grip(True, ee_part, steps=10)
+
+    def release(self, ee_part: str, steps: int = 10):
+        if self.is_leap(ee_part):
+            self.set_ee(ee_part, "open", steps=steps)
+        else:
+            self.grip(False, ee_part, steps=steps)
+
+    def hold_until_success(self, max_steps: int = 30, stable_steps: int = 3):
+        """Keep still until the task has reported success `stable_steps` steps in a row (or `max_steps`).
+
+        Ending a demo in a settled success makes it robust for tools that replay it from recorded states
+        (ManiSkill 3.0.1's replay_trajectory --use-env-states scores the last step one state behind).
+        """
+        streak = 0
+        for _ in range(max_steps):
+            streak = streak + 1 if bool(self.info.get("success", torch.zeros(1, dtype=torch.bool)).all()) else 0
+            if streak >= stable_steps:
+                return
+            self.step()
