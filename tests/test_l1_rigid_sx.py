@@ -4,7 +4,7 @@ import pytest
 
 from maniladder_ms.solvers import sweep
 
-SX_TASKS = ["LiftBottleHand", "PressButtonHand"]
+SX_TASKS = ["LiftBottleHand", "PressButtonHand", "TurnValveHand"]
 
 
 @pytest.mark.parametrize("task_id", SX_TASKS)

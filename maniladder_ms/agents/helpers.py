@@ -20,6 +20,7 @@ from mani_skill.utils.geometry.rotation_conversions import (
     axis_angle_to_matrix,
     matrix_to_axis_angle,
     matrix_to_euler_angles,
+    quaternion_apply,
     quaternion_to_matrix,
 )
 
@@ -42,6 +43,16 @@ LEAP_SYNERGIES = {
     # at PIP/DIP, thumb flat: the index tip is the lowest point by 9 cm, for pressing buttons
     "point": np.array([0.0, 1.57, 0.0, 0.0, 0.0, 0.0, 1.6, 1.6, 0.0, 0.0, 1.6, 1.6, 0.0, 0.0, 0.0, 0.0]),
 }
+# centre of the end face of a LEAP finger's tip (index, middle, ring) in its tip link's frame: the end of
+# the tip's collision box (scripts/make_agents.py), the finger running along the link's -y
+LEAP_TIP_END = (0.0, -0.0495, 0.0145)
+
+
+def leap_fingertip(agent, finger: str = "index", prefix: str = "") -> torch.Tensor:
+    """World position (num_envs, 3) of the end of a LEAP finger (index, middle, ring), where it presses."""
+    tip = agent.robot.links_map[f"{prefix}leap_{finger}_tip"].pose
+    end = torch.tensor(LEAP_TIP_END, dtype=tip.p.dtype, device=tip.p.device).expand_as(tip.p)
+    return tip.p + quaternion_apply(tip.q, end)
 
 
 def _controllers(agent) -> dict:

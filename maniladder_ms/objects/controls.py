@@ -1,7 +1,8 @@
-"""Procedural controls built as articulations: a spring-loaded push button and a wheel valve.
+"""Procedural controls built as articulations: a spring-loaded push button and a wheel valve, and a
+curved arrow that marks which way to turn.
 
-Both stand on z = 0 with their root link fixed where `set_pose` puts them (a control panel does not
-slide), and both read out through their one joint: `button_travel`, `valve_angle`.
+Button and valve stand on z = 0 with their root link fixed where `set_pose` puts them (a control panel
+does not slide), and read out through their one joint: `button_travel`, `valve_angle`.
 """
 
 from __future__ import annotations
@@ -15,8 +16,11 @@ import torch
 
 from mani_skill.envs.scene import ManiSkillScene
 
-# a joint frame whose x axis (the axis of prismatic and revolute joints) points down world -z
+# joint frames whose x axis (the axis of prismatic and revolute joints) points down / up world z
 DOWN_AXIS = sapien.Pose(q=[np.cos(np.pi / 4), 0, np.sin(np.pi / 4), 0])
+UP_AXIS = sapien.Pose(q=[np.cos(np.pi / 4), 0, -np.sin(np.pi / 4), 0])
+# turns a capsule or cylinder (their axis is their local x) upright
+X_TO_Z = UP_AXIS
 
 
 @dataclass(frozen=True)
@@ -75,6 +79,111 @@ def build_push_button(scene: ManiSkillScene, name: str, shape: ButtonShape, hous
 def button_travel(button) -> torch.Tensor:
     """(num_envs,) how far (m) the cap is pressed down."""
     return button.get_qpos()[:, 0]
+
+
+@dataclass(frozen=True)
+class ValveShape:
+    """A hand wheel on a vertical stem, metres: `spokes` spokes from the hub to a rim of `radius` (the rim
+    tube's centre line), the wheel's centre `height` above the table. The joint turns freely (no
+    limits) against `damping` (N m s/rad), so the wheel stays where it is left."""
+
+    height: float = 0.1
+    radius: float = 0.085
+    rim_thickness: float = 0.008  # tube radius
+    spokes: int = 4
+    spoke_radius: float = 0.006
+    hub_radius: float = 0.015
+    stem_radius: float = 0.012
+    base_radius: float = 0.05
+    base_height: float = 0.015
+    damping: float = 0.1
+    rim_segments: int = 16
+
+
+def build_wheel_valve(scene: ManiSkillScene, name: str, shape: ValveShape, stand_color, wheel_color, marker_color):
+    """The valve articulation: fixed stand (root) and the wheel on a revolute joint about +z (positive
+    angle: counter-clockwise seen from above). Spoke 0 (along the wheel's x axis) is `marker_color`."""
+    builder = scene.create_articulation_builder()
+    stand = builder.create_link_builder()
+    stand.set_name(f"{name}_stand")
+    stand_mat = _material(stand_color)
+    base = sapien.Pose(p=[0, 0, shape.base_height / 2]) * X_TO_Z
+    stand.add_cylinder_collision(base, radius=shape.base_radius, half_length=shape.base_height / 2)
+    stand.add_cylinder_visual(base, radius=shape.base_radius, half_length=shape.base_height / 2, material=stand_mat)
+    stem_half = (shape.height - shape.base_height) / 2
+    stem = sapien.Pose(p=[0, 0, shape.base_height + stem_half]) * X_TO_Z
+    stand.add_cylinder_collision(stem, radius=shape.stem_radius, half_length=stem_half)
+    stand.add_cylinder_visual(stem, radius=shape.stem_radius, half_length=stem_half, material=stand_mat)
+
+    wheel = builder.create_link_builder(stand)
+    wheel.set_name(f"{name}_wheel")
+    wheel_mat, marker_mat = _material(wheel_color), _material(marker_color)
+    hub = X_TO_Z
+    wheel.add_cylinder_collision(hub, radius=shape.hub_radius, half_length=shape.spoke_radius * 1.5)
+    wheel.add_cylinder_visual(hub, radius=shape.hub_radius, half_length=shape.spoke_radius * 1.5, material=wheel_mat)
+    seg = 2 * np.pi / shape.rim_segments
+    for k in range(shape.rim_segments):  # the rim: tangent capsules around the circle
+        a = (k + 0.5) * seg
+        pose = sapien.Pose(p=[shape.radius * np.cos(a), shape.radius * np.sin(a), 0], q=_yaw(a + np.pi / 2))
+        half = shape.radius * np.sin(seg / 2)
+        wheel.add_capsule_collision(pose, radius=shape.rim_thickness, half_length=half)
+        wheel.add_capsule_visual(pose, radius=shape.rim_thickness, half_length=half, material=wheel_mat)
+    spoke_half = (shape.radius - shape.hub_radius) / 2
+    for k in range(shape.spokes):
+        a = 2 * np.pi * k / shape.spokes
+        mid = shape.hub_radius + spoke_half
+        pose = sapien.Pose(p=[mid * np.cos(a), mid * np.sin(a), 0], q=_yaw(a))
+        wheel.add_capsule_collision(pose, radius=shape.spoke_radius, half_length=spoke_half)
+        wheel.add_capsule_visual(pose, radius=shape.spoke_radius, half_length=spoke_half,
+                                 material=marker_mat if k == 0 else wheel_mat)
+    wheel.set_joint_name(f"{name}_turn")
+    wheel.set_joint_properties("revolute", limits=[[-np.inf, np.inf]],
+                               pose_in_parent=sapien.Pose(p=[0, 0, shape.height]) * UP_AXIS, pose_in_child=UP_AXIS,
+                               damping=shape.damping)
+    builder.initial_pose = sapien.Pose()
+    return builder.build(name, fix_root_link=True)
+
+
+def valve_angle(valve) -> torch.Tensor:
+    """(num_envs,) the wheel's angle (rad, counter-clockwise from above) from where it was built."""
+    return valve.get_qpos()[:, 0]
+
+
+def build_turn_arrow(scene: ManiSkillScene, name: str, radius: float, color, span: float = np.pi / 2,
+                     width: float = 0.014, head: float = 0.025):
+    """A flat curved arrow (visual only, kinematic) lying on an arc of `radius` around its origin, from
+    -span/2 to +span/2 about its x axis, its head pointing counter-clockwise (seen from above, local z up).
+
+    Turned upside down (by pi about its x axis) it points clockwise: `turn_direction` reads which.
+    """
+    builder = scene.create_actor_builder()
+    mat = _material(color)
+    pieces = 8
+    step = span / pieces
+    half_thick = 0.001
+    for k in range(pieces):  # the shaft: short tangent boxes along the arc
+        a = -span / 2 + (k + 0.5) * step
+        pose = sapien.Pose(p=[radius * np.cos(a), radius * np.sin(a), 0], q=_yaw(a + np.pi / 2))
+        builder.add_box_visual(pose, half_size=[radius * np.sin(step / 2) * 1.1, width / 2, half_thick], material=mat)
+    tip_angle = span / 2 + 0.6 * head / radius
+    tip = np.array([radius * np.cos(tip_angle), radius * np.sin(tip_angle)])
+    for side in (1, -1):  # the head: two strokes `head` long back from the tip, 35 degrees off the tangent
+        back = np.pi / 2 + tip_angle + np.pi + side * np.radians(35)
+        centre = tip + head / 2 * np.array([np.cos(back), np.sin(back)])
+        builder.add_box_visual(sapien.Pose(p=[*centre, 0], q=_yaw(back)), half_size=[head / 2, width / 2, half_thick],
+                               material=mat)
+    builder.initial_pose = sapien.Pose()
+    return builder.build_kinematic(name)
+
+
+def turn_direction(arrow) -> torch.Tensor:
+    """(num_envs,) +1 where the arrow points counter-clockwise (lies face up), -1 where it points clockwise."""
+    q = arrow.pose.q  # the arrow's z axis, world z component: 1 - 2 (qx^2 + qy^2)
+    return torch.where(1 - 2 * (q[:, 1] ** 2 + q[:, 2] ** 2) > 0, 1.0, -1.0)
+
+
+def _yaw(a: float) -> list[float]:
+    return [np.cos(a / 2), 0, 0, np.sin(a / 2)]
 
 
 def _material(color):

@@ -9,16 +9,12 @@ import torch
 
 from mani_skill.utils.structs.pose import Pose
 
-from maniladder_ms.agents.helpers import top_down_quat
+from maniladder_ms.agents.helpers import leap_fingertip, top_down_quat
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.geometry import yaw_quat
 from maniladder_ms.objects.controls import ButtonShape, build_push_button, button_travel
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver
-
-# centre of the index fingertip's end face in the tip link's frame (the end of its collision box,
-# scripts/make_agents.py: the finger runs along the link's -y)
-INDEX_TIP_END = (0.0, -0.0495, 0.0145)
 
 
 @register_task("PressButtonHand")
@@ -41,8 +37,6 @@ class PressButtonHandEnv(ManiLadderEnv):
         super()._load_scene(options)
         self.button = build_push_button(self.scene, "button", self.button_shape, housing_color=(0.3, 0.3, 0.32, 1),
                                         cap_color=(0.85, 0.1, 0.1, 1))
-        self.index_tip = self.agent.link("leap_index_tip")
-        self.index_tip_end = Pose.create_from_pq(p=torch.tensor([INDEX_TIP_END], device=self.device))
 
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
         super()._initialize_episode(env_idx, options)
@@ -57,15 +51,11 @@ class PressButtonHandEnv(ManiLadderEnv):
         """World position of the released cap's top centre."""
         return self.button.pose.p + torch.tensor([0, 0, self.button_shape.cap_top], device=self.device)
 
-    def fingertip(self) -> torch.Tensor:
-        """World position of the index fingertip (its end face's centre)."""
-        return (self.index_tip.pose * self.index_tip_end).p
-
     def _get_obs_extra(self, info: dict):
         obs = dict(tcp_pose=self.agent.tcp.pose.raw_pose)
         if "state" in self.obs_mode:
             obs.update(button_pose=self.button.pose.raw_pose, travel=info["travel"],
-                       fingertip_to_cap=self._cap_top() - self.fingertip())
+                       fingertip_to_cap=self._cap_top() - leap_fingertip(self.agent))
         return obs
 
     def evaluate(self):
@@ -74,7 +64,7 @@ class PressButtonHandEnv(ManiLadderEnv):
         return {"success": pressed, "travel": travel}
 
     def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
-        reach = 1 - torch.tanh(5 * torch.linalg.norm(self._cap_top() - self.fingertip(), dim=1))
+        reach = 1 - torch.tanh(5 * torch.linalg.norm(self._cap_top() - leap_fingertip(self.agent), dim=1))
         press = (info["travel"] / (self.press_fraction * self.button_shape.travel)).clamp(0, 1)
         reward = reach + 2 * press
         reward[info["success"]] = 4
@@ -94,7 +84,7 @@ def solve_press_button_hand(env, seed: int) -> dict:
         above = task._cap_top() + torch.tensor([0, 0, APPROACH_HEIGHT], device=task.device)
         s.move({"arm": (above, q)}, max_steps=40)
         # the fingertip's offset from the tcp, the finger pointing (world frame; the hand keeps its orientation)
-        tip_offset = task.fingertip() - task.agent.tcp.pose.p
+        tip_offset = leap_fingertip(task.agent) - task.agent.tcp.pose.p
         s.move({"arm": (above - tip_offset, q)}, max_steps=30)
         # aim past the bottom stop: the arm yields a few mm to the spring before the cap gets there
         pressed = task._cap_top() - torch.tensor([0, 0, task.button_shape.travel + PRESS_PAST_STOP], device=task.device)
