@@ -1,0 +1,122 @@
+"""OpenBoxRetrieval (L1 rigid SG): open the hinged lid of a box and take out the cube inside."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import torch
+
+from mani_skill.utils.building import actors
+from mani_skill.utils.structs.pose import Pose
+
+from maniladder_ms.envs import ManiLadderEnv, register_task
+from maniladder_ms.geometry import yaw_of, yaw_quat
+from maniladder_ms.objects import LiddedBoxShape, build_lidded_box, lid_angle
+from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
+from maniladder_ms.solvers.driven import DrivenSolver
+from maniladder_ms.solvers.lids import open_lid
+
+
+@register_task("OpenBoxRetrieval")
+class OpenBoxRetrievalEnv(ManiLadderEnv):
+    """**Task:** lift the hinged lid of a box and take out the 4 cm cube lying inside.
+
+    **Randomisation:**
+    - the box (inner 16 x 16 cm, walls 6 cm high, 1.5 kg) has its centre uniform in x in [-0.08, 0.0],
+      y in [-0.1, 0.1] and its yaw uniform in [-pi/6, pi/6]; the lid is hinged on the side away from the
+      robot, and overhangs the near wall by a 3 cm lip;
+    - the cube lies on the box floor, offset from the box centre by up to 1 cm along each box axis,
+      turned by a yaw uniform in [-pi/9, pi/9] from the box's axes (room for the open gripper's fingers
+      between the cube and the walls).
+
+    **Success:** the lid is open by at least `open_angle` = 60 deg, and the cube centre is either at
+    least `lift_clearance` = 5 cm above the box rim or outside the box's outer footprint (in the box
+    frame, |x| or |y| beyond the outer half size plus the cube's half size).
+    """
+
+    TASK_REGION = (-0.2, 0.25, -0.25, 0.25)
+    box_shape = LiddedBoxShape(inner_half_size=(0.08, 0.08))
+    box_density = 2200.0  # ~1.5 kg: the box stays put while the lid is pulled open
+    cube_half_size = 0.02
+    open_angle = np.deg2rad(60)
+    lift_clearance = 0.05
+
+    def _load_scene(self, options: dict):
+        super()._load_scene(options)
+        self.box = build_lidded_box(self.scene, "box", self.box_shape, self.box_density,
+                                    color=(0.55, 0.4, 0.25, 1), lid_color=(0.7, 0.5, 0.3, 1))
+        self.cube = actors.build_cube(self.scene, half_size=self.cube_half_size, color=(0.85, 0.15, 0.15, 1),
+                                      name="cube", initial_pose=Pose.create_from_pq([0.3, 0.3, self.cube_half_size]).sp)
+
+    def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
+        super()._initialize_episode(env_idx, options)
+        with torch.device(self.device):
+            b = len(env_idx)
+            box_xyz = torch.stack([torch.rand(b) * 0.08 - 0.08, torch.rand(b) * 0.2 - 0.1, torch.zeros(b)], dim=1)
+            box_pose = Pose.create_from_pq(box_xyz, yaw_quat((torch.rand(b) - 0.5) * np.pi / 3))
+            self.box.set_pose(box_pose)
+            self.box.set_qpos(torch.zeros(b, 1))
+            self.box.set_qvel(torch.zeros(b, 1))
+            offset = torch.cat([(torch.rand(b, 2) - 0.5) * 0.02,
+                                torch.full((b, 1), self.box_shape.base_thickness + self.cube_half_size)], dim=1)
+            cube_in_box = Pose.create_from_pq(offset, yaw_quat((torch.rand(b) - 0.5) * 2 * np.pi / 9))
+            self.cube.set_pose(box_pose * cube_in_box)
+
+    def _cube_in_box_frame(self) -> torch.Tensor:
+        return (self.box.pose.inv() * self.cube.pose).p
+
+    def _get_obs_extra(self, info: dict):
+        obs = dict(tcp_pose=self.agent.tcp_pose.raw_pose, lid_angle=info["lid_angle"])
+        if "state" in self.obs_mode:
+            obs.update(box_pose=self.box.pose.raw_pose, cube_pose=self.cube.pose.raw_pose,
+                       tcp_to_cube_pos=self.cube.pose.p - self.agent.tcp_pose.p)
+        return obs
+
+    def evaluate(self):
+        angle = lid_angle(self.box)
+        local = self._cube_in_box_frame()
+        rim = self.box_shape.wall_height
+        outer = torch.tensor(self.box_shape.outer_half_size, device=self.device) + self.cube_half_size
+        is_lid_open = angle >= self.open_angle
+        is_lifted = local[:, 2] >= rim + self.lift_clearance
+        is_outside = (local[:, :2].abs() > outer).any(dim=1)
+        is_retrieved = is_lifted | is_outside
+        return {
+            "success": is_lid_open & is_retrieved,
+            "lid_angle": angle,
+            "is_lid_open": is_lid_open,
+            "is_grasped": self.agent.is_grasping(self.cube),
+            "is_lifted": is_lifted,
+            "is_retrieved": is_retrieved,
+        }
+
+    def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
+        # stage 1: reach the lid's lip and swing the lid open; stage 2: reach, grasp and lift the cube
+        lip = self.box.links_map["box_lid"].pose * Pose.create_from_pq(
+            torch.as_tensor(self.box_shape.lip_in_lid(), dtype=torch.float32, device=self.device))
+        tcp = self.agent.tcp_pose.p
+        opened = (info["lid_angle"] / self.open_angle).clamp(max=1)
+        reward = (1 - torch.tanh(5 * torch.linalg.norm(lip.p - tcp, dim=1))) * ~info["is_lid_open"] + 2 * opened
+        reach_cube = 1 - torch.tanh(5 * torch.linalg.norm(self.cube.pose.p - tcp, dim=1))
+        reward += (reach_cube + info["is_grasped"]) * info["is_lid_open"]
+        height = self._cube_in_box_frame()[:, 2] - self.box_shape.base_thickness - self.cube_half_size
+        goal = self.box_shape.wall_height + self.lift_clearance - self.box_shape.base_thickness - self.cube_half_size
+        reward += 2 * (height / goal).clamp(0, 1) * info["is_grasped"]
+        reward[info["success"]] = 7
+        return reward
+
+    def compute_normalized_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
+        return self.compute_dense_reward(obs, action, info) / 7
+
+
+@register_solver("OpenBoxRetrieval", control_modes=TCP_DELTA_MODES)
+def solve_open_box_retrieval(env, seed: int) -> dict:
+    """Lift the lid by its lip past vertical (it falls open), then pick the cube out of the box."""
+    with DrivenSolver.episode(env, seed) as robot:
+        task: OpenBoxRetrievalEnv = env.unwrapped
+        open_lid(robot, "arm", "gripper", task.box, task.box_shape)
+        cube_yaw = robot.neutral_yaw(yaw_of(task.cube.pose.q), np.pi / 2)
+        robot.pick("arm", "gripper", task.cube.pose.p, cube_yaw, lift=0.15)
+        robot.hold_until_success()
+        return robot.info
