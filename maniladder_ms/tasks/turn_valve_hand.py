@@ -90,7 +90,7 @@ class TurnValveHandEnv(ManiLadderEnv):
 # about yaw 0 to stay well inside the Panda's wrist range
 FINGER_RADIUS = 0.06
 FINGER_BEHIND_SPOKE = np.radians(30)
-FINGER_BELOW_WHEEL = 0.012
+FINGER_BELOW_WHEEL = 0.02
 HAND_TURN = np.radians(135)
 TURN_STEP, TURN_STEP_MAX_STEPS = np.radians(10), 3
 
