@@ -4,7 +4,7 @@ import pytest
 
 from maniladder_ms.solvers import sweep
 
-TASKS = ["HandoverCube", "LiftWideBox", "PushBlocksBimanual"]
+TASKS = ["HandoverCube", "LiftWideBox", "PushBlocksBimanual", "OpenLidHoldBox"]
 
 
 def successes(task_id, seeds):

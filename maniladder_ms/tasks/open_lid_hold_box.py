@@ -1,0 +1,128 @@
+"""OpenLidHoldBox (L1 rigid DG): one arm holds a light box still while the other opens its hinged lid."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import torch
+
+from mani_skill.utils.structs.pose import Pose
+
+from maniladder_ms.envs import ManiLadderEnv, register_task
+from maniladder_ms.geometry import yaw_quat
+from maniladder_ms.objects.boxes import LiddedBoxShape, build_lidded_box, lid_angle
+from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
+from maniladder_ms.solvers.bimanual import Grasp, reach, tcp_quat
+from maniladder_ms.solvers.driven import DrivenSolver
+from maniladder_ms.solvers.lids import open_lid
+
+
+# TCP height of the holding grasp, 2.5 cm below the lid: the fingers (+-1 cm about the TCP) grip the side
+# walls clear of the lid, and the sideways hand, which reaches ~6 cm below its TCP on the wrist camera's
+# side, clears the table
+HOLD_HEIGHT = 0.065
+
+
+@register_task("OpenLidHoldBox")
+class OpenLidHoldBoxEnv(ManiLadderEnv):
+    """**Task:** a light, narrow box with a hinged lid lies lengthwise across the table; the left arm
+    holds the box still by its left end while the right arm lifts the lid open by its lip.
+
+    **Randomisation:** the box (outer 16 cm long along y, 6 cm wide, walls 9 cm high, about 0.25 kg with
+    the lid; the lid is hinged across the top of the left (+y) end and overhangs the right end wall by a
+    3 cm lip) has its centre uniform in x in [-0.12, -0.06], y in [-0.04, 0.04] and its long axis turned
+    from y by a yaw uniform in [-15, 15] degrees; the lid is closed.
+
+    **Success:** the lid is open by at least `open_angle` = 70 deg and the box body has moved less than
+    `max_displacement` = 3 cm (horizontally) from where it stood at the start of the episode.
+    """
+
+    SUPPORTED_ROBOTS = ["ml_dual_panda"]
+    TASK_REGION = (-0.25, 0.15, -0.2, 0.2)
+    # 6 cm wide across the hinge axis (the box's y), so that one gripper closes across the box at its
+    # hinge end below the lid; 9 cm walls leave room for the fingers under the lid
+    box_shape = LiddedBoxShape(inner_half_size=(0.07, 0.02), wall_height=0.09)
+    box_density = 400.0  # 0.18 kg body: opening the lid drags it ~10 cm unless it is held
+    open_angle = np.deg2rad(70)
+    max_displacement = 0.03
+
+    def _load_scene(self, options: dict):
+        super()._load_scene(options)
+        self.box = build_lidded_box(self.scene, "box", self.box_shape, self.box_density,
+                                    color=(0.35, 0.55, 0.4, 1), lid_color=(0.5, 0.7, 0.5, 1))
+        self.box_start = torch.zeros(self.num_envs, 3, device=self.device)
+
+    def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
+        super()._initialize_episode(env_idx, options)
+        with torch.device(self.device):
+            b = len(env_idx)
+            xyz = torch.stack([torch.rand(b) * 0.06 - 0.12, torch.rand(b) * 0.08 - 0.04, torch.zeros(b)], dim=1)
+            yaw = np.pi / 2 + (torch.rand(b) * 2 - 1) * np.deg2rad(15)
+            self.box.set_pose(Pose.create_from_pq(xyz, yaw_quat(yaw)))
+            self.box.set_qpos(torch.zeros(b, 1))
+            self.box.set_qvel(torch.zeros(b, 1))
+            self.box_start[env_idx] = xyz
+
+    def holding_grasp(self) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        """World TCP pose (p, q) of the holding grasp and the box's +x axis (hinge side, the robot's left):
+        a sideways hand pointing at the box's hinge end along the box's -x, fingers closing across the
+        box's width (its y axis) on the side walls below the lid, 2 cm in from the end, `HOLD_HEIGHT` up."""
+        rot = self.box.pose.to_transformation_matrix()[:, :3, :3]
+        box_x, box_y = rot[:, :, 0], rot[:, :, 1]
+        local = torch.tensor([[self.box_shape.outer_half_size[0] - 0.02, 0.0, HOLD_HEIGHT]], device=self.device)
+        return (self.box.pose * Pose.create_from_pq(local)).p, tcp_quat(-box_x, -box_y), box_x
+
+    def _displacement(self) -> torch.Tensor:
+        return torch.linalg.norm((self.box.pose.p - self.box_start)[:, :2], dim=1)
+
+    def _get_obs_extra(self, info: dict):
+        obs = dict(left_tcp_pose=self.agent.tcps["left"].pose.raw_pose, right_tcp_pose=self.agent.tcps["right"].pose.raw_pose,
+                   lid_angle=info["lid_angle"], box_held=info["box_held"])
+        if "state" in self.obs_mode:
+            obs.update(box_pose=self.box.pose.raw_pose, box_start=self.box_start)
+        return obs
+
+    def evaluate(self):
+        angle = lid_angle(self.box)
+        displacement = self._displacement()
+        is_open = angle >= self.open_angle
+        is_still = displacement < self.max_displacement
+        return {
+            "success": is_open & is_still,
+            "lid_angle": angle,
+            "displacement": displacement,
+            "is_lid_open": is_open,
+            "is_box_still": is_still,
+            "box_held": self.agent.is_grasping("left", self.box.links_map["box_body"]),
+        }
+
+    def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
+        hold_p = self.holding_grasp()[0]
+        reach_hold = 1 - torch.tanh(5 * torch.linalg.norm(hold_p - self.agent.tcps["left"].pose.p, dim=1))
+        lip = self.box.links_map["box_lid"].pose * Pose.create_from_pq(
+            torch.as_tensor(self.box_shape.lip_in_lid(), dtype=torch.float32, device=self.device))
+        reach_lip = 1 - torch.tanh(5 * torch.linalg.norm(lip.p - self.agent.tcps["right"].pose.p, dim=1))
+        opened = (info["lid_angle"] / self.open_angle).clamp(0, 1)
+        still = 1 - (info["displacement"] / self.max_displacement).clamp(max=1)
+        reward = reach_hold + info["box_held"].float() + reach_lip * ~info["is_lid_open"] + 3 * opened * still
+        reward[info["success"]] = 6
+        return reward
+
+    def compute_normalized_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
+        return self.compute_dense_reward(obs, action, info) / 6
+
+
+@register_solver("OpenLidHoldBox", control_modes=TCP_DELTA_MODES)
+def solve_open_lid_hold_box(env, seed: int) -> dict:
+    """Left: sideways grasp across the box's hinge (left) end, below the lid; right: lift the lid by its
+    lip past vertical (solvers.lids.open_lid) while the left keeps holding."""
+    with DrivenSolver.episode(env, seed) as s:
+        task: OpenLidHoldBoxEnv = env.unwrapped
+        p, q, outward = task.holding_grasp()
+        # line up 10 cm beyond the box's hinge end, then move straight in
+        reach(s, [Grasp("left_arm", "left_gripper", p, q, 0.1 * outward)])
+        s.grasp("left_gripper")
+        open_lid(s, "right_arm", "right_gripper", task.box, task.box_shape)
+        s.hold_until_success()
+        return s.info
