@@ -16,6 +16,8 @@ from maniladder_ms.agents.helpers import LEAP_SYNERGIES
 from .driven import DrivenSolver
 
 LIFT_STEP = 0.01  # metres per control step of a two-arm lift: both targets rise together
+PRESHAPE_STEPS = 5  # LEAP hands take their preshape once lined up (as DrivenSolver.pick)
+HAND_RAMP_STEPS, HAND_HOLD_STEPS = 40, 8  # Driver.close_hand's slow closing ramp, for several hands at once
 
 
 @dataclass
@@ -53,10 +55,11 @@ def reach(s: DrivenSolver, grasps: list[Grasp], line_up_steps: int = 60, move_in
     (end effectors open; LEAP hands take their preshape once lined up)."""
     s.move({g.arm: g.lined_up for g in grasps}, max_steps=line_up_steps)
     leap = [g.ee for g in grasps if s.is_leap(g.ee)]
-    for ee in leap:
-        s.set_ee(ee, "preshape", steps=0)
-    for _ in range(5 if leap else 0):
-        s.step()
+    if leap:
+        for ee in leap:
+            s.set_ee(ee, "preshape", steps=0)
+        for _ in range(PRESHAPE_STEPS):
+            s.step()
     s.move({g.arm: (g.p, g.q) for g in grasps}, max_steps=move_in_steps, pos_tol=0.003)
 
 
@@ -67,18 +70,16 @@ def grasp_together(s: DrivenSolver, ee_parts: list[str]):
     leap = [ee for ee in ee_parts if s.is_leap(ee)]
     for ee in ee_parts:
         if ee not in leap:
-            s.set_ee(ee, [-1.0], steps=0)
+            s.grip(True, ee, steps=0)
     if not leap:
-        for _ in range(10):
+        for _ in range(10):  # as DrivenSolver.grasp
             s.step()
         return
-    # the hands' slow closing ramp (Driver.close_hand), run for all hands in the same steps
-    ramp, hold = 40, 8
     start = {ee: s.ee_cmd[ee].clone() for ee in leap}
     goal = torch.as_tensor(LEAP_SYNERGIES["power"], dtype=torch.float32, device=s.base.device)
-    for k in range(1, ramp + hold + 1):
+    for k in range(1, HAND_RAMP_STEPS + HAND_HOLD_STEPS + 1):
         for ee in leap:
-            s.set_ee(ee, start[ee] + (goal - start[ee]) * min(k, ramp) / ramp, steps=0)
+            s.set_ee(ee, start[ee] + (goal - start[ee]) * min(k, HAND_RAMP_STEPS) / HAND_RAMP_STEPS, steps=0)
         s.step()
 
 
