@@ -4,7 +4,7 @@ import pytest
 
 from maniladder_ms.solvers import sweep
 
-TASKS = ["LiftBasketHands"]
+TASKS = ["LiftBasketHands", "OpenDoubleDoorsHands"]
 
 
 def successes(task_id, seeds):

@@ -1,0 +1,131 @@
+"""OpenDoubleDoorsHands (L1 rigid DX): open both doors of a small cabinet at once, one LEAP hand per door."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import torch
+
+from mani_skill.utils.structs.pose import Pose
+
+from maniladder_ms.agents.helpers import top_down_quat
+from maniladder_ms.envs import ManiLadderEnv, register_task
+from maniladder_ms.geometry import yaw_quat
+from maniladder_ms.objects.cabinet import DOOR_SIDE, DOORS, CabinetShape, build_cabinet, door_angles, door_frame
+from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
+from maniladder_ms.solvers.bimanual import Grasp, grasp_together, reach
+from maniladder_ms.solvers.driven import DrivenSolver
+
+
+@register_task("OpenDoubleDoorsHands")
+class OpenDoubleDoorsHandsEnv(ManiLadderEnv):
+    """**Task:** open both doors of a small cabinet, one hand pulling each door by its knob.
+
+    **Randomisation:** the cabinet (40 cm wide, 22 cm deep, 32 cm tall, fixed to the table, front facing
+    the robot; two 20 cm doors hinged on their outer edges, each with a knob 8 cm from its hinge: a 10 cm
+    stem out of the door ending in an upright post 5 cm across) starts with both doors closed, its centre uniform in x in [0.27, 0.31], y in [-0.02, 0.02] and its
+    yaw uniform in [-5, 5] degrees.
+
+    **Success:** both door angles are at least `open_angle` = 60 degrees at the same time.
+    """
+
+    SUPPORTED_ROBOTS = ["ml_dual_panda_leap"]
+    TASK_REGION = (-0.25, 0.3, -0.3, 0.3)
+    cabinet_shape = CabinetShape()
+    open_angle = np.deg2rad(60)
+    grasp_depth = 0.035  # below the knob's top, where a hand closes round it (as round a can)
+
+    def _load_scene(self, options: dict):
+        super()._load_scene(options)
+        self.cabinet = build_cabinet(self.scene, "cabinet", self.cabinet_shape, color=(0.85, 0.82, 0.75, 1),
+                                     door_color=(0.45, 0.6, 0.75, 1), handle_color=(0.3, 0.3, 0.32, 1))
+
+    def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
+        super()._initialize_episode(env_idx, options)
+        with torch.device(self.device):
+            b = len(env_idx)
+            xyz = torch.stack([0.27 + torch.rand(b) * 0.04, torch.rand(b) * 0.04 - 0.02, torch.zeros(b)], dim=1)
+            yaw = (torch.rand(b) * 2 - 1) * np.deg2rad(5)
+            self.cabinet.set_pose(Pose.create_from_pq(xyz, yaw_quat(yaw)))
+            self.cabinet.set_qpos(torch.zeros(b, 2))
+            self.cabinet.set_qvel(torch.zeros(b, 2))
+
+    def grasp_frame(self, door: str, angle: torch.Tensor) -> Pose:
+        """Where a hand holds `door`'s knob with the door opened to `angle` (num_envs,): on the post's
+        axis, `grasp_depth` below its top, axes as the door's."""
+        local = self.cabinet_shape.post_top(door) - [0.0, 0.0, self.grasp_depth]
+        local = torch.as_tensor(local, dtype=torch.float32, device=self.device)[None].expand(self.num_envs, 3)
+        return door_frame(self.cabinet, self.cabinet_shape, door, angle) * Pose.create_from_pq(local)
+
+    def handle_centres(self) -> dict[str, torch.Tensor]:
+        """World grasp points on the two knobs at the doors' current angles, (num_envs, 3) each."""
+        angles = door_angles(self.cabinet)
+        return {door: self.grasp_frame(door, angles[:, i]).p for i, door in enumerate(DOORS)}
+
+    def _get_obs_extra(self, info: dict):
+        obs = dict(left_tcp_pose=self.agent.tcps["left"].pose.raw_pose, right_tcp_pose=self.agent.tcps["right"].pose.raw_pose)
+        if "state" in self.obs_mode:
+            handles = self.handle_centres()
+            obs.update(cabinet_pose=self.cabinet.pose.raw_pose, door_angles=door_angles(self.cabinet),
+                       left_tcp_to_handle=handles["left"] - self.agent.tcps["left"].pose.p,
+                       right_tcp_to_handle=handles["right"] - self.agent.tcps["right"].pose.p)
+        return obs
+
+    def evaluate(self):
+        angles = door_angles(self.cabinet)
+        left_open, right_open = (angles >= self.open_angle).unbind(1)
+        return {"success": left_open & right_open, "left_open": left_open, "right_open": right_open}
+
+    def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
+        handles = self.handle_centres()
+        opened = (door_angles(self.cabinet) / self.open_angle).clamp(0, 1)
+        reward = torch.zeros(self.num_envs, device=self.device)
+        for i, door in enumerate(DOORS):
+            reach = torch.linalg.norm(handles[door] - self.agent.tcps[door].pose.p, dim=1)
+            reward += (1 - torch.tanh(5 * reach)) + 2 * opened[:, i]
+        reward[info["success"]] = 6
+        return reward
+
+    def compute_normalized_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
+        return self.compute_dense_reward(obs, action, info) / 6
+
+
+OPEN_TO = np.deg2rad(90)  # past the 60-degree goal: the doors lag the hands by ~25 degrees
+ARC_STEPS = 12
+
+
+@register_solver("OpenDoubleDoorsHands", control_modes=TCP_DELTA_MODES)
+def solve_open_double_doors_hands(env, seed: int) -> dict:
+    """Both hands close round their doors' knob posts from above, then carry their grasps round the
+    hinges together, each hand turning with its door."""
+    with DrivenSolver.episode(env, seed) as s:
+        task: OpenDoubleDoorsHandsEnv = env.unwrapped
+        n, device = task.num_envs, task.device
+        # in a door's frame: TCP on the knob's axis, fingers pointing along the door towards its hinge: the
+        # wrists then turn with the doors within their joint ranges, and the fingers stay clear of the doors
+        grasp_local = {door: Pose.create_from_pq(torch.zeros(1, 3, device=device),
+                                                 top_down_quat(DOOR_SIDE[door] * np.pi / 2, 1, device=device))
+                       for door in DOORS}
+
+        def grasp_pose(door: str, angle: float) -> Pose:
+            return task.grasp_frame(door, torch.full((n,), angle, device=device)) * grasp_local[door]
+
+        up = torch.tensor([0.0, 0.0, 0.08], device=device)
+        grasps = []
+        for door in DOORS:
+            pose = grasp_pose(door, 0.0)
+            grasps.append(Grasp(f"{door}_arm", f"{door}_hand", pose.p, pose.q, up))
+        # turn the hands to their grasp yaws where they are, lifted clear of the doors, before reaching out:
+        # turning while reaching can fold an arm into a tilted-hand posture it does not leave
+        s.move({g.arm: (s.above(s.tcp(g.arm).p, 0.1), g.q) for g in grasps}, max_steps=40)
+        reach(s, grasps)
+        grasp_together(s, [g.ee for g in grasps])
+        for angle in np.linspace(0.0, OPEN_TO, ARC_STEPS + 1)[1:]:
+            targets = {}
+            for door in DOORS:
+                pose = grasp_pose(door, float(angle))
+                targets[f"{door}_arm"] = (pose.p, pose.q)
+            s.move(targets, max_steps=4, pos_tol=0.01)
+        s.hold_until_success()
+        return s.info
