@@ -16,9 +16,10 @@ from .driven import DrivenSolver
 
 PUSH_TO = np.deg2rad(100)  # past vertical the lid falls the rest of the way onto its open limit
 LEAD = 0.3  # rad: the fingers' target runs this far ahead of the lid along the arc
-# the hand points at the lip from the robot's side, tilted this far below horizontal, so the fingertips
-# reach under the overhang. (Flatter is out of reach: tilting the Panda's hand forward from pointing
-# down by more than ~55 deg puts joint 6 on its 3.75 rad limit.)
+# the hand points at the lip from outside the box, towards the hinge, tilted this far below horizontal,
+# so the fingertips reach under the overhang. Boxes are best hinged on the robot's side: the hand then
+# tilts back towards the robot (Panda joint 6 straightens); tilting it forward bends joint 6 towards
+# the wrist's singular range and its IK winds joints 5 and 7 onto their limits.
 PITCH = np.deg2rad(45)
 # fingertips this far in from the lip's edge, and below its face deep enough that the tilted fingers
 # pass under the edge with 1 cm to spare
@@ -79,9 +80,11 @@ def _approach(box) -> torch.Tensor:
 
 def _hook_quat(box) -> torch.Tensor:
     """(b, 4) TCP orientation: z along `_approach`, fingers closing along the hinge (body y), side by side
-    under the lip; the rest pose's top-down orientation tilted forward, so the wrist turns least."""
+    under the lip; of the gripper's two such orientations, the one with y nearer the rest pose's
+    (world -y), so the wrist turns least."""
     yaw = yaw_of(box.pose.q)
     z = _approach(box)
     y = torch.stack([torch.sin(yaw), -torch.cos(yaw), torch.zeros_like(yaw)], dim=1)
+    y = y * torch.where(y[:, 1:2] > 0, -1.0, 1.0)
     x = torch.cross(y, z, dim=1)
     return matrix_to_quaternion(torch.stack([x, y, z], dim=2))

@@ -23,9 +23,9 @@ class OpenBoxRetrievalEnv(ManiLadderEnv):
     """**Task:** lift the hinged lid of a box and take out the 4 cm cube lying inside.
 
     **Randomisation:**
-    - the box (inner 16 x 16 cm, walls 6 cm high, 1.5 kg) has its centre uniform in x in [-0.08, 0.0],
-      y in [-0.1, 0.1] and its yaw uniform in [-pi/6, pi/6]; the lid is hinged on the side away from the
-      robot, and overhangs the near wall by a 3 cm lip;
+    - the box (inner 16 x 16 cm, walls 6 cm high, 1.5 kg) has its centre uniform in x in [-0.24, -0.16],
+      y in [-0.1, 0.1]; the lid is hinged on the side facing the robot and overhangs the far wall by a
+      3 cm lip, the box turned by pi plus a yaw uniform in [-pi/8, pi/8];
     - the cube lies on the box floor, offset from the box centre by up to 1 cm along each box axis,
       turned by a yaw uniform in [-pi/9, pi/9] from the box's axes (room for the open gripper's fingers
       between the cube and the walls).
@@ -53,8 +53,10 @@ class OpenBoxRetrievalEnv(ManiLadderEnv):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            box_xyz = torch.stack([torch.rand(b) * 0.08 - 0.08, torch.rand(b) * 0.2 - 0.1, torch.zeros(b)], dim=1)
-            box_pose = Pose.create_from_pq(box_xyz, yaw_quat((torch.rand(b) - 0.5) * np.pi / 3))
+            box_xyz = torch.stack([torch.rand(b) * 0.08 - 0.24, torch.rand(b) * 0.2 - 0.1, torch.zeros(b)], dim=1)
+            # hinge towards the robot: the hand lifts the far lip tilted back towards the robot, and the
+            # opened lid leans over the robot's side, under the forearm that reaches into the box
+            box_pose = Pose.create_from_pq(box_xyz, yaw_quat(np.pi + (torch.rand(b) - 0.5) * np.pi / 4))
             self.box.set_pose(box_pose)
             self.box.set_qpos(torch.zeros(b, 1))
             self.box.set_qvel(torch.zeros(b, 1))
