@@ -44,9 +44,8 @@ class LiftBottleHandEnv(ManiLadderEnv):
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
-        density = containers.density_for_mass(self.bottle_shape, self.bottle_mass)
-        self.bottle = containers.build_container(self.scene, "bottle", self.bottle_shape, color=(0.2, 0.55, 0.3, 1),
-                                                 density=density, friction=0.8)
+        self.bottle = containers.build_bottle(self.scene, "bottle", self.bottle_shape, self.bottle_mass,
+                                              color=(0.2, 0.55, 0.3, 1))
         self.finger_links = [self.agent.link(name) for name in FINGER_LINKS]
         self.thumb_links = [self.agent.link(name) for name in THUMB_LINKS]
 
@@ -96,8 +95,9 @@ class LiftBottleHandEnv(ManiLadderEnv):
 
 # where the bottle's axis sits from the hand's tcp when the hand closes (world frame, hand yaw 0): 1 cm
 # towards the fingertips, so the curling fingers meet it before the thumb pushes it away, and 1 cm to
-# the index-finger side (+y), where it settles as the fingers close (with the tcp on the axis, 2 of 20
-# seeds pushed the bottle over or dropped it)
+# the index-finger side (+y), where it settles as the fingers close. 142 of seeds 100-249 lifted (95%);
+# the failures are the bottle squeezed out between index tip and thumb as the hand lifts. With the tcp on
+# the axis the thumb pushed the bottle over or it slipped out on 2 of 20 seeds
 GRASP_OFFSET = (0.01, 0.01, 0.0)
 
 
