@@ -115,21 +115,21 @@ def solve_turn_valve_hand(env, seed: int) -> dict:
         spoke0 = yaw_of(task.valve.pose.q) + valve_angle(task.valve)
         gap = 2 * np.pi / task.valve_shape.spokes
         want = torch.atan2(tip_offset[:, 1], tip_offset[:, 0])  # the finger's angle with the tcp on the axis
-        k = torch.round(wrap_angle(want - (spoke0 - direction * FINGER_BEHIND_SPOKE)) / gap)
-        finger_angle = spoke0 - direction * FINGER_BEHIND_SPOKE + k * gap
+        behind_spoke0 = spoke0 - direction * FINGER_BEHIND_SPOKE
+        finger_angle = behind_spoke0 + torch.round(wrap_angle(want - behind_spoke0) / gap) * gap
         finger = axis + FINGER_RADIUS * torch.stack(
-            [torch.cos(finger_angle), torch.sin(finger_angle), torch.full_like(finger_angle, 0.0)], dim=1)
+            [torch.cos(finger_angle), torch.sin(finger_angle), torch.zeros_like(finger_angle)], dim=1)
         finger[:, 2] -= FINGER_BELOW_WHEEL
         tcp = finger - tip_offset
         above = torch.tensor([0.0, 0.0, 0.08], device=dev)
         s.move({"arm": (tcp + above, q0)}, max_steps=30)
         s.move({"arm": (tcp, q0)}, max_steps=30, pos_tol=0.003)
-        for k in range(1, int(round(HAND_TURN / TURN_STEP)) + 1):
+        rel = tcp - axis
+        for i in range(1, int(round(HAND_TURN / TURN_STEP)) + 1):
             if bool(s.info["success"].all()):
                 break
-            turn = direction * k * TURN_STEP
+            turn = direction * i * TURN_STEP
             cos, sin = torch.cos(turn), torch.sin(turn)
-            rel = tcp - axis
             orbit = torch.stack([cos * rel[:, 0] - sin * rel[:, 1], sin * rel[:, 0] + cos * rel[:, 1], rel[:, 2]], dim=1)
             s.move({"arm": (axis + orbit, top_down_quat(yaw0 + turn, task.num_envs, dev))}, max_steps=TURN_STEP_MAX_STEPS)
         s.hold_until_success()
