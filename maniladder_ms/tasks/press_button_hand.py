@@ -29,7 +29,7 @@ class PressButtonHandEnv(ManiLadderEnv):
     """
 
     SUPPORTED_ROBOTS = ["ml_panda_leap"]
-    TASK_REGION = (-0.25, 0.0, -0.2, 0.2)
+    TASK_REGION = (-0.27, 0.02, -0.22, 0.22)  # button centres plus the housing's half diagonal
     button_shape = ButtonShape()
     press_fraction = 0.8
 

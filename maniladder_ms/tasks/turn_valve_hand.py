@@ -33,7 +33,7 @@ class TurnValveHandEnv(ManiLadderEnv):
     """
 
     SUPPORTED_ROBOTS = ["ml_panda_leap"]
-    TASK_REGION = (-0.33, 0.03, -0.23, 0.23)
+    TASK_REGION = (-0.36, 0.06, -0.26, 0.26)  # valve region plus the arrow around it (16 cm)
     valve_shape = ValveShape()
     turn_angle = np.pi / 2
 
