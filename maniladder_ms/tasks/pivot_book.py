@@ -1,0 +1,157 @@
+"""PivotBook (L1 rigid SG): pivot a book lying flat against a wall up until it stands on its end."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import sapien
+import torch
+
+from mani_skill.utils.geometry.rotation_conversions import quaternion_apply
+from mani_skill.utils.structs.pose import Pose
+
+from maniladder_ms.agents.helpers import top_down_quat
+from maniladder_ms.envs import ManiLadderEnv, register_task
+from maniladder_ms.geometry import yaw_of, yaw_quat
+from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
+from maniladder_ms.solvers.driven import DrivenSolver
+
+BOOK_DENSITY = 500.0
+
+
+@register_task("PivotBook")
+class PivotBookEnv(ManiLadderEnv):
+    """**Task:** a book (21 x 15 x 3 cm, 0.47 kg) lies flat on the table with its far end against a
+    wall; pivot it about that end until it stands upright against the wall. Non-prehensile: the book is
+    too flat to grasp from the table.
+
+    **Randomisation:** the book's centre y is uniform in [-0.1, 0.1], its yaw uniform in [-8, 8] deg,
+    and its far end between 0 and 5 mm from the wall (a 2 cm thick wall 8 cm high whose face is at
+    x = 0.05).
+
+    **Success:** the book's long axis is within `upright_tol` = 20 deg of vertical and the book is at
+    rest (linear speed < `rest_speed` = 1 cm/s, angular speed < `rest_ang` = 0.1 rad/s).
+    """
+
+    TASK_REGION = (-0.2, 0.1, -0.25, 0.25)
+    book_half_size = (0.105, 0.075, 0.015)  # long axis along local x
+    wall_face_x = 0.05
+    wall_half_size = (0.01, 0.3, 0.04)  # 8 cm: enough to stop the book's foot, low enough for the front camera to see over
+    upright_tol = np.deg2rad(20)
+    rest_speed = 0.01
+    rest_ang = 0.1
+
+    def _load_scene(self, options: dict):
+        super()._load_scene(options)
+        builder = self.scene.create_actor_builder()
+        wall_pose = sapien.Pose(p=[self.wall_face_x + self.wall_half_size[0], 0, self.wall_half_size[2]])
+        builder.add_box_collision(half_size=self.wall_half_size)
+        builder.add_box_visual(half_size=self.wall_half_size,
+                               material=sapien.render.RenderMaterial(base_color=[0.75, 0.75, 0.7, 1]))
+        builder.initial_pose = wall_pose
+        self.wall = builder.build_static(name="wall")
+        builder = self.scene.create_actor_builder()
+        # a cloth-bound cover grips: the finger sliding up the end face must lift the end by friction
+        cover = sapien.physx.PhysxMaterial(static_friction=1.0, dynamic_friction=0.8, restitution=0)
+        builder.add_box_collision(half_size=self.book_half_size, material=cover, density=BOOK_DENSITY)
+        builder.add_box_visual(half_size=self.book_half_size,
+                               material=sapien.render.RenderMaterial(base_color=[0.6, 0.15, 0.15, 1]))
+        builder.initial_pose = sapien.Pose(p=[-0.05, 0, self.book_half_size[2]])
+        self.book = builder.build(name="book")
+
+    def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
+        super()._initialize_episode(env_idx, options)
+        with torch.device(self.device):
+            b = len(env_idx)
+            yaw = torch.deg2rad((torch.rand(b) - 0.5) * 16)
+            # the far end's corners touch the wall (or stop short by the gap) whatever the yaw
+            reach = self.book_half_size[0] * torch.cos(yaw) + self.book_half_size[1] * torch.sin(yaw.abs())
+            x = self.wall_face_x - reach - torch.rand(b) * 0.005
+            xyz = torch.stack([x, (torch.rand(b) - 0.5) * 0.2, torch.full((b,), self.book_half_size[2])], dim=1)
+            self.book.set_pose(Pose.create_from_pq(xyz, yaw_quat(yaw)))
+
+    def book_axis(self) -> torch.Tensor:
+        """(b, 3) world direction of the book's long axis (local +x, towards the wall when lying)."""
+        return quaternion_apply(self.book.pose.q, torch.tensor([1.0, 0, 0], device=self.device).expand(self.num_envs, 3))
+
+    def _get_obs_extra(self, info: dict):
+        obs = dict(tcp_pose=self.agent.tcp_pose.raw_pose)
+        if "state" in self.obs_mode:
+            obs.update(book_pose=self.book.pose.raw_pose, tcp_to_book_pos=self.book.pose.p - self.agent.tcp_pose.p)
+        return obs
+
+    def evaluate(self):
+        tilt_up = torch.asin(self.book_axis()[:, 2].abs().clamp(max=1))  # 0 lying, pi/2 upright
+        is_upright = tilt_up >= np.pi / 2 - self.upright_tol
+        is_static = self.book.is_static(lin_thresh=self.rest_speed, ang_thresh=self.rest_ang)
+        return {"success": is_upright & is_static, "tilt_up": tilt_up, "is_upright": is_upright, "is_static": is_static}
+
+    def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
+        # reach the book's near end, then raise it; full marks once it stands still
+        near_end = self.book.pose.p - self.book_axis() * self.book_half_size[0]
+        reach = 1 - torch.tanh(5 * torch.linalg.norm(near_end - self.agent.tcp_pose.p, dim=1))
+        reward = reach + 3 * info["tilt_up"] / (np.pi / 2) + info["is_upright"].float()
+        reward[info["success"]] = 6
+        return reward
+
+    def compute_normalized_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
+        return self.compute_dense_reward(obs, action, info) / 6
+
+
+LEAD = 0.35  # rad: the finger's target runs this far ahead of the book along the near end's arc
+RAISE_START = np.deg2rad(5)  # book tilt from which the finger can get under its near end
+TIP_BELOW_TCP = 0.01  # the Panda's closed fingertips reach about this far below its tcp
+FINGER_HALF_THICKNESS = 0.01  # closed Panda fingers, from the tcp to their outer face
+NEAR_UPRIGHT = 0.05  # rad short of vertical where the finger stops following the arc
+PRESS_DEPTH = 0.025  # how far into the end face the finger is aimed while sliding up it
+
+
+@register_solver("PivotBook", control_modes=TCP_DELTA_MODES)
+def solve_pivot_book(env, seed: int) -> dict:
+    """Lift the book's near end by pressing its end face with the closed fingers and sliding them up
+    (friction raises the end while the wall holds the far end), then keep the fingertips under the
+    rising end, following its arc about the far bottom edge until the book stands against the wall."""
+    with DrivenSolver.episode(env, seed) as robot:
+        task: PivotBookEnv = env.unwrapped
+        n, device = task.num_envs, task.device
+        hx, _, hz = task.book_half_size
+        yaw = yaw_of(task.book.pose.q)
+        toward_wall = torch.stack([torch.cos(yaw), torch.sin(yaw), torch.zeros_like(yaw)], dim=1)
+        up = torch.tensor([0.0, 0.0, 1.0], device=device)
+        q = top_down_quat(robot.neutral_yaw(yaw, np.pi / 2), n, device=device)
+        tip_to_tcp = TIP_BELOW_TCP * up
+        robot.grasp("gripper")
+        near_face = task.book.pose.p - toward_wall * hx
+        start = near_face - toward_wall * 0.03 + up * (0.01 - hz)
+        robot.move({"arm": (start + up * 0.08 + tip_to_tcp, q)}, max_steps=60)
+        robot.move({"arm": (start + tip_to_tcp, q)}, max_steps=30, pos_tol=0.004)
+        # friction lift: press the end face lightly (the target just inside it) and slide up
+        for _ in range(60):
+            if bool((task.evaluate()["tilt_up"] >= RAISE_START).all()):
+                break
+            tip = robot.tcp("arm").p - tip_to_tcp
+            target = task.book.pose.p - task.book_axis() * (hx + FINGER_HALF_THICKNESS - PRESS_DEPTH)
+            target[:, 2] = tip[:, 2] + 0.02
+            robot.step({"arm": (target + tip_to_tcp, q)})
+        # follow the near end's arc about the far bottom edge, fingertips at the end's bottom edge
+        for _ in range(80):
+            tilt = task.evaluate()["tilt_up"]
+            if bool((tilt >= np.pi / 2 - NEAR_UPRIGHT).all()):
+                break
+            axis = task.book_axis()
+            normal = quaternion_apply(task.book.pose.q, torch.tensor([0.0, 0, 1.0], device=device).expand(n, 3))
+            pivot = task.book.pose.p + axis * hx - normal * hz
+            phi = (tilt + LEAD).clamp(max=np.pi / 2)  # past vertical would drive the top into the wall and kick the foot out
+            along = -torch.cos(phi)[:, None] * toward_wall + torch.sin(phi)[:, None] * up
+            below = -torch.sin(phi)[:, None] * toward_wall - torch.cos(phi)[:, None] * up
+            tip = pivot + along * 2 * hx + below * 0.005
+            robot.step({"arm": (tip + tip_to_tcp, q)})
+        # rise straight up along the book's top end: the fingers' friction carries it the last degrees
+        # onto its end face, flat against the wall, where it stands (short of that it falls back, so
+        # backing away first fails); then back off
+        clear = robot.above(robot.tcp("arm").p, 0.06)
+        robot.move({"arm": (clear, q)}, max_steps=15, pos_tol=0.01)
+        robot.move({"arm": (clear - toward_wall * 0.06, q)}, max_steps=15, pos_tol=0.01)
+        robot.hold_until_success()
+        return robot.info
