@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import maniladder_ms
 from maniladder_ms.evaluation import EVAL_SEED_BASE, PROTOCOL_VERSION, eval_seed
 from maniladder_ms.evaluation.cli import main as eval_main
 from maniladder_ms.evaluation.policies import PolicyError, RandomPolicy, load_policy
@@ -19,6 +20,7 @@ from maniladder_ms.evaluation.runner import as_action_chunk, evaluate
 from maniladder_ms.evaluation.stats import ladder_level, level_thresholds, summarize, wilson_interval
 
 PEN = "PickPlacePen"
+UNBUILT = "FlipPancake"  # an L4 task no session is near building
 
 
 def _records(task, successes, n):
@@ -228,7 +230,7 @@ def test_env_driving_policy_is_checked_too(tmp_path):
 
 
 def test_unimplemented_tasks_are_refused_or_skipped(tmp_path, capsys):
-    assert eval_main(["eval", "--policy", "random", "--tasks", "HangMug", "--out", str(tmp_path / "a")]) == 2
+    assert eval_main(["eval", "--policy", "random", "--tasks", UNBUILT, "--out", str(tmp_path / "a")]) == 2
     assert "not implemented yet" in capsys.readouterr().err
     assert eval_main(["eval", "--policy", "random", "--level", "3", "--out", str(tmp_path / "b")]) == 2
     assert "nothing to evaluate" in capsys.readouterr().err
@@ -236,14 +238,19 @@ def test_unimplemented_tasks_are_refused_or_skipped(tmp_path, capsys):
 
 
 def test_cli_eval_suite_lists_skipped_tasks(tmp_path, capsys):
+    # a suite with built and unbuilt tasks: L2-rigid-SG has Stack6Blocks only
+    specs = maniladder_ms.default_catalog().filter(suite="L2-rigid-SG")
+    built = [s.id for s in specs if s.implemented]
+    unbuilt = {s.id for s in specs if not s.implemented}
+    assert built and unbuilt
     out = tmp_path / "r"
-    rc = eval_main(["eval", "--policy", "random", "--suite", "L1-rigid-SG", "--episodes", "1",
+    rc = eval_main(["eval", "--policy", "random", "--suite", "L2-rigid-SG", "--episodes", "1",
                     "--obs-mode", "state", "--out", str(out), "--quiet"])
     assert rc == 0
     text = capsys.readouterr().out
-    assert "PickPlacePen" in text and "ladder level 0" in text and "skipped 3 task(s)" in text
+    assert built[0] in text and "ladder level >= 0" in text and f"skipped {len(unbuilt)} task(s)" in text
     manifest = json.loads((out / "manifest.json").read_text())
-    assert manifest["tasks"] == [PEN] and set(manifest["skipped"]) == {"HangMug", "OpenBoxRetrieval", "PivotBook"}
+    assert manifest["tasks"] == built and set(manifest["skipped"]) == unbuilt
     assert manifest["protocol_version"] == PROTOCOL_VERSION
 
 

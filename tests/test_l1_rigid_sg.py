@@ -4,7 +4,7 @@ import pytest
 
 from maniladder_ms.solvers import sweep
 
-SG_TASKS = ["OpenBoxRetrieval", "PivotBook"]
+SG_TASKS = ["HangMug", "OpenBoxRetrieval", "PivotBook"]
 
 
 @pytest.mark.parametrize("task_id", SG_TASKS)

@@ -1,0 +1,91 @@
+"""A mug: a straight cup (revolved wall, CoACD collision, `objects.containers`) with a loop handle.
+
+The handle is a C of three boxes on the mug's -x side: two arms out from the wall and an outer bar,
+leaving an opening a peg or a finger passes through along the mug's y axis. HangMug hangs it by
+that loop; later levels reuse it (PlaceMugOnCoasterHand, HandoverMugHands).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import sapien
+import sapien.physx as physx
+import sapien.render
+
+from mani_skill.envs.scene import ManiSkillScene
+
+from .containers import CERAMIC_DENSITY, CONTACT_OFFSET, ContainerShape, cached_parts, cup, set_contact_offset
+
+
+@dataclass(frozen=True)
+class MugShape:
+    body: ContainerShape = cup(radius=0.037, height=0.09, wall=0.005, floor=0.006)
+    opening: tuple[float, float] = (0.028, 0.05)  # radial width and height of the loop's opening
+    bar: float = 0.01  # thickness of the arms and the outer bar (x / z)
+    width: float = 0.014  # handle thickness along y
+
+    @property
+    def outer_radius(self) -> float:
+        return self.body.rim_radius + self.body.wall
+
+    def opening_centre(self) -> np.ndarray:
+        """Centre of the loop's opening in the mug frame (origin at the bottom centre)."""
+        return np.array([-(self.outer_radius + self.opening[0] / 2), 0.0, self.body.height / 2])
+
+    def handle_boxes(self) -> list[tuple[list[float], list[float]]]:
+        """(centre, half size) of the two arms and the outer bar; the arms reach 3 mm into the wall."""
+        cx, _, cz = self.opening_centre()
+        w, h = self.opening
+        arm_len = w + self.bar + 0.003
+        arm_x = -(self.outer_radius - 0.003 + arm_len / 2)
+        half_arm = [arm_len / 2, self.width / 2, self.bar / 2]
+        return [
+            ([arm_x, 0.0, cz + h / 2 + self.bar / 2], half_arm),
+            ([arm_x, 0.0, cz - h / 2 - self.bar / 2], half_arm),
+            ([cx - w / 2 - self.bar / 2, 0.0, cz], [self.bar / 2, self.width / 2, h / 2 + self.bar]),
+        ]
+
+
+def build_mug(scene: ManiSkillScene, name: str, shape: MugShape, color, friction: float = 0.8,
+              density: float = CERAMIC_DENSITY):
+    """The mug as a dynamic actor standing on z = 0."""
+    visual, parts = cached_parts(shape.body)
+    builder = scene.create_actor_builder()
+    material = physx.PhysxMaterial(friction, friction, 0.0)
+    for part in parts:
+        builder.add_convex_collision_from_file(str(part), material=material, density=density)
+    render_mat = sapien.render.RenderMaterial(base_color=list(color), roughness=0.3) if scene.can_render() else None
+    if render_mat is not None:
+        builder.add_visual_from_file(str(visual), material=render_mat)
+    for centre, half in shape.handle_boxes():
+        builder.add_box_collision(sapien.Pose(p=centre), half_size=half, material=material, density=density)
+        if render_mat is not None:
+            builder.add_box_visual(sapien.Pose(p=centre), half_size=half, material=render_mat)
+    builder.initial_pose = sapien.Pose()
+    actor = builder.build(name=name)
+    set_contact_offset(actor, CONTACT_OFFSET)
+    return actor
+
+
+def build_mug_tree(scene: ManiSkillScene, name: str, post_height: float, peg_height: float, peg_length: float,
+                   peg_radius: float, color):
+    """A fixed (kinematic) stand: a post on z = 0 with one horizontal peg sticking out along +y at `peg_height`;
+    the actor origin is the post's foot."""
+    builder = scene.create_actor_builder()
+    along_z = sapien.Pose(q=[np.cos(np.pi / 4), 0, np.sin(np.pi / 4), 0])  # SAPIEN cylinders lie along x
+    along_y = sapien.Pose(q=[np.cos(np.pi / 4), 0, 0, np.sin(np.pi / 4)])
+    base = (sapien.Pose(p=[0, 0, 0.005]), [0.05, 0.05, 0.005])
+    builder.add_box_collision(base[0], half_size=base[1])
+    post = sapien.Pose(p=[0, 0, post_height / 2]) * along_z
+    builder.add_cylinder_collision(post, radius=0.012, half_length=post_height / 2)
+    peg = sapien.Pose(p=[0, peg_length / 2, peg_height]) * along_y
+    builder.add_cylinder_collision(peg, radius=peg_radius, half_length=peg_length / 2)
+    if scene.can_render():
+        mat = sapien.render.RenderMaterial(base_color=list(color), roughness=0.6)
+        builder.add_box_visual(base[0], half_size=base[1], material=mat)
+        builder.add_cylinder_visual(post, radius=0.012, half_length=post_height / 2, material=mat)
+        builder.add_cylinder_visual(peg, radius=peg_radius, half_length=peg_length / 2, material=mat)
+    builder.initial_pose = sapien.Pose()
+    return builder.build_kinematic(name=name)

@@ -1,0 +1,160 @@
+"""HangMug (L1 rigid SG): pick a mug and hang it by its handle on the peg of a mug tree."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import torch
+
+from mani_skill.utils.structs.pose import Pose
+
+from maniladder_ms.agents.helpers import top_down_quat, wrap_angle
+from maniladder_ms.envs import ManiLadderEnv, register_task
+from maniladder_ms.geometry import yaw_of, yaw_quat
+from maniladder_ms.objects.mug import MugShape, build_mug, build_mug_tree
+from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
+from maniladder_ms.solvers.driven import DrivenSolver
+
+
+MUG_DENSITY = 800.0  # ~0.2 kg: a rim pinch holds it without the mug tilting in the fingers
+
+
+@register_task("HangMug")
+class HangMugEnv(ManiLadderEnv):
+    """**Task:** pick up a mug (7.4 cm wide, 9 cm tall, loop handle) and hang it by its handle on the
+    horizontal peg of a mug tree.
+
+    **Randomisation:** the mug stands upright at x in [-0.15, -0.05], y in [0.05, 0.2] with a uniform
+    random yaw; the tree's post stands at x in [-0.1, 0.0], y in [-0.3, -0.26]; its peg (1.2 cm thick,
+    12 cm long) sticks out towards +y, 22 cm above the table.
+
+    **Success:** the peg passes through the handle's opening (the point of the peg's axis nearest the
+    opening's centre lies on the peg and inside the opening, in the mug's frame), the mug's bottom is at
+    least `clearance` = 5 cm above the table, the gripper does not hold it, and it is at rest (speed
+    below 5 cm/s and 0.5 rad/s).
+    """
+
+    TASK_REGION = (-0.2, 0.1, -0.35, 0.25)
+    mug_shape = MugShape()
+    peg_height = 0.22
+    peg_length = 0.12
+    peg_radius = 0.006
+    clearance = 0.05
+
+    def _load_scene(self, options: dict):
+        super()._load_scene(options)
+        self.mug = build_mug(self.scene, "mug", self.mug_shape, color=(0.9, 0.85, 0.7, 1), friction=1.0,
+                             density=MUG_DENSITY)
+        self.tree = build_mug_tree(self.scene, "mug_tree", post_height=0.3, peg_height=self.peg_height,
+                                   peg_length=self.peg_length, peg_radius=self.peg_radius, color=(0.45, 0.3, 0.2, 1))
+
+    def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
+        super()._initialize_episode(env_idx, options)
+        with torch.device(self.device):
+            b = len(env_idx)
+            mug_xyz = torch.stack([torch.rand(b) * 0.1 - 0.15, 0.05 + torch.rand(b) * 0.15, torch.zeros(b)], dim=1)
+            self.mug.set_pose(Pose.create_from_pq(mug_xyz, yaw_quat(torch.rand(b) * 2 * np.pi)))
+            tree_xyz = torch.stack([torch.rand(b) * 0.1 - 0.1, -0.3 + torch.rand(b) * 0.04, torch.zeros(b)], dim=1)
+            self.tree.set_pose(Pose.create_from_pq(tree_xyz))
+
+    def peg_root(self) -> torch.Tensor:
+        return self.tree.pose.p + torch.tensor([0.0, 0.0, self.peg_height], device=self.device)
+
+    def opening_centre(self) -> torch.Tensor:
+        local = torch.as_tensor(self.mug_shape.opening_centre(), dtype=torch.float32, device=self.device)
+        return (self.mug.pose * Pose.create_from_pq(local.expand(self.num_envs, 3))).p
+
+    def _get_obs_extra(self, info: dict):
+        obs = dict(tcp_pose=self.agent.tcp_pose.raw_pose, is_grasped=info["is_grasped"])
+        if "state" in self.obs_mode:
+            obs.update(mug_pose=self.mug.pose.raw_pose, peg_root=self.peg_root(),
+                       tcp_to_mug_pos=self.mug.pose.p - self.agent.tcp_pose.p)
+        return obs
+
+    def evaluate(self):
+        centre = self.opening_centre()
+        root = self.peg_root()
+        along = (centre[:, 1] - root[:, 1]).clamp(0, self.peg_length)  # the peg runs along +y
+        nearest = root + torch.stack([torch.zeros_like(along), along, torch.zeros_like(along)], dim=1)
+        local = (self.mug.pose.inv() * Pose.create_from_pq(nearest)).p
+        oc = torch.as_tensor(self.mug_shape.opening_centre(), dtype=torch.float32, device=self.device)
+        w, h = self.mug_shape.opening
+        in_opening = ((local[:, 0] - oc[0]).abs() < w / 2) & ((local[:, 2] - oc[2]).abs() < h / 2) & (
+            local[:, 1].abs() < self.mug_shape.width)
+        on_peg = (centre[:, 1] - root[:, 1] > 0) & (centre[:, 1] - root[:, 1] < self.peg_length)
+        is_hooked = in_opening & on_peg
+        is_off_table = self.mug.pose.p[:, 2] > self.clearance
+        is_grasped = self.agent.is_grasping(self.mug)
+        is_static = self.mug.is_static(lin_thresh=0.05, ang_thresh=0.5)
+        return {
+            "success": is_hooked & is_off_table & ~is_grasped,
+            "is_hooked": is_hooked,
+            "is_off_table": is_off_table,
+            "is_grasped": is_grasped,
+            "is_static": is_static,
+        }
+
+    def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
+        # reach and grasp the mug, bring the handle's opening to the peg's middle, let go once hooked
+        tcp = self.agent.tcp_pose.p
+        reward = 1 - torch.tanh(5 * torch.linalg.norm(self.mug.pose.p - tcp, dim=1))
+        reward += info["is_grasped"]
+        peg_middle = self.peg_root() + torch.tensor([0.0, self.peg_length / 2, 0.0], device=self.device)
+        to_peg = torch.linalg.norm(self.opening_centre() - peg_middle, dim=1)
+        reward += (1 - torch.tanh(5 * to_peg)) * (info["is_grasped"] | info["is_hooked"])
+        reward += 2 * info["is_hooked"] + (info["is_hooked"] & ~info["is_grasped"]).float()
+        reward[info["success"]] = 6
+        return reward
+
+    def compute_normalized_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
+        return self.compute_dense_reward(obs, action, info) / 6
+
+
+RIM_DEPTH = 0.025  # the fingers close this far below the rim, one inside the wall and one outside
+SLIDE_ON = 0.07  # how far along the peg (from its root) the handle's opening is carried
+REST_DROP = 0.018  # then lowered by this much: the handle's upper arm comes to rest on the peg
+
+
+@register_solver("HangMug", control_modes=TCP_DELTA_MODES)
+def solve_hang_mug(env, seed: int) -> dict:
+    """Grasp the rim opposite the handle, lift, turn the mug so the handle's opening faces along the
+    peg, slide the handle onto the peg, lower it onto the peg, let go."""
+    with DrivenSolver.episode(env, seed) as robot:
+        task: HangMugEnv = env.unwrapped
+        n, device = task.num_envs, task.device
+        shape = task.mug_shape
+        mug_yaw = yaw_of(task.mug.pose.q)
+        rim = torch.tensor([[shape.outer_radius - shape.body.wall / 2, 0.0, shape.body.height - RIM_DEPTH]], device=device)
+        grasp_p = (task.mug.pose * Pose.create_from_pq(rim.expand(n, 3))).p
+        grasp_yaw = robot.neutral_yaw(mug_yaw + np.pi / 2, np.pi)  # fingers closing across the wall
+        robot.pick("arm", "gripper", grasp_p, grasp_yaw, lift=0.2)
+        # the mug turned so its handle's opening looks along the peg (world y): yaw 0 or pi, whichever
+        # is the smaller turn; the grasp carries it as a rigid offset from the tcp
+        turn = wrap_angle(-mug_yaw * 2) / 2  # in (-pi/2, pi/2]: to the nearest multiple of pi
+        tcp_in_mug = task.mug.pose.inv() * robot.tcp("arm")
+        target_yaw = mug_yaw + turn
+        q = top_down_quat(grasp_yaw + turn, n, device=device)
+        oc = torch.as_tensor(shape.opening_centre(), dtype=torch.float32, device=device).expand(n, 3)
+
+        def tcp_for_opening_at(point):  # tcp position that puts the opening's centre at `point`
+            return robot.tcp("arm").p + point - task.opening_centre()
+
+        def tcp_for_opening_at_turned(point):  # the same, for the mug turned to target_yaw (before the turn)
+            mug = Pose.create_from_pq(torch.zeros(n, 3, device=device), yaw_quat(target_yaw))
+            mug = Pose.create_from_pq(point - (mug * Pose.create_from_pq(oc)).p, yaw_quat(target_yaw))
+            return (mug * tcp_in_mug).p
+
+        root = task.peg_root()
+        beyond_tip = root + torch.tensor([0.0, task.peg_length + 0.05, 0.0], device=device)
+        on_peg = root + torch.tensor([0.0, SLIDE_ON, 0.0], device=device)
+        robot.move({"arm": (robot.above(tcp_for_opening_at_turned(beyond_tip), 0.03), q)}, max_steps=60, pos_tol=0.008)
+        # from here on aim with the opening where it really is: the mug may sit a little tilted in the grasp
+        robot.move({"arm": (tcp_for_opening_at(beyond_tip), q)}, max_steps=30, pos_tol=0.004)
+        robot.move({"arm": (tcp_for_opening_at(on_peg), q)}, max_steps=40, pos_tol=0.004)
+        robot.move({"arm": (tcp_for_opening_at(on_peg - torch.tensor([0.0, 0.0, REST_DROP], device=device)), q)},
+                   max_steps=15, pos_tol=0.004)
+        robot.release("gripper")
+        robot.move({"arm": (robot.above(robot.tcp("arm").p, 0.08), q)}, max_steps=20, pos_tol=0.01)
+        robot.hold_until_success()
+        return robot.info
