@@ -1,6 +1,7 @@
 import copy
 from pathlib import Path
 
+import gymnasium as gym
 import pytest
 import yaml
 
@@ -41,7 +42,9 @@ def test_lookup_and_filters(catalog):
     assert rope and all(t.object_class == "rope" for t in rope)
     assert all("tool_use" in t.skills for t in catalog.filter(skill="tool_use"))
     assert all(t.embodiment == "DX" for t in catalog.filter(embodiment="DX"))
-    assert {t.id for t in catalog.filter(implemented=True)} == {"PickPlacePen", "Stack6Blocks"}
+    built = {t.id for t in catalog.filter(implemented=True)}
+    assert {"PickPlacePen", "Stack6Blocks", "OpenBoxRetrieval", "LiftBottleHand", "LiftWideBox", "LiftBasketHands"} <= built
+    assert all(catalog.get(task_id).env_id in gym.registry for task_id in built)
 
 
 def test_unknown_task_and_bad_filter_values_are_clear_errors(catalog):

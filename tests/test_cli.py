@@ -9,6 +9,8 @@ from pathlib import Path
 import numpy as np
 from PIL import Image
 
+import maniladder_ms
+
 from maniladder_ms.cli import main
 
 REPO = Path(__file__).resolve().parents[1]
@@ -17,8 +19,10 @@ REPO = Path(__file__).resolve().parents[1]
 def test_list_summary_counts(capsys):
     assert main(["list", "--summary"]) == 0
     out = capsys.readouterr().out
-    assert "implemented / catalog: 2 / 112 tasks" in out
-    assert "L1     1/4" in out and "L2     1/4" in out
+    built = maniladder_ms.default_catalog().filter(implemented=True)
+    assert f"implemented / catalog: {len(built)} / 112 tasks" in out
+    # the L2 rigid SG cell counts Stack6Blocks, the L1 one the four L1 rigid SG tasks
+    assert "L1     4/4" in out and "L2     1/4" in out
 
 
 def test_list_filters_and_json(capsys):
@@ -29,7 +33,9 @@ def test_list_filters_and_json(capsys):
     rows = json.loads(capsys.readouterr().out)
     assert rows and all("tool_use" in r["skills"] and r["embodiment"] == "DG" for r in rows)
     assert main(["list", "--implemented", "--json"]) == 0
-    assert {r["id"] for r in json.loads(capsys.readouterr().out)} == {"PickPlacePen", "Stack6Blocks"}
+    listed = {r["id"] for r in json.loads(capsys.readouterr().out)}
+    assert listed == {t.id for t in maniladder_ms.default_catalog().filter(implemented=True)}
+    assert {"PickPlacePen", "Stack6Blocks", "HangMug", "HandoverCube"} <= listed
 
 
 def test_unknown_task_exits_2_with_message(capsys):
