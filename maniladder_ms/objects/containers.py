@@ -14,8 +14,6 @@ fraction of particles in a cup build on it; see `maniladder_ms.deformables.parti
 
 from __future__ import annotations
 
-import hashlib
-import json
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Optional
@@ -31,6 +29,8 @@ from mani_skill.envs.scene import ManiSkillScene
 from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.paths import cache_dir
+
+from .convex_cache import cached_convex_parts, mesh_key
 
 SECTIONS = 32  # facets around the axis
 COACD_THRESHOLD = 0.05  # CoACD concavity threshold: lower is finer (more hulls, slower)
@@ -159,38 +159,14 @@ def _handle_pose(shape: ContainerShape) -> sapien.Pose:
     return sapien.Pose(p=[-(outer + hx), 0, shape.height / 2])
 
 
-def _mesh_key(mesh: trimesh.Trimesh, settings: list) -> str:
-    digest = hashlib.sha1(np.round(mesh.vertices, 6).tobytes() + mesh.faces.tobytes())
-    digest.update(json.dumps(settings).encode())
-    return digest.hexdigest()[:16]
-
-
 def cached_parts(shape: ContainerShape) -> tuple[Path, list[Path]]:
     """(visual mesh file, convex part files) of the shape, decomposing with CoACD on a cache miss."""
-    mesh = container_mesh(shape)
-    # keyed by the mesh itself and the decomposition settings: any change to either recomputes
-    folder = cache_dir("containers", f"{shape.kind}_{_mesh_key(mesh, [COACD_THRESHOLD, COACD_MAX_HULLS])}")
-    visual = folder / "visual.obj"
-    parts = sorted(folder.glob("part_*.obj"))
-    if visual.exists() and parts:
-        return visual, parts
-    import coacd
-
-    coacd.set_log_level("error")
-    hulls = coacd.run_coacd(coacd.Mesh(mesh.vertices, mesh.faces), threshold=COACD_THRESHOLD,
-                            max_convex_hull=COACD_MAX_HULLS, preprocess_mode="off", seed=0)
-    parts = []
-    for k, (v, f) in enumerate(hulls):
-        path = folder / f"part_{k:02d}.obj"
-        trimesh.Trimesh(v, f).export(path)
-        parts.append(path)
-    mesh.export(visual)  # written last: its presence marks a complete cache entry
-    return visual, parts
+    return cached_convex_parts(container_mesh(shape), shape.kind, COACD_THRESHOLD, COACD_MAX_HULLS, folder="containers")
 
 
-def build_container(scene: ManiSkillScene, name: str, shape: ContainerShape, color=(0.9, 0.9, 0.92, 1),
-                    density: float = CERAMIC_DENSITY, friction: float = 0.6):
-    """Build the container as a dynamic actor resting on z = 0."""
+def body_builder(scene: ManiSkillScene, shape: ContainerShape, color, density: float, friction: float):
+    """(actor builder with the container's convex parts and visual, its physical material, its render
+    material or None): what every vessel starts from before its handle is added."""
     visual, parts = cached_parts(shape)
     builder = scene.create_actor_builder()
     material = physx.PhysxMaterial(friction, friction, 0.0)
@@ -199,15 +175,27 @@ def build_container(scene: ManiSkillScene, name: str, shape: ContainerShape, col
     render_mat = sapien.render.RenderMaterial(base_color=list(color), roughness=0.3) if scene.can_render() else None
     if render_mat is not None:
         builder.add_visual_from_file(str(visual), material=render_mat)
+    return builder, material, render_mat
+
+
+def build_resting(builder, name: str):
+    """Build a vessel at the origin (resting on z = 0) with the vessels' small contact offset."""
+    builder.initial_pose = sapien.Pose()
+    actor = builder.build(name=name)
+    set_contact_offset(actor, CONTACT_OFFSET)
+    return actor
+
+
+def build_container(scene: ManiSkillScene, name: str, shape: ContainerShape, color=(0.9, 0.9, 0.92, 1),
+                    density: float = CERAMIC_DENSITY, friction: float = 0.6):
+    """Build the container as a dynamic actor resting on z = 0."""
+    builder, material, render_mat = body_builder(scene, shape, color, density, friction)
     if shape.handle is not None:
         pose = _handle_pose(shape)
         builder.add_box_collision(pose=pose, half_size=shape.handle, material=material, density=density)
         if render_mat is not None:
             builder.add_box_visual(pose=pose, half_size=shape.handle, material=render_mat)
-    builder.initial_pose = sapien.Pose()
-    actor = builder.build(name=name)
-    set_contact_offset(actor, CONTACT_OFFSET)
-    return actor
+    return build_resting(builder, name)
 
 
 def build_bottle(scene: ManiSkillScene, name: str, shape: ContainerShape, mass: float, color, friction: float = 0.8):
@@ -218,7 +206,7 @@ def build_bottle(scene: ManiSkillScene, name: str, shape: ContainerShape, mass: 
     wall parts of the open container and the bottle shot away when the hand lifted it (2 in 200 lifts).
     """
     mesh = container_mesh(shape)
-    folder = cache_dir("containers", f"{shape.kind}_solid_{_mesh_key(mesh, ['convex hull'])}")
+    folder = cache_dir("containers", f"{shape.kind}_solid_{mesh_key(mesh, ['convex hull'])}")
     visual, hull_file = folder / "visual.obj", folder / "hull.obj"
     hull = mesh.convex_hull
     if not visual.exists():
@@ -230,10 +218,7 @@ def build_bottle(scene: ManiSkillScene, name: str, shape: ContainerShape, mass: 
     if scene.can_render():
         builder.add_visual_from_file(str(visual), material=sapien.render.RenderMaterial(base_color=list(color),
                                                                                         roughness=0.3))
-    builder.initial_pose = sapien.Pose()
-    actor = builder.build(name=name)
-    set_contact_offset(actor, CONTACT_OFFSET)
-    return actor
+    return build_resting(builder, name)
 
 
 def set_contact_offset(actor, offset: float):

@@ -15,15 +15,20 @@ import trimesh
 from maniladder_ms.paths import cache_dir
 
 
+def mesh_key(mesh: trimesh.Trimesh, settings: list) -> str:
+    """Cache key of a mesh and the settings it is processed with."""
+    digest = hashlib.sha1(np.round(mesh.vertices, 6).tobytes() + mesh.faces.tobytes())
+    digest.update(json.dumps(settings).encode())
+    return digest.hexdigest()[:16]
+
+
 def cached_convex_parts(mesh: trimesh.Trimesh, kind: str, threshold: float, max_hulls: int,
                         folder: str = "meshes") -> tuple[Path, list[Path]]:
     """(visual mesh file, convex part files) of `mesh`, decomposing with CoACD on a cache miss.
 
     threshold: CoACD's concavity threshold (lower is finer: more hulls, slower); max_hulls caps the parts.
     """
-    digest = hashlib.sha1(np.round(mesh.vertices, 6).tobytes() + mesh.faces.tobytes())
-    digest.update(json.dumps([threshold, max_hulls]).encode())
-    path = cache_dir(folder, f"{kind}_{digest.hexdigest()[:16]}")
+    path = cache_dir(folder, f"{kind}_{mesh_key(mesh, [threshold, max_hulls])}")
     visual = path / "visual.obj"
     parts = sorted(path.glob("part_*.obj"))
     if visual.exists() and parts:

@@ -11,12 +11,11 @@ from dataclasses import dataclass
 
 import numpy as np
 import sapien
-import sapien.physx as physx
 import sapien.render
 
 from mani_skill.envs.scene import ManiSkillScene
 
-from .containers import CERAMIC_DENSITY, CONTACT_OFFSET, ContainerShape, cached_parts, cup, set_contact_offset
+from .containers import CERAMIC_DENSITY, ContainerShape, body_builder, build_resting, cup
 
 
 @dataclass(frozen=True)
@@ -51,22 +50,12 @@ class MugShape:
 def build_mug(scene: ManiSkillScene, name: str, shape: MugShape, color, friction: float = 0.8,
               density: float = CERAMIC_DENSITY):
     """The mug as a dynamic actor standing on z = 0."""
-    visual, parts = cached_parts(shape.body)
-    builder = scene.create_actor_builder()
-    material = physx.PhysxMaterial(friction, friction, 0.0)
-    for part in parts:
-        builder.add_convex_collision_from_file(str(part), material=material, density=density)
-    render_mat = sapien.render.RenderMaterial(base_color=list(color), roughness=0.3) if scene.can_render() else None
-    if render_mat is not None:
-        builder.add_visual_from_file(str(visual), material=render_mat)
+    builder, material, render_mat = body_builder(scene, shape.body, color, density, friction)
     for centre, half in shape.handle_boxes():
         builder.add_box_collision(sapien.Pose(p=centre), half_size=half, material=material, density=density)
         if render_mat is not None:
             builder.add_box_visual(sapien.Pose(p=centre), half_size=half, material=render_mat)
-    builder.initial_pose = sapien.Pose()
-    actor = builder.build(name=name)
-    set_contact_offset(actor, CONTACT_OFFSET)
-    return actor
+    return build_resting(builder, name)
 
 
 def build_mug_tree(scene: ManiSkillScene, name: str, post_height: float, peg_height: float, peg_length: float,
