@@ -30,6 +30,12 @@ class Solver:
 
 SOLVERS: dict[str, Solver] = {}
 
+# Solver episodes start from a freshly built scene: PhysX keeps contact warm-start caches across resets
+# (they are not part of the env state), so an episode otherwise plays out a little differently after
+# different earlier episodes, and a demo replayed alone (`demos verify`, ManiSkill's replay_trajectory,
+# which reset with the recorded options) could miss what the recording reached.
+EPISODE_RESET_OPTIONS = {"reconfigure": True}
+
 
 class PlanningFailed(RuntimeError):
     """A solver's planner found no path to a requested pose: the episode fails, it is not a bug."""

@@ -13,6 +13,8 @@ import torch
 
 from maniladder_ms.agents.helpers import Driver, top_down_quat
 
+from . import EPISODE_RESET_OPTIONS
+
 APPROACH_HEIGHT = 0.1  # metres above a grasp where the vertical descent starts
 
 
@@ -23,7 +25,7 @@ class DrivenSolver(Driver):
     @contextmanager
     def episode(cls, env, seed: int):
         """Reset `env` with `seed` and yield a solver for it."""
-        env.reset(seed=seed)
+        env.reset(seed=seed, options=dict(EPISODE_RESET_OPTIONS))
         yield cls(env)
 
     @property

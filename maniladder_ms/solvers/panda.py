@@ -14,7 +14,7 @@ import sapien
 
 from mani_skill.examples.motionplanning.panda.motionplanner import PandaArmMotionPlanningSolver
 
-from . import PlanningFailed
+from . import EPISODE_RESET_OPTIONS, PlanningFailed
 from .adapters import JointTargetAdapter
 
 # joint speed/acceleration limits for planned paths (rad/s, rad/s^2); the Panda's own are ~2.2 rad/s
@@ -54,7 +54,7 @@ class PandaSolver:
     @contextmanager
     def episode(cls, env, seed: int):
         """Reset `env` with `seed` and yield a solver for it, closing the planner afterwards."""
-        env.reset(seed=seed)
+        env.reset(seed=seed, options=dict(EPISODE_RESET_OPTIONS))
         solver = cls(env)
         try:
             yield solver
