@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import glob
 import os
-from typing import ClassVar, Optional
+from typing import Any, ClassVar, Optional
 
 import numpy as np
 import sapien
@@ -75,6 +75,8 @@ class ManiLadderEnv(BaseEnv):
     # (xmin, xmax, ymin, ymax) of the table area task objects and goals use; distractors stay out of it
     TASK_REGION: ClassVar[tuple[float, float, float, float]] = (-0.25, 0.25, -0.3, 0.3)
     task_spec: Optional[TaskSpec]
+    # the dense reward a task gives on success: the normalized dense reward is the dense one over this
+    max_dense_reward: ClassVar[float] = 1.0
 
     def __init__(
         self,
@@ -141,3 +143,7 @@ class ManiLadderEnv(BaseEnv):
             self.agent.reset(qpos)
             self.agent.robot.set_pose(ROBOT_BASE_POSE)
             self.ladder_scene.initialize(env_idx, keep_out=self.TASK_REGION)
+
+    # ---- reward -------------------------------------------------------------------------------
+    def compute_normalized_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
+        return self.compute_dense_reward(obs, action, info) / self.max_dense_reward

@@ -35,6 +35,7 @@ class HandoverCubeEnv(ManiLadderEnv):
     """
 
     SUPPORTED_ROBOTS = ["ml_dual_panda"]
+    max_dense_reward = 9
     TASK_REGION = (-0.25, 0.1, -0.4, 0.4)
     cube_half = 0.03
     zone_half = 0.06
@@ -93,11 +94,9 @@ class HandoverCubeEnv(ManiLadderEnv):
         reward += (1 - torch.tanh(5 * right_reach)) * left_grasped + 2 * right_grasped
         reward = torch.where(right_grasped.bool(), 5 + (1 - torch.tanh(5 * to_zone)), reward)
         reward = torch.where(info["placed"], 7 + (1 - right_grasped), reward)
-        reward[info["success"]] = 9
+        reward[info["success"]] = self.max_dense_reward
         return reward
 
-    def compute_normalized_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
-        return self.compute_dense_reward(obs, action, info) / 9
 
 
 MEET_POINT = (-0.05, 0.0, 0.2)  # cube centre during the handover, between the arms

@@ -31,9 +31,11 @@ class HangMugEnv(ManiLadderEnv):
 
     **Success:** the peg passes through the handle's opening (the point of the peg's axis nearest the
     opening's centre lies on the peg and inside the opening, in the mug's frame), the mug's bottom is at
-    least `clearance` = 5 cm above the table, the gripper does not hold it, and it is at rest (speed
-    below 5 cm/s and 0.5 rad/s).
+    least `clearance` = 5 cm above the table and the gripper does not hold it. The mug may still swing
+    (the catalog rule does not ask for rest); `is_static` reports whether it has stopped.
     """
+
+    max_dense_reward = 6
 
     TASK_REGION = (-0.2, 0.1, -0.35, 0.25)
     mug_shape = MugShape()
@@ -104,11 +106,9 @@ class HangMugEnv(ManiLadderEnv):
         to_peg = torch.linalg.norm(self.opening_centre() - peg_middle, dim=1)
         reward += (1 - torch.tanh(5 * to_peg)) * (info["is_grasped"] | info["is_hooked"])
         reward += 2 * info["is_hooked"] + (info["is_hooked"] & ~info["is_grasped"]).float()
-        reward[info["success"]] = 6
+        reward[info["success"]] = self.max_dense_reward
         return reward
 
-    def compute_normalized_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
-        return self.compute_dense_reward(obs, action, info) / 6
 
 
 RIM_DEPTH = 0.025  # the fingers close this far below the rim, one inside the wall and one outside

@@ -34,6 +34,7 @@ class LiftBasketHandsEnv(ManiLadderEnv):
     """
 
     SUPPORTED_ROBOTS = ["ml_dual_panda_leap"]
+    max_dense_reward = 5
     TASK_REGION = (-0.25, 0.05, -0.3, 0.3)
     basket_shape = BasketShape()
     basket_mass = 0.3
@@ -91,11 +92,9 @@ class LiftBasketHandsEnv(ManiLadderEnv):
         both = (info["left_grasped"] & info["right_grasped"]).float()
         height = (self.basket.pose.p[:, 2] / self.lift_height).clamp(max=1)
         reward += 2 * both * height * info["is_level"]
-        reward[info["success"]] = 5
+        reward[info["success"]] = self.max_dense_reward
         return reward
 
-    def compute_normalized_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
-        return self.compute_dense_reward(obs, action, info) / 5
 
 
 @register_solver("LiftBasketHands", control_modes=TCP_DELTA_MODES)

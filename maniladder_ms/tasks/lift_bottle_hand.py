@@ -34,6 +34,7 @@ class LiftBottleHandEnv(ManiLadderEnv):
     """
 
     SUPPORTED_ROBOTS = ["ml_panda_leap"]
+    max_dense_reward = 5
     TASK_REGION = (-0.25, -0.05, -0.15, 0.15)
     bottle_shape = containers.bottle()
     bottle_mass = 0.3
@@ -86,11 +87,9 @@ class LiftBottleHandEnv(ManiLadderEnv):
         is_grasped = info["is_grasped"].float()
         lift = (info["height"] / self.lift_height).clamp(0, 1)
         reward = reach + is_grasped + 2 * lift * is_grasped
-        reward[info["success"]] = 5
+        reward[info["success"]] = self.max_dense_reward
         return reward
 
-    def compute_normalized_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
-        return self.compute_dense_reward(obs, action, info) / 5
 
 
 # where the bottle's axis sits from the hand's tcp when the hand closes (world frame, hand yaw 0): 1 cm

@@ -32,6 +32,7 @@ class LiftWideBoxEnv(ManiLadderEnv):
     """
 
     SUPPORTED_ROBOTS = ["ml_dual_panda"]
+    max_dense_reward = 6
     TASK_REGION = (-0.3, 0.1, -0.3, 0.3)
     inner_half = (0.19, 0.09)  # long side along the box's local x
     wall_height = 0.08
@@ -102,11 +103,9 @@ class LiftWideBoxEnv(ManiLadderEnv):
         # lifting counts only while level, and only with both grippers on the box
         lift = (info["height"] / self.lift_height).clamp(max=1) * (1 - info["tilt"] / np.pi)
         reward += 2 * lift * both
-        reward[info["success"]] = 6
+        reward[info["success"]] = self.max_dense_reward
         return reward
 
-    def compute_normalized_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
-        return self.compute_dense_reward(obs, action, info) / 6
 
 
 LIFT = 0.15  # metres the grasp points rise: the box bottom ends 15 cm up, clear of the 10 cm rule

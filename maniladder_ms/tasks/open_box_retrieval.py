@@ -35,6 +35,8 @@ class OpenBoxRetrievalEnv(ManiLadderEnv):
     frame, |x| or |y| beyond the outer half size plus the cube's half size).
     """
 
+    max_dense_reward = 7
+
     TASK_REGION = (-0.2, 0.25, -0.25, 0.25)
     box_shape = LiddedBoxShape(inner_half_size=(0.08, 0.08))
     box_density = 2200.0  # ~1.5 kg: the box stays put while the lid is pulled open
@@ -105,11 +107,9 @@ class OpenBoxRetrievalEnv(ManiLadderEnv):
         height = self._cube_in_box_frame()[:, 2] - self.box_shape.base_thickness - self.cube_half_size
         goal = self.box_shape.wall_height + self.lift_clearance - self.box_shape.base_thickness - self.cube_half_size
         reward += 2 * (height / goal).clamp(0, 1) * info["is_grasped"]
-        reward[info["success"]] = 7
+        reward[info["success"]] = self.max_dense_reward
         return reward
 
-    def compute_normalized_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
-        return self.compute_dense_reward(obs, action, info) / 7
 
 
 @register_solver("OpenBoxRetrieval", control_modes=TCP_DELTA_MODES)

@@ -39,6 +39,7 @@ class OpenLidHoldBoxEnv(ManiLadderEnv):
     """
 
     SUPPORTED_ROBOTS = ["ml_dual_panda"]
+    max_dense_reward = 6
     TASK_REGION = (-0.25, 0.15, -0.2, 0.2)
     # 6 cm wide across the hinge axis (the box's y), so that one gripper closes across the box at its
     # hinge end below the lid; 9 cm walls leave room for the fingers under the lid
@@ -106,11 +107,9 @@ class OpenLidHoldBoxEnv(ManiLadderEnv):
         opened = (info["lid_angle"] / self.open_angle).clamp(0, 1)
         still = 1 - (info["displacement"] / self.max_displacement).clamp(max=1)
         reward = reach_hold + info["box_held"].float() + reach_lip * ~info["is_lid_open"] + 3 * opened * still
-        reward[info["success"]] = 6
+        reward[info["success"]] = self.max_dense_reward
         return reward
 
-    def compute_normalized_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
-        return self.compute_dense_reward(obs, action, info) / 6
 
 
 @register_solver("OpenLidHoldBox", control_modes=TCP_DELTA_MODES)

@@ -31,6 +31,8 @@ class PickPlacePenEnv(ManiLadderEnv):
     has released it (not grasping it).
     """
 
+    max_dense_reward = 6
+
     TASK_REGION = (-0.25, 0.2, -0.32, 0.32)
     pen_length = 0.14
     pen_radius = 0.008
@@ -105,11 +107,9 @@ class PickPlacePenEnv(ManiLadderEnv):
         reward += carry * is_grasped
         reward += 2 * info["is_placed"]
         reward += (info["is_placed"] & ~is_grasped).float()
-        reward[info["success"]] = 6
+        reward[info["success"]] = self.max_dense_reward
         return reward
 
-    def compute_normalized_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
-        return self.compute_dense_reward(obs, action, info) / 6
 
 
 @register_solver("PickPlacePen")

@@ -34,6 +34,8 @@ class PivotBookEnv(ManiLadderEnv):
     rest (linear speed < `rest_speed` = 1 cm/s, angular speed < `rest_ang` = 0.1 rad/s).
     """
 
+    max_dense_reward = 6
+
     TASK_REGION = (-0.2, 0.1, -0.25, 0.25)
     book_half_size = (0.105, 0.075, 0.015)  # long axis along local x
     wall_face_x = 0.05
@@ -92,11 +94,9 @@ class PivotBookEnv(ManiLadderEnv):
         near_end = self.book.pose.p - self.book_axis() * self.book_half_size[0]
         reach = 1 - torch.tanh(5 * torch.linalg.norm(near_end - self.agent.tcp_pose.p, dim=1))
         reward = reach + 3 * info["tilt_up"] / (np.pi / 2) + info["is_upright"].float()
-        reward[info["success"]] = 6
+        reward[info["success"]] = self.max_dense_reward
         return reward
 
-    def compute_normalized_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
-        return self.compute_dense_reward(obs, action, info) / 6
 
 
 LEAD = 0.35  # rad: the finger's target runs this far ahead of the book along the near end's arc

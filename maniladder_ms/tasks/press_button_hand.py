@@ -29,6 +29,7 @@ class PressButtonHandEnv(ManiLadderEnv):
     """
 
     SUPPORTED_ROBOTS = ["ml_panda_leap"]
+    max_dense_reward = 4
     TASK_REGION = (-0.27, 0.02, -0.22, 0.22)  # button centres plus the housing's half diagonal
     button_shape = ButtonShape()
     press_fraction = 0.8
@@ -67,11 +68,9 @@ class PressButtonHandEnv(ManiLadderEnv):
         reach = 1 - torch.tanh(5 * torch.linalg.norm(self._cap_top() - leap_fingertip(self.agent), dim=1))
         press = (info["travel"] / (self.press_fraction * self.button_shape.travel)).clamp(0, 1)
         reward = reach + 2 * press
-        reward[info["success"]] = 4
+        reward[info["success"]] = self.max_dense_reward
         return reward
 
-    def compute_normalized_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
-        return self.compute_dense_reward(obs, action, info) / 4
 
 
 @register_solver("PressButtonHand", control_modes=TCP_DELTA_MODES)

@@ -41,6 +41,7 @@ class PushBlocksBimanualEnv(ManiLadderEnv):
     """
 
     SUPPORTED_ROBOTS = ["ml_dual_panda"]
+    max_dense_reward = 8
     TASK_REGION = (-0.25, 0.1, -0.4, 0.4)
     block_half = 0.025
     zone_half = 0.06
@@ -99,11 +100,9 @@ class PushBlocksBimanualEnv(ManiLadderEnv):
             reach = torch.linalg.norm(behind - self.agent.tcps[side].pose.p[:, :2], dim=1)
             to_zone = torch.linalg.norm((zone_p - block_p)[:, :2], dim=1)
             reward += (1 - torch.tanh(5 * reach)) + 2 * (1 - torch.tanh(5 * to_zone)) + info[f"{side}_in_zone"]
-        reward[info["success"]] = 8
+        reward[info["success"]] = self.max_dense_reward
         return reward
 
-    def compute_normalized_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
-        return self.compute_dense_reward(obs, action, info) / 8
 
 
 PUSH_HEIGHT = 0.02  # TCP height while pushing: the closed fingertips just clear the table

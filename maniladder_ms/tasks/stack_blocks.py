@@ -51,6 +51,7 @@ class StackBlocksEnv(ManiLadderEnv):
         if not 2 <= num_blocks <= len(BLOCK_COLORS):
             raise ValueError(f"num_blocks must be in [2, {len(BLOCK_COLORS)}], got {num_blocks}")
         self.num_blocks = num_blocks
+        self.max_dense_reward = 2 * num_blocks + 2
         super().__init__(*args, **kwargs)
 
     def _load_scene(self, options: dict):
@@ -135,11 +136,9 @@ class StackBlocksEnv(ManiLadderEnv):
         dist = torch.linalg.norm(pos - self.agent.tcp_pose.p[:, None], dim=2)
         reach = 1 - torch.tanh(5 * torch.where(loose, dist, torch.full_like(dist, 10)).min(dim=1).values)
         reward = 2 * progress + reach
-        reward[info["success"]] = 2 * n + 2
+        reward[info["success"]] = self.max_dense_reward
         return reward
 
-    def compute_normalized_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
-        return self.compute_dense_reward(obs, action, info) / (2 * self.num_blocks + 2)
 
 
 STACK_SITE = (-0.05, 0.0)  # the solver builds the tower on the block nearest this point

@@ -33,6 +33,7 @@ class TurnValveHandEnv(ManiLadderEnv):
     """
 
     SUPPORTED_ROBOTS = ["ml_panda_leap"]
+    max_dense_reward = 5
     TASK_REGION = (-0.36, 0.06, -0.26, 0.26)  # valve region plus the arrow around it (16 cm)
     valve_shape = ValveShape()
     turn_angle = np.pi / 2
@@ -77,11 +78,9 @@ class TurnValveHandEnv(ManiLadderEnv):
         reach = 1 - torch.tanh(5 * torch.linalg.norm(hub - leap_fingertip(self.agent), dim=1))
         progress = (info["turned"] / self.turn_angle).clamp(0, 1)
         reward = reach + 3 * progress
-        reward[info["success"]] = 5
+        reward[info["success"]] = self.max_dense_reward
         return reward
 
-    def compute_normalized_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
-        return self.compute_dense_reward(obs, action, info) / 5
 
 
 # the solver: the pointing index finger goes down between two spokes, FINGER_BEHIND_SPOKE behind the
