@@ -7,6 +7,7 @@ from typing import Any
 import numpy as np
 import torch
 
+from mani_skill.utils.geometry.rotation_conversions import quaternion_apply
 from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.agents.helpers import top_down_quat, wrap_angle
@@ -141,9 +142,8 @@ def solve_hang_mug(env, seed: int) -> dict:
             return robot.tcp("arm").p + point - task.opening_centre()
 
         def tcp_for_opening_at_turned(point):  # the same, for the mug turned to target_yaw (before the turn)
-            mug = Pose.create_from_pq(torch.zeros(n, 3, device=device), yaw_quat(target_yaw))
-            mug = Pose.create_from_pq(point - (mug * Pose.create_from_pq(oc)).p, yaw_quat(target_yaw))
-            return (mug * tcp_in_mug).p
+            turned = yaw_quat(target_yaw)
+            return (Pose.create_from_pq(point - quaternion_apply(turned, oc), turned) * tcp_in_mug).p
 
         root = task.peg_root()
         beyond_tip = root + torch.tensor([0.0, task.peg_length + 0.05, 0.0], device=device)
