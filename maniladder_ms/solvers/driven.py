@@ -8,6 +8,7 @@ grasp, lifts, releases. All targets are world-frame, batched over the env's sub-
 from __future__ import annotations
 
 from contextlib import contextmanager
+from typing import Callable
 
 import torch
 
@@ -70,6 +71,18 @@ class DrivenSolver(Driver):
             self.set_ee(ee_part, "open", steps=steps)
         else:
             self.grip(False, ee_part, steps=steps)
+
+    def follow_arc(self, arm: str, q: torch.Tensor, angle: Callable[[], torch.Tensor],
+                   tcp_at: Callable[[torch.Tensor], torch.Tensor], lead: float, stop_at: float, max_steps: int):
+        """Drive a part round its arc closed loop (a lid about its hinge, a book about its edge): every
+        control step read the part's `angle()` (b,) and send the TCP to `tcp_at(angle + lead)`, keeping
+        orientation `q`, until the angle reaches `stop_at` everywhere. Aiming ahead by `lead` makes the
+        fingers push the part along instead of trailing it."""
+        for _ in range(max_steps):
+            now = angle()
+            if bool((now >= stop_at).all()):
+                return
+            self.step({arm: (tcp_at(now + lead), q)})
 
     def hold_until_success(self, max_steps: int = 30, stable_steps: int = 3):
         """Keep still until the task has reported success `stable_steps` steps in a row (or `max_steps`).

@@ -61,11 +61,8 @@ def open_lid(robot: DrivenSolver, arm: str, ee_part: str, box, shape: LiddedBoxS
     robot.move({arm: (robot.above(behind, 0.05), q)}, max_steps=60)
     robot.move({arm: (behind, q)}, max_steps=20, pos_tol=0.004)
     robot.move({arm: (start, q)}, max_steps=20, pos_tol=0.004)
-    for _ in range(max_steps):
-        angle = lid_angle(box)
-        if bool((angle >= PUSH_TO).all()):
-            break
-        robot.step({arm: (tcp_target((angle + LEAD).clamp(max=PUSH_TO + LEAD)), q)})
+    robot.follow_arc(arm, q, lambda: lid_angle(box), lambda angle: tcp_target(angle.clamp(max=PUSH_TO + LEAD)),
+                     lead=LEAD, stop_at=PUSH_TO, max_steps=max_steps)
     back = robot.tcp(arm).p - 0.05 * _approach(box)
     robot.move({arm: (back, q)}, max_steps=15, pos_tol=0.01)
     robot.move({arm: (robot.above(back, 0.1), q)}, max_steps=20, pos_tol=0.01)

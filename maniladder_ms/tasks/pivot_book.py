@@ -135,18 +135,17 @@ def solve_pivot_book(env, seed: int) -> dict:
             target[:, 2] = tip[:, 2] + 0.02
             robot.step({"arm": (target + tip_to_tcp, q)})
         # follow the near end's arc about the far bottom edge, fingertips at the end's bottom edge
-        for _ in range(80):
-            tilt = task.evaluate()["tilt_up"]
-            if bool((tilt >= np.pi / 2 - NEAR_UPRIGHT).all()):
-                break
+        def tcp_at(tilt):
             axis = task.book_axis()
             normal = quaternion_apply(task.book.pose.q, torch.tensor([0.0, 0, 1.0], device=device).expand(n, 3))
             pivot = task.book.pose.p + axis * hx - normal * hz
-            phi = (tilt + LEAD).clamp(max=np.pi / 2)  # past vertical would drive the top into the wall and kick the foot out
+            phi = tilt.clamp(max=np.pi / 2)  # past vertical would drive the top into the wall and kick the foot out
             along = -torch.cos(phi)[:, None] * toward_wall + torch.sin(phi)[:, None] * up
             below = -torch.sin(phi)[:, None] * toward_wall - torch.cos(phi)[:, None] * up
-            tip = pivot + along * 2 * hx + below * 0.005
-            robot.step({"arm": (tip + tip_to_tcp, q)})
+            return pivot + along * 2 * hx + below * 0.005 + tip_to_tcp
+
+        robot.follow_arc("arm", q, lambda: task.evaluate()["tilt_up"], tcp_at, lead=LEAD,
+                         stop_at=np.pi / 2 - NEAR_UPRIGHT, max_steps=80)
         # rise straight up along the book's top end: the fingers' friction carries it the last degrees
         # onto its end face, flat against the wall, where it stands (short of that it falls back, so
         # backing away first fails); then back off
