@@ -192,7 +192,7 @@ def test_clay_keeps_the_shape_it_is_pressed_into():
         for _ in range(40):
             env.step(still)
         pressed = base.evaluate()
-        state = base.get_state_dict()
+        state, flat = base.get_state_dict(), base.get_state()
         base.weight.set_pose(Pose.create_from_pq(torch.tensor([[0.05, 0.15, 0.02]])))
         for _ in range(60):
             env.step(still)
@@ -202,6 +202,10 @@ def test_clay_keeps_the_shape_it_is_pressed_into():
         assert released["footprint_area"][0] > 1.2 * start["footprint_area"][0]
         # the plastic state is part of the env state: restoring it restores the pressed rest shape
         base.set_state_dict(state)
+        assert torch.allclose(base.clay.state(), state["clay_rest"])
+        # and so does the flat state vector (ManiSkill's set_state alone would leave the rest offsets)
+        base.clay.set_state(base.clay.initial_rest.flatten()[None], torch.arange(1))
+        base.set_state(flat)
         assert torch.allclose(base.clay.state(), state["clay_rest"])
     finally:
         env.close()

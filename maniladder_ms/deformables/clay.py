@@ -7,8 +7,9 @@ stretch and shear. Plasticity: once per control step the task calls `Clay.relax(
 rest offset of every link strained past `yield_distance` back to exactly that strain (perfect
 plasticity, a return mapping, batched in torch over envs and links). The clay springs back from
 small pokes, and keeps the shape it is pressed into beyond that. Contacts between the spheres keep
-its volume. The rest offsets are state: `Clay.state()` / `Clay.set_state()`; tasks add them to
-their state dict (see the clay showcase) so env.get_state_dict/set_state_dict keep them.
+its volume. The rest offsets are state: `Clay.state()` / `Clay.set_state()`. Envs holding clay subclass
+`ClayEnvMixin`, which does both chores: `relax()` after every control step, and the rest offsets in
+the env state (`get_state_dict` / `set_state_dict`, and the flat `get_state` / `set_state`).
 
 The drive targets are set through SAPIEN per sub-scene (ManiSkill 3.0.1 wraps no batched setter);
 on the GPU backend they are set per env the same way, untested here (no GPU on the build machine).
@@ -97,6 +98,7 @@ class Clay(SphereSet):
     def __init__(self, spheres: list[Actor], name: str, drives: list, links: list[tuple[int, int]],
                  layout: np.ndarray, config: ClayConfig, num_envs: int, device):
         super().__init__(spheres, name)
+        self.name = name
         self.drives = drives
         self.layout = layout
         self.config = config
@@ -141,6 +143,51 @@ class Clay(SphereSet):
         targets = self.rest.cpu()[envs, links.tolist()].tolist() if len(envs) else []
         for env, link, target in zip(envs, links.tolist(), targets):
             self.drives[link]._objs[env].set_drive_target(sapien.Pose(p=target))
+
+
+class ClayEnvMixin:
+    """Plumbing for envs that hold `Clay` bodies (list them in `clay_bodies`; default: `self.clay`).
+    Put it before the env base class, `class MyEnv(ClayEnvMixin, ManiLadderEnv)`:
+
+    - plasticity: every clay body `relax()`es after each control step;
+    - state: each body's rest offsets are the key `<name>_rest` of `get_state_dict` (set back by
+      `set_state_dict`), so recorded demos and replays from env states keep the clay's plastic shape.
+      ManiSkill's flat `set_state` reads only actors and articulations: here it also takes the rest
+      offsets back from the end of the vector, where `get_state` (the flattened state dict) puts them.
+    """
+
+    def clay_bodies(self) -> list[Clay]:
+        return [self.clay]
+
+    def _after_control_step(self):
+        super()._after_control_step()
+        for body in self.clay_bodies():
+            body.relax()
+
+    def get_state_dict(self):
+        state = super().get_state_dict()
+        for body in self.clay_bodies():
+            state[f"{body.name}_rest"] = body.state()
+        return state
+
+    def set_state_dict(self, state: dict, env_idx: torch.Tensor = None):
+        super().set_state_dict(state, env_idx)
+        idx = torch.arange(self.num_envs, device=self.device) if env_idx is None else env_idx
+        for body in self.clay_bodies():
+            if f"{body.name}_rest" in state:
+                body.set_state(state[f"{body.name}_rest"], idx)
+
+    def set_state(self, state: torch.Tensor, env_idx: torch.Tensor = None):
+        super().set_state(state, env_idx)
+        state = torch.as_tensor(state)
+        sizes = [body.rest.shape[1] * 3 for body in self.clay_bodies()]
+        if state.shape[-1] != self.get_state().shape[-1]:
+            return  # not a full flat state of this env: no rest offsets in it
+        idx = torch.arange(self.num_envs, device=self.device) if env_idx is None else env_idx
+        end = state.shape[-1]
+        for body, size in reversed(list(zip(self.clay_bodies(), sizes))):
+            body.set_state(state[..., end - size:end], idx)
+            end -= size
 
 
 def build_clay(scene: ManiSkillScene, name: str, layout: np.ndarray, config: ClayConfig = ClayConfig()) -> Clay:
