@@ -192,7 +192,7 @@ def test_clay_keeps_the_shape_it_is_pressed_into():
         for _ in range(40):
             env.step(still)
         pressed = base.evaluate()
-        state = base.get_state_dict()
+        state, flat = base.get_state_dict(), base.get_state()
         base.weight.set_pose(Pose.create_from_pq(torch.tensor([[0.05, 0.15, 0.02]])))
         for _ in range(60):
             env.step(still)
@@ -203,6 +203,36 @@ def test_clay_keeps_the_shape_it_is_pressed_into():
         # the plastic state is part of the env state: restoring it restores the pressed rest shape
         base.set_state_dict(state)
         assert torch.allclose(base.clay.state(), state["clay_rest"])
+        # and so does the flat state vector (ManiSkill's set_state alone would leave the rest offsets)
+        base.clay.set_state(base.clay.initial_rest.flatten()[None], torch.arange(1))
+        base.set_state(flat)
+        assert torch.allclose(base.clay.state(), state["clay_rest"])
+    finally:
+        env.close()
+
+
+def test_clay_reset_turns_and_scales_its_rest_shape():
+    env = _make("clay", control_mode="pd_joint_delta_pos")
+    try:
+        env.reset(seed=0)
+        base = env.unwrapped
+        body, idx = base.clay, torch.arange(1)
+        origin = torch.tensor([[0.05, -0.05, body.config.radius]])
+        body.reset(idx, origin, yaw=torch.tensor([np.pi / 6]), scale=torch.tensor([1.1]))
+        start = base.get_state_dict()["clay_start"].reshape(1, -1, 3)
+        layout = torch.as_tensor(body.layout, dtype=torch.float32)
+        assert torch.allclose(start, body.positions())
+        assert clay.height(start, 0)[0] == pytest.approx(1.1 * float(layout[:, 2].max()), abs=1e-6)
+        turned = layout[:, :2] @ torch.tensor([[np.cos(np.pi / 6), np.sin(np.pi / 6)], [-np.sin(np.pi / 6), np.cos(np.pi / 6)]], dtype=torch.float32)
+        assert torch.allclose(start[0, :, :2] - origin[:, :2], 1.1 * turned, atol=1e-6)
+        rest = body.state()
+        still = torch.zeros(env.action_space.shape)
+        for _ in range(20):
+            env.step(still)
+        # the rest offsets were turned and scaled with it: the ball only sags a little under its weight
+        # (unturned offsets would strain links by 6 mm)
+        assert (body.state() - rest).abs().max() < 5e-4
+        assert (body.positions() - start).norm(dim=-1).max() < 0.003
     finally:
         env.close()
 

@@ -84,9 +84,22 @@ def test_state_round_trip_after_50_steps(state_env):
     # with the run that went on live, restored runs drift where the robot was touching something: PhysX
     # contact warm-start caches are not part of the state; measured up to 1 rad/s on a finger pressing
     # PivotBook's book after 5 steps, against exactly 0 between two restores.)
-    first = [flat(state_env.step(a)[0]) for a in actions[50:55]]
-    base.set_state(saved)
-    again = [flat(state_env.step(a)[0]) for a in actions[50:55]]
+    # Scenes full of persistent contacts (clay: hundreds between its particles) diverge within one step
+    # even between restores, on those caches alone; they set `RESTORES_NEED_FRESH_SCENE` and are
+    # restored into two freshly made envs of the task instead, whose caches are empty alike.
+    if getattr(base, "RESTORES_NEED_FRESH_SCENE", False):
+        runs = []
+        for _ in range(2):
+            env = make(base.task_spec.id, obs_mode="state")
+            env.reset(seed=3)
+            env.unwrapped.set_state(saved)
+            runs.append([flat(env.step(a)[0]) for a in actions[50:55]])
+            env.close()
+        first, again = runs
+    else:
+        first = [flat(state_env.step(a)[0]) for a in actions[50:55]]
+        base.set_state(saved)
+        again = [flat(state_env.step(a)[0]) for a in actions[50:55]]
     assert max(float((x - y).abs().max()) for x, y in zip(again, first)) < 1e-5
 
 

@@ -7,8 +7,9 @@ stretch and shear. Plasticity: once per control step the task calls `Clay.relax(
 rest offset of every link strained past `yield_distance` back to exactly that strain (perfect
 plasticity, a return mapping, batched in torch over envs and links). The clay springs back from
 small pokes, and keeps the shape it is pressed into beyond that. Contacts between the spheres keep
-its volume. The rest offsets are state: `Clay.state()` / `Clay.set_state()`; tasks add them to
-their state dict (see the clay showcase) so env.get_state_dict/set_state_dict keep them.
+its volume. The rest offsets are state: `Clay.state()` / `Clay.set_state()`. Envs holding clay subclass
+`ClayEnvMixin`, which does both chores: `relax()` after every control step, and the rest offsets in
+the env state (`get_state_dict` / `set_state_dict`, and the flat `get_state` / `set_state`).
 
 The drive targets are set through SAPIEN per sub-scene (ManiSkill 3.0.1 wraps no batched setter);
 on the GPU backend they are set per env the same way, untested here (no GPU on the build machine).
@@ -24,6 +25,7 @@ Metrics on particle positions [B, N, 3] (`Clay.positions()`), lengths in metres:
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 import sapien
@@ -97,6 +99,7 @@ class Clay(SphereSet):
     def __init__(self, spheres: list[Actor], name: str, drives: list, links: list[tuple[int, int]],
                  layout: np.ndarray, config: ClayConfig, num_envs: int, device):
         super().__init__(spheres, name)
+        self.name = name
         self.drives = drives
         self.layout = layout
         self.config = config
@@ -105,13 +108,28 @@ class Clay(SphereSet):
         offsets = torch.as_tensor(layout[[j for _, j in links]] - layout[[i for i, _ in links]], dtype=torch.float32, device=device)
         self.initial_rest = offsets
         self.rest = offsets[None].repeat(num_envs, 1, 1)
+        self.start = torch.as_tensor(layout, dtype=torch.float32, device=device)[None].repeat(num_envs, 1, 1)
 
-    def reset(self, env_idx: torch.Tensor, origin: torch.Tensor):
-        """Put the envs' clay back to its rest shape with its lowest particles' centres at `origin` [b, 3]."""
-        local = torch.as_tensor(self.layout, dtype=torch.float32, device=origin.device)
-        self.place((origin[None] + local[:, None]).reshape(-1, 3))
-        self.rest[env_idx] = self.initial_rest
-        self._push_targets(env_idx, torch.ones(len(env_idx), len(self.drives), dtype=torch.bool, device=origin.device))
+    def reset(self, env_idx: torch.Tensor, origin: torch.Tensor, yaw: torch.Tensor | None = None,
+              scale: torch.Tensor | None = None):
+        """Put the envs' clay back to its rest shape with its lowest particles' centres at `origin` [b, 3],
+        the shape turned by `yaw` [b] about z and scaled by `scale` [b] about its bottom centre (>= 1,
+        or neighbouring spheres overlap; the spheres keep their size, the links their stiffness).
+        The placed positions are kept as `start` [B, N, 3], the reference of a task's metrics."""
+        b, device = len(env_idx), origin.device
+        transform = torch.eye(3, device=device).repeat(b, 1, 1)
+        if yaw is not None:
+            c, s = torch.cos(yaw), torch.sin(yaw)
+            transform[:, 0, 0], transform[:, 0, 1], transform[:, 1, 0], transform[:, 1, 1] = c, -s, s, c
+        if scale is not None:
+            transform = transform * scale[:, None, None]
+        layout = torch.as_tensor(self.layout, dtype=torch.float32, device=device)
+        local = layout[None] @ transform.transpose(1, 2)  # [b, N, 3]
+        placed = origin[:, None] + local
+        self.place(placed.transpose(0, 1).reshape(-1, 3))
+        self.start[env_idx] = placed
+        self.rest[env_idx] = self.initial_rest[None] @ transform.transpose(1, 2)
+        self._push_targets(env_idx, torch.ones(b, len(self.drives), dtype=torch.bool, device=device))
 
     def relax(self):
         """Plastic step: clamp every link's strain (offset - rest) to `yield_distance` by moving its rest offset."""
@@ -134,6 +152,10 @@ class Clay(SphereSet):
         self.rest[env_idx] = state.reshape(len(env_idx), -1, 3).to(self.rest)
         self._push_targets(env_idx, torch.ones(len(env_idx), len(self.drives), dtype=torch.bool))
 
+    def set_start(self, start: torch.Tensor, env_idx: torch.Tensor):
+        """Restore the start positions (flattened [b, N * 3]) of the envs `env_idx`."""
+        self.start[env_idx] = start.reshape(len(env_idx), -1, 3).to(self.start)
+
     def _push_targets(self, env_idx: torch.Tensor, which: torch.Tensor):
         """Send the rest offsets of the links marked in `which` [b, L] to their PhysX drives."""
         rows, links = torch.nonzero(which.cpu(), as_tuple=True)
@@ -141,6 +163,64 @@ class Clay(SphereSet):
         targets = self.rest.cpu()[envs, links.tolist()].tolist() if len(envs) else []
         for env, link, target in zip(envs, links.tolist(), targets):
             self.drives[link]._objs[env].set_drive_target(sapien.Pose(p=target))
+
+
+class ClayEnvMixin:
+    """Plumbing for envs that hold `Clay` bodies (list them in `clay_bodies`; default: `self.clay`).
+    Put it before the env base class, `class MyEnv(ClayEnvMixin, ManiLadderEnv)`:
+
+    - plasticity: every clay body `relax()`es after each control step;
+    - state: each body's rest offsets (`<name>_rest`) and start positions (`<name>_start`, what its
+      task measures against) are in `get_state_dict` and set back by `set_state_dict`, so recorded demos
+      and replays from env states keep the clay's plastic shape and reference. ManiSkill's flat
+      `set_state` reads only actors and articulations: here it also takes these back from the end of
+      the vector, where `get_state` (the flattened state dict) puts them.
+    """
+
+    # PhysX keeps contact caches outside the env state. With the clay's hundreds of persistent contacts
+    # a run restored into a scene that simulated on diverges within one step from another restore into
+    # the same scene (measured: particle velocities apart by metres per second after the robot had
+    # kneaded the clay), while restores into freshly built scenes agree exactly: state checks use those
+    RESTORES_NEED_FRESH_SCENE: ClassVar[bool] = True
+
+    def clay_bodies(self) -> list[Clay]:
+        return [self.clay]
+
+    def _clay_state_fields(self):
+        """(key, current value [B, k], setter(value, env_idx)) of every clay state field, in state order."""
+        for body in self.clay_bodies():
+            yield f"{body.name}_rest", body.state(), body.set_state
+            yield f"{body.name}_start", body.start.flatten(1).clone(), body.set_start
+
+    def _after_control_step(self):
+        super()._after_control_step()
+        for body in self.clay_bodies():
+            body.relax()
+
+    def get_state_dict(self):
+        state = super().get_state_dict()
+        for key, value, _ in self._clay_state_fields():
+            state[key] = value
+        return state
+
+    def set_state_dict(self, state: dict, env_idx: torch.Tensor = None):
+        super().set_state_dict(state, env_idx)
+        idx = torch.arange(self.num_envs, device=self.device) if env_idx is None else env_idx
+        for key, _, setter in self._clay_state_fields():
+            if key in state:
+                setter(state[key], idx)
+
+    def set_state(self, state: torch.Tensor, env_idx: torch.Tensor = None):
+        super().set_state(state, env_idx)
+        state = torch.as_tensor(state)
+        if state.shape[-1] != self.get_state().shape[-1]:
+            return  # not a full flat state of this env: no clay fields in it
+        idx = torch.arange(self.num_envs, device=self.device) if env_idx is None else env_idx
+        fields = list(self._clay_state_fields())
+        start = state.shape[-1] - sum(value.shape[1] for _, value, _ in fields)
+        for _, value, setter in fields:
+            setter(state[..., start:start + value.shape[1]], idx)
+            start += value.shape[1]
 
 
 def build_clay(scene: ManiSkillScene, name: str, layout: np.ndarray, config: ClayConfig = ClayConfig()) -> Clay:

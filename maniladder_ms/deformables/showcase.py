@@ -201,7 +201,7 @@ class TentShowcaseEnv(ClothShowcaseEnv):
 
 
 @_register("clay")
-class ClayShowcaseEnv(ShowcaseEnv):
+class ClayShowcaseEnv(clay.ClayEnvMixin, ShowcaseEnv):
     """A 6 cm clay ball on the table beside a wooden weight; plastic after every control step."""
 
     SHOWCASE_TITLE = "Clay: 6 cm ball, lattice of springs that yield"
@@ -221,20 +221,6 @@ class ClayShowcaseEnv(ShowcaseEnv):
             origin = torch.tensor([[self.clay_xy[0], self.clay_xy[1], self.clay_config.radius]]).repeat(b, 1)
             self.clay.reset(env_idx, origin)
             self.weight.set_pose(Pose.create_from_pq(torch.tensor([[0.05, 0.12, self.weight_half_size[2]]]).repeat(b, 1)))
-
-    def _after_control_step(self):
-        self.clay.relax()
-
-    def get_state_dict(self):
-        state = super().get_state_dict()
-        state["clay_rest"] = self.clay.state()
-        return state
-
-    def set_state_dict(self, state: dict, env_idx: torch.Tensor = None):
-        super().set_state_dict(state, env_idx)
-        if "clay_rest" in state:
-            idx = torch.arange(self.num_envs, device=self.device) if env_idx is None else env_idx
-            self.clay.set_state(state["clay_rest"], idx)
 
     def deformable_points(self):
         return self.clay.positions()

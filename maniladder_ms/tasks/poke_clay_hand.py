@@ -1,0 +1,105 @@
+"""PokeClayHand (L1 deformable SX): make a dent in a clay block with the LEAP hand's index finger."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import torch
+
+from maniladder_ms.agents.helpers import leap_fingertip, top_down_quat
+from maniladder_ms.deformables import clay
+from maniladder_ms.envs import ManiLadderEnv, register_task
+from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
+from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver
+
+
+@register_task("PokeClayHand")
+class PokeClayHandEnv(clay.ClayEnvMixin, ManiLadderEnv):
+    """**Task:** a block of clay (plastic: it keeps the shape it is pressed into) lies on the table; poke
+    a dent at least 1 cm deep into the middle of its top with the LEAP hand's index finger.
+
+    **Randomisation:** the block (5 x 5 x 3 particles on a 1.2 cm lattice, 6 x 6 x 3.6 cm) is scaled by a
+    uniform factor in [1, 1.15] (`Clay.reset`), turned by a uniform yaw in [0, pi/2), its centre uniform in
+    x in [-0.2, -0.05], y in [-0.15, 0.15].
+
+    **Success:** the dent at the block's top centre (the start's, a fixed table point) is >= `min_depth`
+    = 1 cm deep: `clay.dent_depth`, the start's top there minus the current top of the clay within
+    `dent_radius` = 1 cm of that point (the highest particle top there: every particle near the point
+    must have been pushed down).
+    """
+
+    SUPPORTED_ROBOTS = ["ml_panda_leap"]
+    max_dense_reward = 4
+    TASK_REGION = (-0.25, 0.0, -0.2, 0.2)
+    clay_config = clay.ClayConfig()
+    block_half = (0.024, 0.024, 0.012)  # particle centres: 5 x 5 x 3
+    min_depth = 0.01
+    dent_radius = 0.01
+
+    def _load_scene(self, options: dict):
+        super()._load_scene(options)
+        self.clay = clay.build_clay(self.scene, "clay", clay.clay_block(self.block_half, self.clay_config.spacing),
+                                    self.clay_config)
+
+    def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
+        super()._initialize_episode(env_idx, options)
+        with torch.device(self.device):
+            b = len(env_idx)
+            origin = torch.stack([torch.rand(b) * 0.15 - 0.2, torch.rand(b) * 0.3 - 0.15,
+                                  torch.full((b,), self.clay_config.radius)], dim=1)
+            self.clay.reset(env_idx, origin, yaw=torch.rand(b) * np.pi / 2, scale=1 + torch.rand(b) * 0.15)
+
+    def dent_point(self) -> torch.Tensor:
+        """The start's top centre of the block, [B, 3]: where the dent goes."""
+        start = self.clay.start
+        point = start.mean(dim=1)
+        point[:, 2] = start[..., 2].amax(dim=1) + self.clay_config.radius
+        return point
+
+    def _depth(self) -> torch.Tensor:
+        point, r = self.dent_point(), self.clay_config.radius
+        return clay.dent_depth(self.clay.positions(), point[:, :2], point[:, 2], self.dent_radius, r)
+
+    def _get_obs_extra(self, info: dict):
+        obs = dict(tcp_pose=self.agent.tcp.pose.raw_pose)
+        if "state" in self.obs_mode:
+            obs.update(clay_points=self.clay.positions().flatten(1), dent_depth=info["dent_depth"],
+                       fingertip_to_dent=self.dent_point() - leap_fingertip(self.agent))
+        return obs
+
+    def evaluate(self):
+        depth = self._depth()
+        return {"success": depth >= self.min_depth, "dent_depth": depth}
+
+    def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
+        reach = 1 - torch.tanh(5 * torch.linalg.norm(self.dent_point() - leap_fingertip(self.agent), dim=1))
+        dent = (info["dent_depth"] / self.min_depth).clamp(0, 1)
+        reward = reach + 2 * dent
+        reward[info["success"]] = self.max_dense_reward
+        return reward
+
+
+POKE_DEPTH = 0.025  # fingertip target below the top: past the 1 cm rule, the clay and the arm give way
+POKE_STEPS = 15
+WITHDRAW = 0.05
+
+
+@register_solver("PokeClayHand", control_modes=TCP_DELTA_MODES)
+def solve_poke_clay_hand(env, seed: int) -> dict:
+    """Point the index finger down, bring its tip above the block's top centre, push it into the clay,
+    pull it back out."""
+    with DrivenSolver.episode(env, seed) as s:
+        task: PokeClayHandEnv = env.unwrapped
+        q = top_down_quat(0.0, task.num_envs, device=task.device)
+        s.set_ee("hand", "point", steps=1)
+        dent = task.dent_point()
+        s.move({"arm": (s.above(dent, APPROACH_HEIGHT), q)}, max_steps=40)
+        # the fingertip's offset from the tcp, the finger pointing (world frame; the hand keeps its orientation)
+        tip_offset = leap_fingertip(task.agent) - task.agent.tcp.pose.p
+        s.move({"arm": (s.above(dent, 0.02) - tip_offset, q)}, max_steps=30)
+        for _ in range(POKE_STEPS):
+            s.step({"arm": (s.above(dent, -POKE_DEPTH) - tip_offset, q)})
+        s.move({"arm": (s.above(dent, WITHDRAW) - tip_offset, q)}, max_steps=15, pos_tol=0.01)
+        s.hold_until_success()
+        return s.info
