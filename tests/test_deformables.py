@@ -94,6 +94,12 @@ def test_rope_built_straight_is_straight():
         points = r.points()
         assert rope.straightness(points)[0] == pytest.approx(1.0, abs=1e-4)
         assert rope.end_to_end_distance(points)[0] == pytest.approx(r.config.length, abs=1e-4)
+        # laid flat in a constant curve: an arc centred where asked, on the table
+        r.lay_flat(torch.tensor([[0.05, -0.1]]), torch.tensor([0.3]), torch.full((1, r.config.segments - 1), 0.15))
+        centres = r.points()[0, 1:-1]
+        assert centres[:, :2].mean(dim=0).tolist() == pytest.approx([0.05, -0.1], abs=1e-4)
+        assert centres[:, 2].tolist() == pytest.approx([r.config.radius] * r.config.segments, abs=1e-5)
+        assert rope.straightness(r.points())[0] < 0.8
     finally:
         env.close()
 

@@ -26,6 +26,9 @@ import torch
 from mani_skill.envs.scene import ManiSkillScene
 from mani_skill.utils.structs.articulation import Articulation
 from mani_skill.utils.structs.link import Link
+from mani_skill.utils.structs.pose import Pose
+
+from maniladder_ms.geometry import yaw_quat
 
 # revolute joints turn about the x axis of their joint frame: these frames put that axis on z / y
 X_TO_Z = sapien.Pose(q=[0.7071068, 0, -0.7071068, 0])
@@ -107,6 +110,21 @@ class Rope:
         self.articulation.set_qvel(torch.zeros_like(bend))
         self.articulation.set_root_linear_velocity(torch.zeros(bend.shape[0], 3, device=bend.device))
         self.articulation.set_root_angular_velocity(torch.zeros(bend.shape[0], 3, device=bend.device))
+
+    def lay_flat(self, middle: torch.Tensor, heading: torch.Tensor, turns: torch.Tensor):
+        """Lay the rope flat on the table (z = radius), at rest, curved in the table's plane: `turns`
+        [B, segments - 1] are the in-plane bend angles (rad, counter-clockwise) between consecutive
+        capsules, `heading` [B] the yaw of the first capsule; the mean of the capsule centres lands on the
+        xy of `middle` [B, 2 or 3]."""
+        b, n = turns.shape[0], self.config.segments
+        yaw = heading[:, None] + torch.cat([torch.zeros(b, 1, device=turns.device), turns.cumsum(dim=1)], dim=1)
+        step = torch.stack([torch.cos(yaw), torch.sin(yaw)], dim=-1) * (self.config.segment_length / 2)
+        centres = torch.cat([torch.zeros(b, 1, 2, device=turns.device), (step[:, :-1] + step[:, 1:]).cumsum(dim=1)], dim=1)
+        first = middle[:, :2] - centres.mean(dim=1)
+        root = torch.cat([first, torch.full((b, 1), self.config.radius, device=turns.device)], dim=1)
+        bend = torch.zeros(b, 2 * (n - 1), device=turns.device)
+        bend[:, 0::2] = turns
+        self.set_shape(Pose.create_from_pq(root, yaw_quat(heading)), bend)
 
 
 def _x_axis(q: torch.Tensor) -> torch.Tensor:
