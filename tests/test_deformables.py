@@ -94,13 +94,16 @@ def test_rope_built_straight_is_straight():
         points = r.points()
         assert rope.straightness(points)[0] == pytest.approx(1.0, abs=1e-4)
         assert rope.end_to_end_distance(points)[0] == pytest.approx(r.config.length, abs=1e-4)
+        # laid flat in a constant curve: an arc centred where asked, on the table
+        r.lay_flat(torch.tensor([[0.05, -0.1]]), torch.tensor([0.3]), torch.full((1, r.config.segments - 1), 0.15))
+        centres = r.points()[0, 1:-1]
+        assert centres[:, :2].mean(dim=0).tolist() == pytest.approx([0.05, -0.1], abs=1e-4)
+        assert centres[:, 2].tolist() == pytest.approx([r.config.radius] * r.config.segments, abs=1e-5)
+        assert rope.straightness(r.points())[0] < 0.8
     finally:
         env.close()
 
 
-@pytest.mark.xfail(reason="not solved yet: the gripper closes on a capsule but the rope slips out on lifting "
-                   "(the depenetration cap that keeps the chain finite weakens the grip); strict: a pass means it works, "
-                   "so drop this mark", strict=True)
 def test_panda_picks_up_a_rope_end():
     from maniladder_ms.solvers.panda import PandaSolver
 
@@ -113,10 +116,12 @@ def test_panda_picks_up_a_rope_end():
             yaw = robot.closest_grasp_yaw(float(np.arctan2(axis[1], axis[0])) + np.pi / 2)
             grip_at = r.links[1].pose.p[0].numpy()  # the second capsule's middle, clear of the joints
             robot.pick(robot.top_down_pose([grip_at[0], grip_at[1], r.config.radius], yaw), lift_height=0.15)
-            robot.grip(closed=True, steps=20)  # hold still while the rope stops swinging
-            points = r.points()[0]
-            assert points[:3, 2].min() > 0.08  # the gripped end is up in the air
-            assert points[-1, 2] < 0.03  # the rest still trails on the table
+            for _ in range(3):  # hold still while the rope stops swinging: it stays in the grip
+                robot.grip(closed=True, steps=20)
+                points = r.points()[0]
+                assert torch.isfinite(points).all()
+                assert points[:3, 2].min() > 0.08  # the gripped end is up in the air
+                assert points[-1, 2] < 0.03  # the rest still trails on the table
     finally:
         env.close()
 

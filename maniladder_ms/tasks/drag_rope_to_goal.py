@@ -1,0 +1,130 @@
+"""DragRopeToGoal (L1 deformable SG): grasp a rope near its middle and drag it into a goal zone."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import sapien
+import torch
+
+from mani_skill.utils.structs.pose import Pose
+
+from maniladder_ms.deformables import rope
+from maniladder_ms.envs import ManiLadderEnv, register_task
+from maniladder_ms.geometry import yaw_quat
+from maniladder_ms.objects.markers import MARKER_THICKNESS, build_zone_marker
+from maniladder_ms.solvers import register_solver
+from maniladder_ms.solvers.panda import PandaSolver
+
+
+@register_task("DragRopeToGoal")
+class DragRopeToGoalEnv(ManiLadderEnv):
+    """**Task:** a rope lies on the table on one side of the robot's centre line, a square goal zone is
+    marked on the other side; grasp the rope near its middle and drag the whole rope into the zone.
+
+    **Randomisation:**
+    - the rope (`rope.RopeConfig()`: 40 cm, 20 capsules of 1.6 cm diameter) lies flat in a gentle S:
+      the in-plane turn between capsules k and k + 1 is amp * sin(2 pi (k + 1) / 20 + phase), amp
+      uniform in [0, 0.2] rad, phase uniform; the mean of its capsule centres is at x uniform in
+      [-0.12, 0.0], |y| uniform in [0.12, 0.18] on a random side; its first capsule heads within
+      +-0.35 rad (uniform) of +x or of -x;
+    - the goal zone (22 cm square tile, axis-aligned) is centred at x uniform in [-0.1, 0.02],
+      |y| uniform in [0.08, 0.12] on the other side.
+
+    **Success:** at least `min_inside` = 90% of the rope's segments (capsule centres) lie inside the
+    zone's square footprint and on the table (centre at most `on_table_height` = 3 cm up).
+    """
+
+    max_dense_reward = 5
+    TASK_REGION = (-0.35, 0.25, -0.35, 0.35)
+    rope_config = rope.RopeConfig()
+    zone_half = 0.11
+    min_inside = 0.9
+    on_table_height = 0.03
+
+    @property
+    def grasp_segment(self) -> int:
+        """The capsule a grasp near the middle takes (the solver's, and the reward's reach target)."""
+        return self.rope_config.segments // 2
+
+    def _load_scene(self, options: dict):
+        super()._load_scene(options)
+        self.rope = rope.build_rope(self.scene, "rope", self.rope_config)
+        self.zone = build_zone_marker(self.scene, "goal_zone", self.zone_half, (0.55, 0.85, 0.55, 1))
+
+    def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
+        super()._initialize_episode(env_idx, options)
+        with torch.device(self.device):
+            b = len(env_idx)
+            cfg = self.rope_config
+            side = torch.where(torch.rand(b) < 0.5, -1.0, 1.0)
+            k = torch.arange(1, cfg.segments)
+            amp = torch.rand(b, 1) * 0.2
+            turns = amp * torch.sin(2 * np.pi * k / cfg.segments + torch.rand(b, 1) * 2 * np.pi)
+            heading = (torch.rand(b) - 0.5) * 0.7 + torch.where(torch.rand(b) < 0.5, 0.0, np.pi)
+            middle = torch.stack([torch.rand(b) * 0.12 - 0.12, side * (0.12 + torch.rand(b) * 0.06)], dim=1)
+            self.rope.lay_flat(middle, heading, turns)
+            zone = torch.stack([torch.rand(b) * 0.12 - 0.1, -side * (0.08 + torch.rand(b) * 0.04),
+                                torch.full((b,), MARKER_THICKNESS / 2)], dim=1)
+            self.zone.set_pose(Pose.create_from_pq(zone))
+
+    def _segments(self) -> torch.Tensor:
+        """Capsule centres, [B, segments, 3]."""
+        return self.rope.points()[:, 1:-1]
+
+    def _get_obs_extra(self, info: dict):
+        obs = dict(tcp_pose=self.agent.tcp_pose.raw_pose, is_grasped=info["is_grasped"])
+        if "state" in self.obs_mode:
+            obs.update(rope_points=self.rope.points().flatten(1), zone_pos=self.zone.pose.p)
+        return obs
+
+    def evaluate(self):
+        seg = self._segments()
+        rel = seg[..., :2] - self.zone.pose.p[:, None, :2]
+        inside = (rel.abs() <= self.zone_half).all(dim=-1) & (seg[..., 2] <= self.on_table_height)
+        fraction = inside.float().mean(dim=1)
+        return {
+            "success": fraction >= self.min_inside,
+            "fraction_inside": fraction,
+            "is_grasped": self.agent.is_grasping(self.rope.links[self.grasp_segment]),
+        }
+
+    def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
+        grip_at = self.rope.links[self.grasp_segment].pose.p
+        reward = 1 - torch.tanh(5 * torch.linalg.norm(grip_at - self.agent.tcp_pose.p, dim=1))
+        reward += info["is_grasped"]
+        centroid = self._segments()[..., :2].mean(dim=1)
+        reward += 1 - torch.tanh(5 * torch.linalg.norm(centroid - self.zone.pose.p[:, :2], dim=1))
+        reward += 2 * info["fraction_inside"]
+        reward[info["success"]] = self.max_dense_reward
+        return reward
+
+
+DRAG_HEIGHT = 0.04  # the grasped middle rides this high; both halves trail on the table
+LEAD = 0.07  # the grasp ends this far past the zone centre, so the trailing halves end up centred
+
+
+@register_solver("DragRopeToGoal")
+def solve_drag_rope_to_goal(env, seed: int) -> dict:
+    """Grasp the middle capsule across its axis, lift it 4 cm, drag it in a straight line to just past the
+    zone centre (the halves trail behind into the zone), lower, release, retreat."""
+    with PandaSolver.episode(env, seed) as robot:
+        task: DragRopeToGoalEnv = env.unwrapped
+        link = task.rope.links[task.grasp_segment]
+        axis = rope._x_axis(link.pose.q)[0].cpu().numpy()
+        grip_at = link.pose.p[0].cpu().numpy()
+        yaw = robot.closest_grasp_yaw(float(np.arctan2(axis[1], axis[0])) + np.pi / 2)
+        grasp = robot.top_down_pose([grip_at[0], grip_at[1], task.rope_config.radius], yaw)
+        robot.pick(grasp, lift_height=DRAG_HEIGHT)
+        zone = task.zone.pose.p[0].cpu().numpy()
+        direction = zone[:2] - grip_at[:2]
+        direction /= np.linalg.norm(direction)
+        end = zone[:2] + LEAD * direction
+        release = robot.top_down_pose([end[0], end[1], task.rope_config.radius + 0.005], yaw)
+        robot.move(sapien.Pose([0, 0, DRAG_HEIGHT]) * release)
+        robot.move(release)
+        robot.grip(closed=False)
+        robot.move(sapien.Pose([0, 0, 0.06]) * release)
+        robot.hold_until_success()
+        return robot.info
