@@ -83,11 +83,12 @@ def test_state_round_trip_after_50_steps(state_env):
     # the same actions from the restored state give the same obs, every time it is restored. (Compared
     # with the run that went on live, restored runs drift where the robot was touching something: PhysX
     # contact warm-start caches are not part of the state; measured up to 1 rad/s on a finger pressing
-    # PivotBook's book after 5 steps, against exactly 0 between two restores.)
+    # PivotBook's book after 5 steps, against exactly 0 between two restores.) Particle piles declare a
+    # looser `restore_tolerance` (maniladder_ms.deformables.particles.RESTORE_TOLERANCE says why).
     first = [flat(state_env.step(a)[0]) for a in actions[50:55]]
     base.set_state(saved)
     again = [flat(state_env.step(a)[0]) for a in actions[50:55]]
-    assert max(float((x - y).abs().max()) for x, y in zip(again, first)) < 1e-5
+    assert max(float((x - y).abs().max()) for x, y in zip(again, first)) < getattr(base, "restore_tolerance", 1e-5)
 
 
 @pytest.mark.parametrize("reward_mode", ["sparse", "dense", "normalized_dense"])
