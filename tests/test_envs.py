@@ -84,10 +84,10 @@ def test_state_round_trip_after_50_steps(state_env):
     # with the run that went on live, restored runs drift where the robot was touching something: PhysX
     # contact warm-start caches are not part of the state; measured up to 1 rad/s on a finger pressing
     # PivotBook's book after 5 steps, against exactly 0 between two restores.)
-    # Scenes full of persistent contacts (clay: hundreds between its particles) diverge within one step
-    # even between restores, on those caches alone; they set `RESTORES_NEED_FRESH_SCENE` and are
-    # restored into two freshly made envs of the task instead, whose caches are empty alike.
-    if getattr(base, "RESTORES_NEED_FRESH_SCENE", False):
+    # Scenes full of persistent contacts (clay, particle piles) diverge even between restores, on those
+    # caches alone; they set `RESTORES_NEED_FRESH_SCENE` and are restored into two freshly made envs of
+    # the task instead, whose caches are empty alike.
+    if base.RESTORES_NEED_FRESH_SCENE:
         runs = []
         for _ in range(2):
             env = make(base.task_spec.id, obs_mode="state")

@@ -77,6 +77,10 @@ class ManiLadderEnv(BaseEnv):
     task_spec: Optional[TaskSpec]
     # the dense reward a task gives on success: the normalized dense reward is the dense one over this
     max_dense_reward: ClassVar[float] = 1.0
+    # True where PhysX data kept outside the env state (contact caches) makes two restores of one state
+    # into a scene that simulated on part ways (many persistent contacts: clay, particle piles); state
+    # checks then restore into freshly built scenes, which agree exactly
+    RESTORES_NEED_FRESH_SCENE: ClassVar[bool] = False
 
     def __init__(
         self,

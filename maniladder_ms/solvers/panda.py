@@ -66,6 +66,25 @@ class PandaSolver:
         closing = np.array([np.cos(yaw), np.sin(yaw), 0.0])
         return self.env.unwrapped.agent.build_grasp_pose(np.array([0, 0, -1.0]), closing, np.asarray(center, float))
 
+    def level_pose(self, center, yaw: float, closing_sign: float = 1.0) -> sapien.Pose:
+        """TCP pointing horizontally along the direction `yaw` at `center`, fingers closing horizontally
+        (across the pointing direction; `closing_sign` -1 turns the hand half a turn about it: the same
+        grasp with the last joint pi away, to leave it room for a later `roll_wrist`)."""
+        approaching = np.array([np.cos(yaw), np.sin(yaw), 0.0])
+        closing = closing_sign * np.array([-np.sin(yaw), np.cos(yaw), 0.0])
+        return self.env.unwrapped.agent.build_grasp_pose(approaching, closing, np.asarray(center, float))
+
+    def roll_wrist(self, angle: float, steps: int):
+        """Turn the last arm joint, whose axis is the TCP's pointing axis, by `angle` rad at an even pace
+        over `steps` control steps, the other joints held: a pour from a level grasp (the Panda cannot
+        pitch its hand far forward, joint 6 reaches its limit, but rolls it freely)."""
+        arm = self.env.unwrapped.agent.robot
+        start = arm.get_qpos()[0, :7].cpu().numpy()
+        for k in range(1, steps + 1):
+            goal = start.copy()
+            goal[6] += angle * k / steps
+            self.info = self.planner.follow_path({"position": goal[None]})[-1]
+
     def straight_line_yaw(self, center, yaws) -> float:
         """The first of the equivalent `yaws` whose top-down pose at `center` is reachable by a straight
         (screw) path from here: the RRT fallback may sweep the arm through objects on the table."""
@@ -118,8 +137,12 @@ class PandaSolver:
                 return
             self.grip(closed=self.planner.gripper_state == self.planner.CLOSED, steps=1)
 
-    def pick(self, grasp: sapien.Pose, approach_height: float = APPROACH_HEIGHT, lift_height: float = 0.1):
-        self.move(sapien.Pose([0, 0, approach_height]) * grasp)
+    def pick(self, grasp: sapien.Pose, approach_height: float = APPROACH_HEIGHT, lift_height: float = 0.1,
+             approach_from=None):
+        """Grasp at `grasp` from `approach_from` (a world offset from it; default: `approach_height` above),
+        coming in along a straight line, close, lift by `lift_height`."""
+        offset = [0, 0, approach_height] if approach_from is None else list(approach_from)
+        self.move(sapien.Pose(offset) * grasp)
         self.move(grasp, settle_steps=PRECISE_SETTLE_STEPS)
         self.grip(closed=True)
         self.move(sapien.Pose([0, 0, lift_height]) * grasp)

@@ -1,0 +1,136 @@
+"""PourBeansIntoBowl (L1 deformable SG): pick up a cup of beans and pour them into a bowl."""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+import numpy as np
+import sapien
+import torch
+
+from mani_skill.utils.structs.pose import Pose
+
+from maniladder_ms.deformables import particles
+from maniladder_ms.envs import ManiLadderEnv, register_task
+from maniladder_ms.objects import containers
+from maniladder_ms.solvers import register_solver
+from maniladder_ms.solvers.panda import PandaSolver
+
+
+# a plastic cup (~60 g) with a grippy surface: the level grasp holds it through the roll
+CUP_DENSITY = 800.0
+
+
+@register_task("PourBeansIntoBowl")
+class PourBeansIntoBowlEnv(ManiLadderEnv):
+    """**Task:** pick up a cup of beans and pour the beans into a bowl.
+
+    **Randomisation:**
+    - the cup (plastic, inner radius 2.5 cm, 8 cm tall, 5.8 cm wide outside) stands at x in
+      [-0.16, -0.1], |y| in [0.08, 0.16] on a random side of the robot's centre line, holding 80 beans
+      (granular spheres, radius 4 mm, 4 layers) packed from its floor with a small random jitter;
+    - the bowl (inner radius 8 cm at the rim, 5 cm tall) stands in front of it, x in [0, 0.08],
+      y in [-0.05, 0.05].
+
+    **Success:** at least `success_fraction` = 80 % of the beans lie inside the bowl's inner volume
+    (below its rim, `particles.fraction_inside`).
+    """
+
+    max_dense_reward = 6
+
+    TASK_REGION = (-0.2, 0.15, -0.25, 0.25)
+    cup_shape = containers.cup(radius=0.025, height=0.08, wall=0.004)
+    bowl_shape = containers.bowl()
+    bean_config = dataclasses.replace(particles.GRANULAR, count=80, radius=0.004)
+    success_fraction = 0.8
+    # two restores of one state into a scene that simulated on part by 4e-5 to 4e-4 m over 5 steps (PhysX
+    # solver data outside the env state; measured on 80 beans resting in the cup): state checks use
+    # fresh scenes
+    RESTORES_NEED_FRESH_SCENE = True
+
+    def _load_scene(self, options: dict):
+        super()._load_scene(options)
+        self.cup = containers.build_container(self.scene, "cup", self.cup_shape, color=(0.9, 0.9, 0.92, 1), friction=2.0,
+                                               density=CUP_DENSITY)
+        self.bowl = containers.build_container(self.scene, "bowl", self.bowl_shape, color=(0.35, 0.55, 0.75, 1))
+        self.beans = particles.build_particles(self.scene, "beans", self.bean_config)
+
+    def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
+        super()._initialize_episode(env_idx, options)
+        with torch.device(self.device):
+            b = len(env_idx)
+            side = torch.where(torch.rand(b) < 0.5, -1.0, 1.0)
+            cup_xyz = torch.stack([torch.rand(b) * 0.06 - 0.16, side * (0.08 + torch.rand(b) * 0.08), torch.zeros(b)], dim=1)
+            bowl_xyz = torch.stack([torch.rand(b) * 0.08 + 0.0, (torch.rand(b) - 0.5) * 0.1, torch.zeros(b)], dim=1)
+            self.cup.set_pose(Pose.create_from_pq(cup_xyz))
+            self.bowl.set_pose(Pose.create_from_pq(bowl_xyz))
+            local = torch.stack([particles.pack_in_container(self.cup_shape, self.bean_config.count, self.bean_config.radius)
+                                 for _ in range(b)])
+            self.beans.set_positions(local + cup_xyz[:, None])
+
+    def _get_obs_extra(self, info: dict):
+        obs = dict(tcp_pose=self.agent.tcp_pose.raw_pose, is_grasped=info["is_grasped"])
+        if "state" in self.obs_mode:
+            obs.update(cup_pose=self.cup.pose.raw_pose, bowl_pose=self.bowl.pose.raw_pose,
+                       bean_positions=self.beans.positions().flatten(1))
+        return obs
+
+    def evaluate(self):
+        p = self.beans.positions()
+        in_bowl = particles.fraction_inside(p, self.bowl.pose, self.bowl_shape)
+        in_cup = particles.fraction_inside(p, self.cup.pose, self.cup_shape)
+        cup_up = self.cup.pose.to_transformation_matrix()[:, 2, 2]  # cos of the cup axis' tilt
+        return {
+            "success": in_bowl >= self.success_fraction,
+            "fraction_in_bowl": in_bowl,
+            "fraction_in_cup": in_cup,
+            "fraction_spilled": 1 - in_bowl - in_cup,
+            "is_grasped": self.agent.is_grasping(self.cup),
+            "is_lifted": self.cup.pose.p[:, 2] > 0.05,
+            "is_tilted": cup_up < 0,
+        }
+
+    def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
+        # reach the cup's side at mid height, grasp, lift; carry it beside the bowl, tilt; beans in the bowl
+        grasp_point = self.cup.pose.p + torch.tensor([0, 0, self.cup_shape.height / 2], device=self.device)
+        reward = 1 - torch.tanh(5 * torch.linalg.norm(grasp_point - self.agent.tcp_pose.p, dim=1))
+        is_grasped = info["is_grasped"].float()
+        reward += is_grasped
+        above_bowl = self.bowl.pose.p + torch.tensor([0, 0, 0.15], device=self.device)
+        carry = 1 - torch.tanh(5 * torch.linalg.norm((above_bowl - self.cup.pose.p)[:, :2], dim=1))
+        reward += carry * is_grasped * info["is_lifted"]
+        reward += 3 * info["fraction_in_bowl"] * (1 - info["fraction_spilled"])
+        reward[info["success"]] = self.max_dense_reward
+        return reward
+
+
+# solver: the level grasp points in from the cup's outer side, 30 degrees forward of the y axis (the IK
+# has room there); the wrist rolls the cup's mouth forward over the bowl from POUR_BACK behind its centre
+GRASP_HEIGHT = 0.045  # TCP height above the cup's bottom
+POUR_HEIGHT = 0.13  # TCP height while pouring
+POUR_BACK = 0.04
+POUR_ROLL = 2.5  # rad (143 degrees)
+POUR_ROLL_STEPS = 20
+
+
+# pd_joint_pos only: the joint-delta and TCP-delta modes lag the fast wrist roll and missed (0/4 seeds in
+# pd_joint_delta_pos; pd_ee_delta_pose not one success in 12 minutes of demo generation), not tuned yet
+@register_solver("PourBeansIntoBowl", control_modes=("pd_joint_pos",))
+def solve_pour_beans_into_bowl(env, seed: int) -> dict:
+    """Grasp the cup level from its outer side, lift, carry it behind the bowl, roll the wrist forward."""
+    with PandaSolver.episode(env, seed) as robot:
+        task: PourBeansIntoBowlEnv = env.unwrapped
+        cup_p = task.cup.pose.p[0].cpu().numpy()
+        bowl_p = task.bowl.pose.p[0].cpu().numpy()
+        side = 1.0 if cup_p[1] >= 0 else -1.0
+        yaw = -side * np.pi / 3
+        # on the -y side the mirrored grasp would leave the last joint no room to roll: turn it half a turn
+        grasp = robot.level_pose([cup_p[0], cup_p[1], GRASP_HEIGHT], yaw, closing_sign=side)
+        robot.pick(grasp, approach_from=-0.1 * np.array([np.cos(yaw), np.sin(yaw), 0.0]))
+        robot.move(sapien.Pose([bowl_p[0] - POUR_BACK, bowl_p[1], POUR_HEIGHT], grasp.q))
+        # a positive roll about the pointing axis turns the cup's mouth towards (pointing x up)
+        forward = np.cross([np.cos(yaw), np.sin(yaw), 0.0], [0.0, 0.0, 1.0])[0]
+        robot.roll_wrist(POUR_ROLL * np.sign(forward), POUR_ROLL_STEPS)
+        robot.hold_until_success()
+        return robot.info
