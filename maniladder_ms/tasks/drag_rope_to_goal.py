@@ -59,9 +59,7 @@ class DragRopeToGoalEnv(ManiLadderEnv):
             b = len(env_idx)
             cfg = self.rope_config
             side = torch.where(torch.rand(b) < 0.5, -1.0, 1.0)
-            k = torch.arange(1, cfg.segments)
-            amp = torch.rand(b, 1) * 0.2
-            turns = amp * torch.sin(2 * np.pi * k / cfg.segments + torch.rand(b, 1) * 2 * np.pi)
+            turns = rope.wavy_turns(b, cfg.segments, 0.2)
             heading = (torch.rand(b) - 0.5) * 0.7 + torch.where(torch.rand(b) < 0.5, 0.0, np.pi)
             middle = torch.stack([torch.rand(b) * 0.12 - 0.12, side * (0.12 + torch.rand(b) * 0.06)], dim=1)
             self.rope.lay_flat(middle, heading, turns)
