@@ -34,23 +34,17 @@ class SqueezeClayBimanualEnv(clay.ClayEnvMixin, ManiLadderEnv):
     SUPPORTED_ROBOTS = ["ml_dual_panda"]
     max_dense_reward = 5
     TASK_REGION = (-0.22, 0.02, -0.15, 0.15)
-    clay_config = clay.ClayConfig()
     block_half = (0.012, 0.024, 0.012)  # particle centres: 3 x 5 x 3, the long side along y
     max_width_ratio = 0.7
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
-        self.clay = clay.build_clay(self.scene, "clay", clay.clay_block(self.block_half, self.clay_config.spacing),
-                                    self.clay_config)
+        self.load_clay(clay.clay_block(self.block_half, self.clay_config.spacing))
 
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
-            b = len(env_idx)
-            origin = torch.stack([torch.rand(b) * 0.1 - 0.15, torch.rand(b) * 0.1 - 0.05,
-                                  torch.full((b,), self.clay_config.radius)], dim=1)
-            yaw = (torch.rand(b) * 2 - 1) * np.deg2rad(10)
-            self.clay.reset(env_idx, origin, yaw=yaw, scale=1 + torch.rand(b) * 0.15)
+            self.reset_clay(env_idx, x=(-0.15, -0.05), y=(-0.05, 0.05), yaw=(-np.deg2rad(10), np.deg2rad(10)))
 
     def width(self, points: torch.Tensor) -> torch.Tensor:
         axis = torch.tensor(SQUEEZE_AXIS, device=self.device)
