@@ -183,8 +183,26 @@ class ClayEnvMixin:
     # kneaded the clay), while restores into freshly built scenes agree exactly: state checks use those
     RESTORES_NEED_FRESH_SCENE: ClassVar[bool] = True
 
+    clay_config: ClassVar[ClayConfig] = ClayConfig()
+
     def clay_bodies(self) -> list[Clay]:
         return [self.clay]
+
+    def load_clay(self, layout: np.ndarray):
+        """Build the env's clay, `self.clay`, with particles at `layout` (`clay_ball`, `clay_block`)."""
+        self.clay = build_clay(self.scene, "clay", layout, self.clay_config)
+
+    def reset_clay(self, env_idx: torch.Tensor, x: tuple, y: tuple, yaw: tuple, scale: tuple = (1.0, 1.15)):
+        """Put `self.clay` back for the envs `env_idx`, its bottom centre on the table uniform in x = (low,
+        high) and y, turned by a yaw uniform in `yaw` and scaled by a factor uniform in `scale` (`Clay.reset`)."""
+        b, device = len(env_idx), self.device
+
+        def uniform(low_high):
+            low, high = low_high
+            return low + torch.rand(b, device=device) * (high - low)
+
+        origin = torch.stack([uniform(x), uniform(y), torch.full((b,), self.clay_config.radius, device=device)], dim=1)
+        self.clay.reset(env_idx, origin, yaw=uniform(yaw), scale=uniform(scale))
 
     def _clay_state_fields(self):
         """(key, current value [B, k], setter(value, env_idx)) of every clay state field, in state order."""

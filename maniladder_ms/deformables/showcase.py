@@ -205,13 +205,12 @@ class ClayShowcaseEnv(clay.ClayEnvMixin, ShowcaseEnv):
     """A 6 cm clay ball on the table beside a wooden weight; plastic after every control step."""
 
     SHOWCASE_TITLE = "Clay: 6 cm ball, lattice of springs that yield"
-    clay_config = clay.ClayConfig()
     clay_xy = (0.05, -0.05)
     weight_half_size = (0.03, 0.03, 0.015)
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
-        self.clay = clay.build_clay(self.scene, "clay", clay.clay_ball(0.03, self.clay_config.spacing), self.clay_config)
+        self.load_clay(clay.clay_ball(0.03, self.clay_config.spacing))
         self.weight = _build_box(self.scene, "weight", self.weight_half_size, (0.6, 0.45, 0.3, 1))
 
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):

@@ -32,23 +32,18 @@ class PokeClayHandEnv(clay.ClayEnvMixin, ManiLadderEnv):
     SUPPORTED_ROBOTS = ["ml_panda_leap"]
     max_dense_reward = 4
     TASK_REGION = (-0.25, 0.0, -0.2, 0.2)
-    clay_config = clay.ClayConfig()
     block_half = (0.024, 0.024, 0.012)  # particle centres: 5 x 5 x 3
     min_depth = 0.01
     dent_radius = 0.01
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
-        self.clay = clay.build_clay(self.scene, "clay", clay.clay_block(self.block_half, self.clay_config.spacing),
-                                    self.clay_config)
+        self.load_clay(clay.clay_block(self.block_half, self.clay_config.spacing))
 
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
-            b = len(env_idx)
-            origin = torch.stack([torch.rand(b) * 0.15 - 0.2, torch.rand(b) * 0.3 - 0.15,
-                                  torch.full((b,), self.clay_config.radius)], dim=1)
-            self.clay.reset(env_idx, origin, yaw=torch.rand(b) * np.pi / 2, scale=1 + torch.rand(b) * 0.15)
+            self.reset_clay(env_idx, x=(-0.2, -0.05), y=(-0.15, 0.15), yaw=(0.0, np.pi / 2))
 
     def dent_point(self) -> torch.Tensor:
         """The start's top centre of the block, [B, 3]: where the dent goes."""

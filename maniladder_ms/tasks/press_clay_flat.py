@@ -31,23 +31,18 @@ class PressClayFlatEnv(clay.ClayEnvMixin, ManiLadderEnv):
 
     max_dense_reward = 5
     TASK_REGION = (-0.17, 0.12, -0.22, 0.22)  # ball centres plus a flattened disk's radius
-    clay_config = clay.ClayConfig()
     ball_radius = 0.03
     max_height_ratio = 0.5
     min_area_ratio = 1.5
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
-        self.clay = clay.build_clay(self.scene, "clay", clay.clay_ball(self.ball_radius, self.clay_config.spacing),
-                                    self.clay_config)
+        self.load_clay(clay.clay_ball(self.ball_radius, self.clay_config.spacing))
 
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
-            b = len(env_idx)
-            origin = torch.stack([torch.rand(b) * 0.15 - 0.1, torch.rand(b) * 0.3 - 0.15,
-                                  torch.full((b,), self.clay_config.radius)], dim=1)
-            self.clay.reset(env_idx, origin, yaw=torch.rand(b) * np.pi / 2, scale=1 + torch.rand(b) * 0.15)
+            self.reset_clay(env_idx, x=(-0.1, 0.05), y=(-0.15, 0.15), yaw=(0.0, np.pi / 2))
 
     def clay_center(self) -> torch.Tensor:
         """Table point (z = 0) under the clay's centre of mass, [B, 3]."""
