@@ -100,6 +100,15 @@ def pack_in_container(shape: ContainerShape, count: int, radius: float, generato
     return out + (torch.rand(out.shape, generator=generator) - 0.5) * 0.1 * radius
 
 
+def fill_upright(group: Particles, shape: ContainerShape, origins: torch.Tensor, generator: torch.Generator = None):
+    """Place `group`'s spheres packed in upright containers of `shape` standing at `origins` [b, 3] (one
+    container per env being reset; `pack_in_container` jitters each packing on its own)."""
+    config = group.config
+    local = torch.stack([pack_in_container(shape, config.count, config.radius, generator).to(origins.device)
+                         for _ in range(len(origins))])
+    group.set_positions(local + origins[:, None])
+
+
 # ---- metrics --------------------------------------------------------------------------------------
 def fraction_inside(positions: torch.Tensor, container_pose: Pose, shape: ContainerShape) -> torch.Tensor:
     """Share of particles [B, N, 3] inside the container's inner volume (below its rim), [B]."""

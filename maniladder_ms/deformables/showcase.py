@@ -255,11 +255,8 @@ class PourShowcaseEnv(ShowcaseEnv):
             b = len(env_idx)
             for actor, xy in ((self.source, self.source_xy), (self.target, self.target_xy)):
                 actor.set_pose(Pose.create_from_pq(torch.tensor([[xy[0], xy[1], 0.0]]).repeat(b, 1)))
-            local = torch.stack([
-                particles.pack_in_container(self.source_shape, self.particle_config.count, self.particle_config.radius)
-                for _ in range(b)
-            ])
-            self.particles.set_positions(local + torch.tensor([self.source_xy[0], self.source_xy[1], 0.0]))
+            particles.fill_upright(self.particles, self.source_shape,
+                                   torch.tensor([[self.source_xy[0], self.source_xy[1], 0.0]]).repeat(b, 1))
 
     def deformable_points(self):
         return self.particles.positions()

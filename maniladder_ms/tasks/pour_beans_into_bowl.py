@@ -9,21 +9,15 @@ import numpy as np
 import sapien
 import torch
 
-from mani_skill.utils.structs.pose import Pose
-
 from maniladder_ms.deformables import particles
+from maniladder_ms.deformables.pouring import CupToBowl
 from maniladder_ms.envs import ManiLadderEnv, register_task
-from maniladder_ms.objects import containers
 from maniladder_ms.solvers import register_solver
 from maniladder_ms.solvers.panda import PandaSolver
 
 
-# a plastic cup (~60 g) with a grippy surface: the level grasp holds it through the roll
-CUP_DENSITY = 800.0
-
-
 @register_task("PourBeansIntoBowl")
-class PourBeansIntoBowlEnv(ManiLadderEnv):
+class PourBeansIntoBowlEnv(CupToBowl, ManiLadderEnv):
     """**Task:** pick up a cup of beans and pour the beans into a bowl.
 
     **Randomisation:**
@@ -40,21 +34,12 @@ class PourBeansIntoBowlEnv(ManiLadderEnv):
     max_dense_reward = 6
 
     TASK_REGION = (-0.2, 0.15, -0.25, 0.25)
-    cup_shape = containers.cup(radius=0.025, height=0.08, wall=0.004)
-    bowl_shape = containers.bowl()
-    bean_config = dataclasses.replace(particles.GRANULAR, count=80, radius=0.004)
-    success_fraction = 0.8
-    # two restores of one state into a scene that simulated on part by 4e-5 to 4e-4 m over 5 steps (PhysX
-    # solver data outside the env state; measured on 80 beans resting in the cup): state checks use
-    # fresh scenes
-    RESTORES_NEED_FRESH_SCENE = True
+    particle_config = dataclasses.replace(particles.GRANULAR, count=80, radius=0.004)
+    particle_name = "beans"
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
-        self.cup = containers.build_container(self.scene, "cup", self.cup_shape, color=(0.9, 0.9, 0.92, 1), friction=2.0,
-                                               density=CUP_DENSITY)
-        self.bowl = containers.build_container(self.scene, "bowl", self.bowl_shape, color=(0.35, 0.55, 0.75, 1))
-        self.beans = particles.build_particles(self.scene, "beans", self.bean_config)
+        self._load_cup_and_bowl()
 
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
         super()._initialize_episode(env_idx, options)
@@ -63,29 +48,18 @@ class PourBeansIntoBowlEnv(ManiLadderEnv):
             side = torch.where(torch.rand(b) < 0.5, -1.0, 1.0)
             cup_xyz = torch.stack([torch.rand(b) * 0.06 - 0.16, side * (0.08 + torch.rand(b) * 0.08), torch.zeros(b)], dim=1)
             bowl_xyz = torch.stack([torch.rand(b) * 0.08 + 0.0, (torch.rand(b) - 0.5) * 0.1, torch.zeros(b)], dim=1)
-            self.cup.set_pose(Pose.create_from_pq(cup_xyz))
-            self.bowl.set_pose(Pose.create_from_pq(bowl_xyz))
-            local = torch.stack([particles.pack_in_container(self.cup_shape, self.bean_config.count, self.bean_config.radius)
-                                 for _ in range(b)])
-            self.beans.set_positions(local + cup_xyz[:, None])
+            self._place_cup_and_bowl(cup_xyz, bowl_xyz)
 
     def _get_obs_extra(self, info: dict):
         obs = dict(tcp_pose=self.agent.tcp_pose.raw_pose, is_grasped=info["is_grasped"])
         if "state" in self.obs_mode:
-            obs.update(cup_pose=self.cup.pose.raw_pose, bowl_pose=self.bowl.pose.raw_pose,
-                       bean_positions=self.beans.positions().flatten(1))
+            obs.update(self._cup_and_bowl_obs())
         return obs
 
     def evaluate(self):
-        p = self.beans.positions()
-        in_bowl = particles.fraction_inside(p, self.bowl.pose, self.bowl_shape)
-        in_cup = particles.fraction_inside(p, self.cup.pose, self.cup_shape)
         cup_up = self.cup.pose.to_transformation_matrix()[:, 2, 2]  # cos of the cup axis' tilt
         return {
-            "success": in_bowl >= self.success_fraction,
-            "fraction_in_bowl": in_bowl,
-            "fraction_in_cup": in_cup,
-            "fraction_spilled": 1 - in_bowl - in_cup,
+            **self.pour_metrics(),
             "is_grasped": self.agent.is_grasping(self.cup),
             "is_lifted": self.cup.pose.p[:, 2] > 0.05,
             "is_tilted": cup_up < 0,
@@ -100,7 +74,7 @@ class PourBeansIntoBowlEnv(ManiLadderEnv):
         above_bowl = self.bowl.pose.p + torch.tensor([0, 0, 0.15], device=self.device)
         carry = 1 - torch.tanh(5 * torch.linalg.norm((above_bowl - self.cup.pose.p)[:, :2], dim=1))
         reward += carry * is_grasped * info["is_lifted"]
-        reward += 3 * info["fraction_in_bowl"] * (1 - info["fraction_spilled"])
+        reward += 3 * self.pour_reward(info)
         reward[info["success"]] = self.max_dense_reward
         return reward
 
