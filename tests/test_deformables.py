@@ -202,6 +202,49 @@ def test_ee_delta_gripper_picks_up_a_flat_towel_corner(corner):
         env.close()
 
 
+@pytest.mark.parametrize("seed", range(2))
+def test_folded_towel_corner_stays_on_top_and_a_panda_unfolds_it(seed, monkeypatch):
+    """A towel lying flat with a corner folded over (15 of 100 particles): the folded layer rests on
+    the sheet (it does not sink through it: particles of radius 10 mm, see ClothConfig), and a Panda
+    pinching the folded corner particle from above and laying it at its flat position covers the flat
+    towel's area again."""
+    from maniladder_ms.deformables.showcase import TowelShowcaseEnv
+    from maniladder_ms.solvers.panda import PandaSolver
+
+    monkeypatch.setattr(TowelShowcaseEnv, "cloth_config", cloth.ClothConfig(radius=0.010))
+
+    rng = np.random.default_rng(seed)
+    env = _make("towel", control_mode="pd_joint_pos")
+    try:
+        with PandaSolver.episode(env, seed=seed) as robot:
+            base, c = env.unwrapped, env.unwrapped.cloth
+            base.box.set_pose(Pose.create_from_pq(torch.tensor([[0.05, 0.3, 0.03]])))  # out of the way
+            r, spacing = c.config.radius, c.config.spacing
+            local, q = cloth.fold_corner(c.layout, 10, 10, 5, gap=2.2 * r)
+            offset = np.array([0.05, 0.0, r])
+            c.place(torch.tensor(local + offset, dtype=torch.float32), torch.tensor(q, dtype=torch.float32))
+            robot.grip(closed=False, steps=20)
+            points = c.positions()
+            flat_area = 100 * spacing**2
+            assert metrics.footprint_area(points, spacing)[0] / flat_area == pytest.approx(0.85, abs=0.02)
+            rows, cols = np.divmod(np.arange(100), 10)
+            assert points[0, rows + cols < 3, 2].min() > 2 * r  # the folded layer lies on the sheet
+            corner = points[0, 0].numpy()
+            goal = c.layout.positions[0] + offset
+            d = goal[:2] - corner[:2]
+            yaw = robot.closest_grasp_yaw(float(np.arctan2(d[1], d[0])) + np.pi / 2 + rng.uniform(-0.2, 0.2))
+            robot.pick(robot.top_down_pose(corner, yaw), lift_height=0.04)
+            robot.move(robot.top_down_pose(goal + [0, 0, 0.04], yaw))
+            robot.move(robot.top_down_pose(goal + [0, 0, 0.005], yaw))
+            robot.grip(closed=False)
+            robot.move(robot.top_down_pose(goal + [0, 0, 0.06], yaw))
+            points = c.positions()
+            assert torch.isfinite(points).all()
+            assert metrics.footprint_area(points, spacing)[0] / flat_area > 0.95
+    finally:
+        env.close()
+
+
 def test_cloth_metrics_flat_and_folded():
     spacing = 0.025
     layout = cloth.towel(10, 10, spacing)

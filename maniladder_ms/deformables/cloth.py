@@ -114,6 +114,25 @@ def towel(rows: int = 10, cols: int = 10, spacing: float = ClothConfig.spacing) 
     return ClothLayout(positions, links, border, dict(corners=[int(i) for i in corners]))
 
 
+def fold_corner(layout: ClothLayout, rows: int, cols: int, cells: int, gap: float) -> tuple[np.ndarray, np.ndarray]:
+    """A rows x cols towel `layout` with its (-x, -y) corner folded over onto the sheet: the particles of
+    grid cells (r, c) with r + c < `cells` turned half a turn about the fold line r + c = `cells`, so they
+    lie `gap` (m) above the sheet, mirrored onto cells (cells - c, cells - r). Returns local positions
+    [N, 3] and orientations [N, 4] (wxyz; the folded particles turned with the layer, so the drives
+    between them stay at rest)."""
+    spacing = np.linalg.norm(layout.positions[1] - layout.positions[0])
+    r, c = np.divmod(np.arange(rows * cols), cols)
+    folded = r + c < cells
+    axis = np.array([1.0, -1.0, 0.0]) / np.sqrt(2)
+    on_line = np.array([(cells - (rows - 1) / 2) * spacing, -(cols - 1) / 2 * spacing, gap / 2])
+    turn = 2 * np.outer(axis, axis) - np.eye(3)  # half a turn about the fold line
+    positions = layout.positions.copy()
+    positions[folded] = (positions[folded] - on_line) @ turn.T + on_line
+    quats = np.tile([1.0, 0.0, 0.0, 0.0], (len(positions), 1))
+    quats[folded] = [0.0, axis[0], axis[1], 0.0]
+    return positions, quats
+
+
 def tent_panel(rows: int = 8, cols: int = 12, spacing: float = 0.03) -> ClothLayout:
     """A tent panel: a larger-spaced rectangle; `grommets` are its four corners (to pin on pegs)."""
     layout = towel(rows, cols, spacing)
