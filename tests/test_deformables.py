@@ -128,6 +128,11 @@ def test_panda_picks_up_a_rope_end():
 
 
 # ---- cloth ----------------------------------------------------------------------------------------
+def _box_aside(base):
+    """Move the towel showcase's box off the towel, so the towel can lie flat."""
+    base.box.set_pose(Pose.create_from_pq(torch.tensor([[0.05, 0.3, 0.03]])))
+
+
 @pytest.mark.parametrize("corner", range(4))
 def test_panda_picks_up_a_towel_corner(corner):
     """A Panda pinches a corner particle of the draped towel (fingers closing across the corner's
@@ -175,7 +180,7 @@ def test_ee_delta_gripper_picks_up_a_flat_towel_corner(corner):
     try:
         with DrivenSolver.episode(env, seed=corner) as s:
             base, c = env.unwrapped, env.unwrapped.cloth
-            base.box.set_pose(Pose.create_from_pq(torch.tensor([[0.05, 0.3, 0.03]])))  # out of the way
+            _box_aside(base)
             c.set_rest_shape(Pose.create_from_pq(torch.tensor([[0.05, 0.0, c.config.radius]])))
             s.release("gripper", steps=5)
             i = c.layout.named["corners"][corner]
@@ -218,7 +223,7 @@ def test_folded_towel_corner_stays_on_top_and_a_panda_unfolds_it(seed, monkeypat
     try:
         with PandaSolver.episode(env, seed=seed) as robot:
             base, c = env.unwrapped, env.unwrapped.cloth
-            base.box.set_pose(Pose.create_from_pq(torch.tensor([[0.05, 0.3, 0.03]])))  # out of the way
+            _box_aside(base)
             r, spacing = c.config.radius, c.config.spacing
             local, q = cloth.fold_corner(c.layout, 10, 10, 5, gap=2.2 * r)
             offset = np.array([0.05, 0.0, r])
