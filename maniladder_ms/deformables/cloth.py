@@ -52,7 +52,8 @@ class ClothConfig:
     10 mm it rests on it (test_folded_towel_corner_...). The default stays 8 mm for now: at 10 mm a
     fully opened Panda gripper coming down on the draped showcase towel's corner landed on its
     neighbours in 3/8 picks (open the fingers less, as test_ee_delta_gripper_... does).
-    particle_mass (kg); stretch_stiffness (N/m) and stretch_damping (N s/m) of the linear drives; bend_stiffness (N m/rad) and bend_damping (N m s/rad) of the angular drives;
+    particle_mass (kg); stretch_stiffness (N/m) and stretch_damping (N s/m) of the linear drives;
+    bend_stiffness (N m/rad) and bend_damping (N m s/rad) of the angular drives;
     friction: static = dynamic; tile_thickness: half thickness (m) of the visual tiles; color of the
     tiles, border_color of the tiles on the outline.
 
@@ -64,7 +65,8 @@ class ClothConfig:
     (gap 13.9 mm) and 16/16 hold (at 25: gap 11.9 mm, 7/8). Cost: while the gripper holds the towel
     (one island) a control step takes 2.4x as long (80 vs 191 steps/s); a resting towel is unaffected.
     max_depenetration_velocity (m/s; 0: PhysX's default, unlimited) stays uncapped: capping it at
-    1 m/s, as the rope does, let the fingers close through the particles (2/8 held). max_linear_velocity (m/s; 0: unlimited) caps a particle's speed."""
+    1 m/s, as the rope does, let the fingers close through the particles (2/8 held).
+    max_linear_velocity (m/s; 0: unlimited) caps a particle's speed."""
 
     spacing: float = 0.025
     radius: float = 0.008
