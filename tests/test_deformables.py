@@ -1,6 +1,7 @@
 """Deformable proxies: every showcase builds, round-trips its state and stays finite under random
 Panda actions; the metrics give the expected values on constructed shapes; clay stays pressed; a
-Panda can pick up a rope end; container decompositions are cached."""
+Panda can pick up a rope end and a towel corner (joint and end-effector control); container
+decompositions are cached."""
 
 import numpy as np
 import pytest
@@ -127,6 +128,128 @@ def test_panda_picks_up_a_rope_end():
 
 
 # ---- cloth ----------------------------------------------------------------------------------------
+def _box_aside(base):
+    """Move the towel showcase's box off the towel, so the towel can lie flat."""
+    base.box.set_pose(Pose.create_from_pq(torch.tensor([[0.05, 0.3, 0.03]])))
+
+
+@pytest.mark.parametrize("corner", range(4))
+def test_panda_picks_up_a_towel_corner(corner):
+    """A Panda pinches a corner particle of the draped towel (fingers closing across the corner's
+    diagonal, off by up to 0.3 rad and 3 mm), lifts it 15 cm and holds it: a friction grasp only."""
+    import sapien
+    from maniladder_ms.solvers.panda import PandaSolver
+
+    rng = np.random.default_rng(corner)
+    env = _make("towel", control_mode="pd_joint_pos")
+    try:
+        with PandaSolver.episode(env, seed=corner) as robot:
+            c = env.unwrapped.cloth
+            robot.grip(closed=False, steps=20)  # the towel settles over its box
+            i = c.layout.named["corners"][corner]
+            points = c.positions()[0].numpy()
+            outward = points[i, :2] - points[:, :2].mean(axis=0)
+            yaw = float(np.arctan2(outward[1], outward[0])) + np.pi / 2 + rng.uniform(-0.3, 0.3)
+            at = points[i] + np.append(rng.uniform(-0.003, 0.003, 2), 0.0)
+            grasp = robot.top_down_pose(at, robot.closest_grasp_yaw(yaw))
+            robot.pick(grasp, lift_height=0.15)
+            gap = env.unwrapped.agent.robot.get_qpos()[0, -2:].sum().item()
+            assert gap > 1.5 * c.config.radius  # the fingers stop on the particle, not deep inside it
+            for _ in range(3):  # hold 60 steps
+                robot.grip(closed=True, steps=20)
+                points = c.positions()[0]
+                assert torch.isfinite(points).all()
+                tcp = env.unwrapped.agent.tcp.pose.p[0]
+                assert torch.linalg.norm(points[i] - tcp) < 0.015  # the corner is still between the fingers
+                assert points[i, 2] > 0.13  # and up in the air
+                assert points[:, 2].min() < 0.02  # the far side still lies on the table
+    finally:
+        env.close()
+
+
+@pytest.mark.parametrize("corner", range(4))
+def test_ee_delta_gripper_picks_up_a_flat_towel_corner(corner):
+    """The same pinch with pd_ee_delta_pose (DrivenSolver) on the towel lying flat: the fingers open
+    only to a 4 cm gap before coming down (fully open, 8 cm, a finger lands on the corner's
+    neighbours and stops the hand 1.5 cm short: 4/8 missed), close, lift 15 cm, hold 60 steps."""
+    from maniladder_ms.agents.helpers import top_down_quat
+    from maniladder_ms.solvers.driven import DrivenSolver
+
+    rng = np.random.default_rng(corner)
+    env = _make("towel", control_mode="pd_ee_delta_pose")
+    try:
+        with DrivenSolver.episode(env, seed=corner) as s:
+            base, c = env.unwrapped, env.unwrapped.cloth
+            _box_aside(base)
+            c.set_rest_shape(Pose.create_from_pq(torch.tensor([[0.05, 0.0, c.config.radius]])))
+            s.release("gripper", steps=5)
+            i = c.layout.named["corners"][corner]
+            points = c.positions()[0]
+            outward = points[i, :2] - points[:, :2].mean(dim=0)
+            yaw = float(torch.atan2(outward[1], outward[0])) + np.pi / 2 + rng.uniform(-0.3, 0.3)
+            at = (points[i] + torch.tensor([*rng.uniform(-0.003, 0.003, 2), 0.0], dtype=torch.float32))[None]
+            q = top_down_quat(DrivenSolver.neutral_yaw(torch.tensor([yaw]), np.pi), 1, device=at.device)
+            s.set_ee("gripper", [0.2], steps=1)  # fingers 4 cm apart: around the corner particle only
+            s.move({"arm": (s.above(at, 0.1), q)}, max_steps=60)
+            s.move({"arm": (s.above(at, 0.03), q)}, max_steps=40)
+            s.move({"arm": (at, q)}, max_steps=80, pos_tol=0.002)
+            s.grasp("gripper")
+            s.move({"arm": (s.above(at, 0.15), q)}, max_steps=40)
+            assert base.agent.robot.get_qpos()[0, -2:].sum().item() > 1.5 * c.config.radius
+            for _ in range(3):  # hold 60 steps
+                s.grip(True, "gripper", steps=20)
+                points = c.positions()[0]
+                assert torch.isfinite(points).all()
+                assert torch.linalg.norm(points[i] - base.agent.tcp.pose.p[0]) < 0.03  # between the pads
+                assert points[i, 2] > 0.13
+                assert points[:, 2].min() < 0.02
+    finally:
+        env.close()
+
+
+@pytest.mark.parametrize("seed", range(2))
+def test_folded_towel_corner_stays_on_top_and_a_panda_unfolds_it(seed, monkeypatch):
+    """A towel lying flat with a corner folded over (15 of 100 particles): the folded layer rests on
+    the sheet (it does not sink through it: particles of radius 10 mm, see ClothConfig), and a Panda
+    pinching the folded corner particle from above and laying it at its flat position covers the flat
+    towel's area again."""
+    from maniladder_ms.deformables.showcase import TowelShowcaseEnv
+    from maniladder_ms.solvers.panda import PandaSolver
+
+    monkeypatch.setattr(TowelShowcaseEnv, "cloth_config", cloth.ClothConfig(radius=0.010))
+
+    rng = np.random.default_rng(seed)
+    env = _make("towel", control_mode="pd_joint_pos")
+    try:
+        with PandaSolver.episode(env, seed=seed) as robot:
+            base, c = env.unwrapped, env.unwrapped.cloth
+            _box_aside(base)
+            r, spacing = c.config.radius, c.config.spacing
+            local, q = cloth.fold_corner(c.layout, 10, 10, 5, gap=2.2 * r)
+            offset = np.array([0.05, 0.0, r])
+            c.place(torch.tensor(local + offset, dtype=torch.float32), torch.tensor(q, dtype=torch.float32))
+            robot.grip(closed=False, steps=20)
+            points = c.positions()
+            flat_area = 100 * spacing**2
+            assert metrics.footprint_area(points, spacing)[0] / flat_area == pytest.approx(0.85, abs=0.02)
+            rows, cols = np.divmod(np.arange(100), 10)
+            assert points[0, rows + cols < 3, 2].min() > 2 * r  # the folded layer lies on the sheet
+            corner = points[0, 0].numpy()
+            goal = c.layout.positions[0] + offset
+            d = goal[:2] - corner[:2]
+            yaw = robot.closest_grasp_yaw(float(np.arctan2(d[1], d[0])) + np.pi / 2 + rng.uniform(-0.2, 0.2))
+            robot.pick(robot.top_down_pose(corner, yaw), lift_height=0.04)
+            robot.move(robot.top_down_pose(goal + [0, 0, 0.04], yaw))
+            robot.move(robot.top_down_pose(goal + [0, 0, 0.005], yaw))
+            robot.grip(closed=False)
+            robot.move(robot.top_down_pose(goal + [0, 0, 0.06], yaw))
+            points = c.positions()
+            assert torch.isfinite(points).all()
+            assert metrics.footprint_area(points, spacing)[0] / flat_area > 0.95
+    finally:
+        env.close()
+
+
 def test_cloth_metrics_flat_and_folded():
     spacing = 0.025
     layout = cloth.towel(10, 10, spacing)

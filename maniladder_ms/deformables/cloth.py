@@ -46,10 +46,27 @@ CONTACT_OFFSET = 0.003  # m: small, so a sheet lying on itself tracks few contac
 @dataclass(frozen=True)
 class ClothConfig:
     """spacing: distance between neighbouring particles (m); radius: particle collision radius (m),
-    8 mm pinches like a pen; particle_mass (kg); stretch_stiffness (N/m) and stretch_damping (N s/m)
-    of the linear drives; bend_stiffness (N m/rad) and bend_damping (N m s/rad) of the angular drives;
+    8 mm pinches like a pen. For folds (a layer lying on the sheet) it must exceed spacing / (2 sqrt 2),
+    8.8 mm at 2.5 cm, or a particle of the upper layer drops through the hollow between the four
+    particles below it to the table: at 8 mm a folded-over towel corner sinks through the sheet, at
+    10 mm it rests on it (test_folded_towel_corner_...). The default stays 8 mm for now: at 10 mm a
+    fully opened Panda gripper coming down on the draped showcase towel's corner landed on its
+    neighbours in 3/8 picks (open the fingers less, as test_ee_delta_gripper_... does).
+    particle_mass (kg); stretch_stiffness (N/m) and stretch_damping (N s/m) of the linear drives;
+    bend_stiffness (N m/rad) and bend_damping (N m s/rad) of the angular drives;
     friction: static = dynamic; tile_thickness: half thickness (m) of the visual tiles; color of the
-    tiles, border_color of the tiles on the outline."""
+    tiles, border_color of the tiles on the outline.
+
+    solver_position_iterations of every particle (PhysX takes the largest count in an island, so a
+    gripper pinching the sheet is solved with it too): what lets a Panda hold a particle by friction.
+    Measured with a Panda pinching a towel corner particle (closing across the corner's diagonal,
+    +-0.3 rad, +-3 mm), lifting it 15 cm and holding 60 steps: at the scene's 15 the fingers sank
+    8 mm into the 16 mm particle (gap 8.2 mm) and 3/16 grasps lost it; at 40 they stop on it
+    (gap 13.9 mm) and 16/16 hold (at 25: gap 11.9 mm, 7/8). Cost: while the gripper holds the towel
+    (one island) a control step takes 2.4x as long (80 vs 191 steps/s); a resting towel is unaffected.
+    max_depenetration_velocity (m/s; 0: PhysX's default, unlimited) stays uncapped: capping it at
+    1 m/s, as the rope does, let the fingers close through the particles (2/8 held).
+    max_linear_velocity (m/s; 0: unlimited) caps a particle's speed."""
 
     spacing: float = 0.025
     radius: float = 0.008
@@ -60,6 +77,9 @@ class ClothConfig:
     bend_damping: float = 0.0005
     friction: float = 1.0
     tile_thickness: float = 0.0015
+    solver_position_iterations: int = 40
+    max_depenetration_velocity: float = 0.0
+    max_linear_velocity: float = 0.0
     color: tuple = (0.2, 0.55, 0.75, 1)
     border_color: tuple = (0.95, 0.95, 0.95, 1)
 
@@ -100,6 +120,25 @@ def towel(rows: int = 10, cols: int = 10, spacing: float = ClothConfig.spacing) 
     positions, links, border, index = _grid(np.ones((rows, cols), bool), spacing)
     corners = [index[0, 0], index[0, -1], index[-1, 0], index[-1, -1]]
     return ClothLayout(positions, links, border, dict(corners=[int(i) for i in corners]))
+
+
+def fold_corner(layout: ClothLayout, rows: int, cols: int, cells: int, gap: float) -> tuple[np.ndarray, np.ndarray]:
+    """A rows x cols towel `layout` with its (-x, -y) corner folded over onto the sheet: the particles of
+    grid cells (r, c) with r + c < `cells` turned half a turn about the fold line r + c = `cells`, so they
+    lie `gap` (m) above the sheet, mirrored onto cells (cells - c, cells - r). Returns local positions
+    [N, 3] and orientations [N, 4] (wxyz; the folded particles turned with the layer, so the drives
+    between them stay at rest)."""
+    spacing = np.linalg.norm(layout.positions[1] - layout.positions[0])
+    r, c = np.divmod(np.arange(rows * cols), cols)
+    folded = r + c < cells
+    axis = np.array([1.0, -1.0, 0.0]) / np.sqrt(2)
+    on_line = np.array([(cells - (rows - 1) / 2) * spacing, -(cols - 1) / 2 * spacing, gap / 2])
+    turn = 2 * np.outer(axis, axis) - np.eye(3)  # half a turn about the fold line
+    positions = layout.positions.copy()
+    positions[folded] = (positions[folded] - on_line) @ turn.T + on_line
+    quats = np.tile([1.0, 0.0, 0.0, 0.0], (len(positions), 1))
+    quats[folded] = [0.0, axis[0], axis[1], 0.0]
+    return positions, quats
 
 
 def tent_panel(rows: int = 8, cols: int = 12, spacing: float = 0.03) -> ClothLayout:
@@ -202,6 +241,14 @@ def build_cloth(scene: ManiSkillScene, name: str, layout: ClothLayout, config: C
             builder.add_box_visual(half_size=tile, material=colors["border" if i in layout.border else "inner"])
 
     spheres = build_spheres(scene, name, layout.positions, config.radius, material, density, CONTACT_OFFSET, add_visual)
+    for sphere in spheres:
+        for body in sphere._bodies:
+            if config.solver_position_iterations:
+                body.set_solver_position_iterations(config.solver_position_iterations)
+            if config.max_depenetration_velocity:
+                body.set_max_depenetration_velocity(config.max_depenetration_velocity)
+            if config.max_linear_velocity:
+                body.set_max_linear_velocity(config.max_linear_velocity)
     drives = [_link(scene, spheres, layout.positions, i, j, config) for i, j in layout.links]
     return Cloth(spheres, name, drives, layout, config)
 
