@@ -7,6 +7,7 @@ import torch
 
 FINGERS = ("index", "middle", "ring")
 FINGER_LINKS = [f"leap_{f}_{s}" for f in FINGERS for s in ("pip", "dip", "tip")]
+SCISSOR_LINKS = {"index": ["leap_index_dip", "leap_index_tip"], "middle": ["leap_middle_dip", "leap_middle_tip"]}
 THUMB_LINKS = ["leap_thumb_pip", "leap_thumb_dip", "leap_thumb_tip"]
 PALM_LINKS = ["leap_palm"]
 CONTACT_FORCE = 0.05  # N: a link touches the object above this
@@ -19,6 +20,7 @@ class LeapContacts:
         self.fingers = [agent.link(prefix + name) for name in FINGER_LINKS]
         self.thumb = [agent.link(prefix + name) for name in THUMB_LINKS]
         self.palm = [agent.link(prefix + name) for name in PALM_LINKS]
+        self.scissor = {f: [agent.link(prefix + name) for name in names] for f, names in SCISSOR_LINKS.items()}
 
     @staticmethod
     def _touch(scene, links, obj) -> torch.Tensor:
@@ -32,3 +34,7 @@ class LeapContacts:
     def is_grasping(self, scene, obj) -> torch.Tensor:
         """(num_envs,) bool: the object is pinched between a finger and the thumb (or the palm)."""
         return self._touch(scene, self.fingers, obj) & self._touch(scene, self.thumb + self.palm, obj)
+
+    def is_scissoring(self, scene, obj) -> torch.Tensor:
+        """(num_envs,) bool: the object is held between the index and the middle finger (the "scissor" synergy)."""
+        return self._touch(scene, self.scissor["index"], obj) & self._touch(scene, self.scissor["middle"], obj)

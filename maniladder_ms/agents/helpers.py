@@ -39,6 +39,13 @@ LEAP_SYNERGIES = {
     "power": np.array([0.0, 1.5, 0.6, 0.4, 0.0, 1.5, 0.6, 0.4, 0.0, 1.5, 0.6, 0.4, 1.6, 0.6, 0.8, 0.8]),
     # index + thumb tips meet, middle/ring tucked away
     "pinch": np.array([0.0, 1.1, 0.6, 0.4, 0.0, 0.2, 0.2, 0.2, 0.0, 0.2, 0.2, 0.2, 1.6, 0.4, 0.5, 0.5]),
+    # index and middle fingers straight down (bent 90 degrees at their knuckles), spread sideways 0.25 rad
+    # each, ring curled, thumb flat: the approach posture of "scissor"
+    "scissor_open": np.array([-0.25, 1.57, 0.0, 0.0, 0.25, 1.57, 0.0, 0.0, 0.0, 0.0, 1.6, 1.6, 0.0, 0.0, 0.0, 0.0]),
+    # the two fingers swung together at their side joints (targets past each other, so the drives squeeze):
+    # a thin object (a 1.6 cm rope) lying on the table between the two fingertips is held between their
+    # side faces like a cigarette, the only pinch whose contacts reach down to 8 mm above the table
+    "scissor": np.array([0.12, 1.57, 0.0, 0.0, -0.12, 1.57, 0.0, 0.0, 0.0, 0.0, 1.6, 1.6, 0.0, 0.0, 0.0, 0.0]),
     # index bent 90 degrees at its knuckle, straight (points down from a top-down hand), middle/ring curled
     # at PIP/DIP, thumb flat: the index tip is the lowest point by 9 cm, for pressing buttons
     "point": np.array([0.0, 1.57, 0.0, 0.0, 0.0, 0.0, 1.6, 1.6, 0.0, 0.0, 1.6, 1.6, 0.0, 0.0, 0.0, 0.0]),

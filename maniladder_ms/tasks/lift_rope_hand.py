@@ -1,0 +1,124 @@
+"""LiftRopeHand (L1 deformable SX): pick a rope off the table with the LEAP hand."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import torch
+
+from mani_skill.utils.geometry.rotation_conversions import quaternion_apply
+
+from maniladder_ms.agents.hand_contact import LeapContacts
+from maniladder_ms.agents.helpers import top_down_quat
+from maniladder_ms.deformables import rope
+from maniladder_ms.envs import ManiLadderEnv, register_task
+from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
+from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver
+
+
+@register_task("LiftRopeHand")
+class LiftRopeHandEnv(ManiLadderEnv):
+    """**Task:** a rope lies on the table; pick it up with the LEAP hand, so that at least half of it
+    hangs well clear of the table.
+
+    **Randomisation:** the rope (`rope.RopeConfig()`: 40 cm, 20 capsules of 1.6 cm diameter) lies flat in
+    a gentle S: the in-plane turn between capsules k and k + 1 is amp * sin(2 pi (k + 1) / 20 + phase), amp
+    uniform in [0, 0.15] rad, phase uniform; the mean of its capsule centres is at x uniform in
+    [-0.15, -0.05], y uniform in [-0.1, 0.1]; its first capsule's heading is uniform in [0, 2 pi).
+
+    **Success:** at least `min_lifted` = 50% of the rope's segments (capsule centres) are at least
+    `lift_height` = 10 cm above the table.
+
+    `is_grasped` (reward and observation only): the index and the middle finger both touch one of the five
+    capsules around the middle (the "scissor" pinch the solver uses).
+    """
+
+    SUPPORTED_ROBOTS = ["ml_panda_leap"]
+    max_dense_reward = 4
+    TASK_REGION = (-0.35, 0.15, -0.3, 0.3)
+    rope_config = rope.RopeConfig()
+    lift_height = 0.1
+    min_lifted = 0.5
+
+    @property
+    def grasp_segment(self) -> int:
+        """The capsule a grasp near the middle takes (the solver's, and the reward's reach target)."""
+        return self.rope_config.segments // 2
+
+    def _load_scene(self, options: dict):
+        super()._load_scene(options)
+        self.rope = rope.build_rope(self.scene, "rope", self.rope_config)
+        self.hand = LeapContacts(self.agent)
+
+    def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
+        super()._initialize_episode(env_idx, options)
+        with torch.device(self.device):
+            b = len(env_idx)
+            turns = rope.wavy_turns(b, self.rope_config.segments, 0.15)
+            heading = torch.rand(b) * 2 * np.pi
+            middle = torch.stack([torch.rand(b) * 0.1 - 0.15, torch.rand(b) * 0.2 - 0.1], dim=1)
+            self.rope.lay_flat(middle, heading, turns)
+
+    def _segments(self) -> torch.Tensor:
+        """Capsule centres, [B, segments, 3]."""
+        return self.rope.points()[:, 1:-1]
+
+    def _get_obs_extra(self, info: dict):
+        obs = dict(tcp_pose=self.agent.tcp.pose.raw_pose, is_grasped=info["is_grasped"])
+        if "state" in self.obs_mode:
+            obs.update(rope_points=self.rope.points().flatten(1),
+                       tcp_to_grasp_segment=self.rope.links[self.grasp_segment].pose.p - self.agent.tcp.pose.p)
+        return obs
+
+    def evaluate(self):
+        lifted_fraction = (self._segments()[..., 2] >= self.lift_height).float().mean(dim=1)
+        middle = self.grasp_segment
+        is_grasped = torch.stack([self.hand.is_scissoring(self.scene, link)
+                                  for link in self.rope.links[middle - 2:middle + 3]]).any(dim=0)
+        return {
+            "success": lifted_fraction >= self.min_lifted,
+            "lifted_fraction": lifted_fraction,
+            "is_grasped": is_grasped,
+        }
+
+    def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
+        target = self.rope.links[self.grasp_segment].pose.p
+        reach = 1 - torch.tanh(5 * torch.linalg.norm(target - self.agent.tcp.pose.p, dim=1))
+        lift = (info["lifted_fraction"] / self.min_lifted).clamp(0, 1)
+        reward = reach + info["is_grasped"].float() + 2 * lift
+        reward[info["success"]] = self.max_dense_reward
+        return reward
+
+
+# where the grasped capsule's centre sits in the tcp frame (top-down hand, fingers along the rope) in the
+# "scissor" pinch: between the index and middle fingertips (measured on their collision boxes: 1.65 cm
+# out along the fingers, the middle of the tips' width; 0.7 cm to the middle finger's side, the middle of the
+# gap between the spread tips), 3.6 cm below the tcp, so that the tips' ends stay ~3 mm above the table
+SCISSOR_OFFSET = (0.0165, 0.007, 0.036)
+SCISSOR_RAMP_STEPS = 20  # closing the scissor over 1 s: 8/10 seeds held, 4/5 at 40 steps
+LIFT = 0.22  # the grasped capsule ends 23 cm up: about 17 of 20 capsule centres above 10 cm
+LIFT_STEPS = 35  # 6 mm a control step: faster lifts swing the rope out of the pinch
+
+
+@register_solver("LiftRopeHand", control_modes=TCP_DELTA_MODES)
+def solve_lift_rope_hand(env, seed: int) -> dict:
+    """Take the middle capsule top-down between the straight index and middle fingers (fingers along the
+    rope, tips spread), swing the two fingers together (the "scissor" pinch), lift slowly."""
+    with DrivenSolver.episode(env, seed) as s:
+        task: LiftRopeHandEnv = env.unwrapped
+        n, device = task.num_envs, task.device
+        link = task.rope.links[task.grasp_segment]
+        axis = rope._x_axis(link.pose.q)
+        q = top_down_quat(DrivenSolver.neutral_yaw(torch.atan2(axis[:, 1], axis[:, 0]), np.pi), n, device)
+        centre = link.pose.p.clone()
+        centre[:, 2] = task.rope_config.radius
+        tcp = centre - quaternion_apply(q, torch.tensor(SCISSOR_OFFSET, device=device).expand(n, 3))
+        s.set_ee("hand", "scissor_open", steps=1)
+        s.move({"arm": (s.above(tcp, APPROACH_HEIGHT), q)}, max_steps=60)
+        s.move({"arm": (tcp, q)}, max_steps=40, pos_tol=0.003)
+        s.close_hand("hand", "scissor", ramp_steps=SCISSOR_RAMP_STEPS)
+        for k in range(1, LIFT_STEPS + 1):
+            s.step({"arm": (s.above(tcp, LIFT * k / LIFT_STEPS), q)})
+        s.hold_until_success()
+        return s.info
