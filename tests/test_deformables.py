@@ -127,6 +127,29 @@ def test_panda_picks_up_a_rope_end():
         env.close()
 
 
+def test_leap_hand_scissor_pinches_a_rope():
+    """The LEAP hand takes the middle capsule of a rope lying on the table between its straight index and
+    middle fingers (the "scissor" pinch: the only LEAP pinch whose contacts reach down to a 1.6 cm rope's
+    middle height), lifts it 22 cm and holds it 60 steps: a friction grasp only."""
+    from maniladder_ms.solvers.driven import DrivenSolver
+    from maniladder_ms.tasks.lift_rope_hand import pinch_and_lift
+
+    env = gym.make("ManiLadder-LiftRopeHand-v1", obs_mode="state", control_mode="pd_ee_delta_pose")
+    try:
+        with DrivenSolver.episode(env, seed=0) as s:
+            task = env.unwrapped
+            pinch_and_lift(s, task)
+            for _ in range(3):
+                for _ in range(20):
+                    s.step()
+                points = task.rope.points()[0]
+                assert torch.isfinite(points).all()
+                assert bool(s.info["is_grasped"][0])  # still between index and middle finger
+                assert float(s.info["lifted_fraction"][0]) >= 0.8  # and up in the air
+    finally:
+        env.close()
+
+
 # ---- cloth ----------------------------------------------------------------------------------------
 def _box_aside(base):
     """Move the towel showcase's box off the towel, so the towel can lie flat."""

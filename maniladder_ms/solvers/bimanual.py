@@ -50,22 +50,24 @@ def line_up(s: DrivenSolver, grasp: Grasp):
     s.arm_targets[grasp.arm] = grasp.lined_up
 
 
-def reach(s: DrivenSolver, grasps: list[Grasp], line_up_steps: int = 60, move_in_steps: int = 40):
+def reach(s: DrivenSolver, grasps: list[Grasp], line_up_steps: int = 60, move_in_steps: int = 40,
+          preshape: str | None = "preshape"):
     """All arms line up at their approach poses together, then move straight in to their grasp poses
-    (end effectors open; LEAP hands take their preshape once lined up)."""
+    (end effectors open; LEAP hands take the synergy `preshape` once lined up, or with None keep theirs)."""
     s.move({g.arm: g.lined_up for g in grasps}, max_steps=line_up_steps)
     leap = [g.ee for g in grasps if s.is_leap(g.ee)]
-    if leap:
+    if leap and preshape is not None:
         for ee in leap:
-            s.set_ee(ee, "preshape", steps=0)
+            s.set_ee(ee, preshape, steps=0)
         for _ in range(PRESHAPE_STEPS):
             s.step()
     s.move({g.arm: (g.p, g.q) for g in grasps}, max_steps=move_in_steps, pos_tol=0.003)
 
 
-def grasp_together(s: DrivenSolver, ee_parts: list[str]):
-    """Close several grippers / hands at once (DrivenSolver.grasp closes one at a time)."""
-    if len(ee_parts) == 1:
+def grasp_together(s: DrivenSolver, ee_parts: list[str], synergy: str = "power", ramp_steps: int = HAND_RAMP_STEPS):
+    """Close several grippers / hands (LEAP hands: to `synergy` over `ramp_steps`) at once (DrivenSolver.grasp
+    closes one at a time)."""
+    if len(ee_parts) == 1 and synergy == "power":
         return s.grasp(ee_parts[0])
     leap = [ee for ee in ee_parts if s.is_leap(ee)]
     for ee in ee_parts:
@@ -76,10 +78,10 @@ def grasp_together(s: DrivenSolver, ee_parts: list[str]):
             s.step()
         return
     start = {ee: s.ee_cmd[ee].clone() for ee in leap}
-    goal = torch.as_tensor(LEAP_SYNERGIES["power"], dtype=torch.float32, device=s.base.device)
-    for k in range(1, HAND_RAMP_STEPS + HAND_HOLD_STEPS + 1):
+    goal = torch.as_tensor(LEAP_SYNERGIES[synergy], dtype=torch.float32, device=s.base.device)
+    for k in range(1, ramp_steps + HAND_HOLD_STEPS + 1):
         for ee in leap:
-            s.set_ee(ee, start[ee] + (goal - start[ee]) * min(k, HAND_RAMP_STEPS) / HAND_RAMP_STEPS, steps=0)
+            s.set_ee(ee, start[ee] + (goal - start[ee]) * min(k, ramp_steps) / ramp_steps, steps=0)
         s.step()
 
 

@@ -12,11 +12,19 @@ from typing import Callable
 
 import torch
 
+from mani_skill.utils.geometry.rotation_conversions import quaternion_apply
+
 from maniladder_ms.agents.helpers import Driver, top_down_quat
 
 from . import EPISODE_RESET_OPTIONS
 
 APPROACH_HEIGHT = 0.1  # metres above a grasp where the vertical descent starts
+# where a held rope capsule's centre sits in the tcp frame of a top-down LEAP hand in the "scissor" pinch
+# (fingers along the rope): between the index and middle fingertips (measured on their collision boxes:
+# 1.65 cm out along the fingers, the middle of the tips' width; 0.7 cm to the middle finger's side, the
+# middle of the gap between the spread tips; the left hand mirrors it), 3.6 cm below the tcp, which keeps
+# the tips' ends ~3 mm above the table when the capsule lies on it
+SCISSOR_OFFSET = (0.0165, 0.007, 0.036)
 
 
 class DrivenSolver(Driver):
@@ -42,6 +50,16 @@ class DrivenSolver(Driver):
         nearest 0, the rest pose's: the wrist stays mid-range (the yaw nearest the current TCP can
         lie past a joint limit after a tilted move)."""
         return torch.remainder(yaw + period / 2, period) - period / 2
+
+    @staticmethod
+    def scissor_pose(centre: torch.Tensor, yaw: torch.Tensor, mirror: bool = False):
+        """TCP pose (p, q) of a top-down LEAP hand whose "scissor" pinch closes on a rope capsule centred at
+        `centre` (n, 3) and lying along world yaw `yaw` (n,); `mirror` for a left hand."""
+        n = centre.shape[0]
+        q = top_down_quat(DrivenSolver.neutral_yaw(yaw, torch.pi), n, device=centre.device)
+        x, y, z = SCISSOR_OFFSET
+        offset = torch.tensor([x, -y if mirror else y, z], device=centre.device).expand(n, 3)
+        return centre - quaternion_apply(q, offset), q
 
     def above(self, p: torch.Tensor, height: float) -> torch.Tensor:
         return p + torch.tensor([0.0, 0.0, height], device=p.device)

@@ -7,10 +7,7 @@ from typing import Any
 import numpy as np
 import torch
 
-from mani_skill.utils.geometry.rotation_conversions import quaternion_apply
-
 from maniladder_ms.agents.hand_contact import LeapContacts
-from maniladder_ms.agents.helpers import top_down_quat
 from maniladder_ms.deformables import rope
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
@@ -91,34 +88,31 @@ class LiftRopeHandEnv(ManiLadderEnv):
         return reward
 
 
-# where the grasped capsule's centre sits in the tcp frame (top-down hand, fingers along the rope) in the
-# "scissor" pinch: between the index and middle fingertips (measured on their collision boxes: 1.65 cm
-# out along the fingers, the middle of the tips' width; 0.7 cm to the middle finger's side, the middle of the
-# gap between the spread tips), 3.6 cm below the tcp, so that the tips' ends stay ~3 mm above the table
-SCISSOR_OFFSET = (0.0165, 0.007, 0.036)
 SCISSOR_RAMP_STEPS = 20  # closing the scissor over 1 s: 8/10 seeds held, 4/5 at 40 steps
 LIFT = 0.22  # the grasped capsule ends 23 cm up: about 17 of 20 capsule centres above 10 cm
-LIFT_STEPS = 35  # 6 mm a control step: faster lifts swing the rope out of the pinch
+LIFT_STEPS = 35  # 6 mm a control step: faster lifts (25 steps for 25 cm) swing the rope out of the pinch
+
+
+def pinch_and_lift(s: DrivenSolver, task: LiftRopeHandEnv):
+    """Take the middle capsule top-down between the straight index and middle fingers (fingers along the
+    rope, tips spread), swing the two fingers together (the "scissor" pinch) and lift `LIFT` slowly."""
+    link = task.rope.links[task.grasp_segment]
+    axis = rope._x_axis(link.pose.q)
+    centre = link.pose.p.clone()
+    centre[:, 2] = task.rope_config.radius
+    tcp, q = DrivenSolver.scissor_pose(centre, torch.atan2(axis[:, 1], axis[:, 0]))
+    s.set_ee("hand", "scissor_open", steps=1)
+    s.move({"arm": (s.above(tcp, APPROACH_HEIGHT), q)}, max_steps=60)
+    s.move({"arm": (tcp, q)}, max_steps=40, pos_tol=0.003)
+    s.close_hand("hand", "scissor", ramp_steps=SCISSOR_RAMP_STEPS)
+    for k in range(1, LIFT_STEPS + 1):
+        s.step({"arm": (s.above(tcp, LIFT * k / LIFT_STEPS), q)})
 
 
 @register_solver("LiftRopeHand", control_modes=TCP_DELTA_MODES)
 def solve_lift_rope_hand(env, seed: int) -> dict:
-    """Take the middle capsule top-down between the straight index and middle fingers (fingers along the
-    rope, tips spread), swing the two fingers together (the "scissor" pinch), lift slowly."""
+    """`pinch_and_lift` the middle capsule, then hold still until the rope is up."""
     with DrivenSolver.episode(env, seed) as s:
-        task: LiftRopeHandEnv = env.unwrapped
-        n, device = task.num_envs, task.device
-        link = task.rope.links[task.grasp_segment]
-        axis = rope._x_axis(link.pose.q)
-        q = top_down_quat(DrivenSolver.neutral_yaw(torch.atan2(axis[:, 1], axis[:, 0]), np.pi), n, device)
-        centre = link.pose.p.clone()
-        centre[:, 2] = task.rope_config.radius
-        tcp = centre - quaternion_apply(q, torch.tensor(SCISSOR_OFFSET, device=device).expand(n, 3))
-        s.set_ee("hand", "scissor_open", steps=1)
-        s.move({"arm": (s.above(tcp, APPROACH_HEIGHT), q)}, max_steps=60)
-        s.move({"arm": (tcp, q)}, max_steps=40, pos_tol=0.003)
-        s.close_hand("hand", "scissor", ramp_steps=SCISSOR_RAMP_STEPS)
-        for k in range(1, LIFT_STEPS + 1):
-            s.step({"arm": (s.above(tcp, LIFT * k / LIFT_STEPS), q)})
+        pinch_and_lift(s, env.unwrapped)
         s.hold_until_success()
         return s.info
