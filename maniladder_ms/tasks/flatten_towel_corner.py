@@ -27,9 +27,9 @@ class FlattenTowelCornerEnv(ManiLadderEnv):
     **Randomisation:**
     - the towel (`cloth.towel(10, 10)`: 25 cm square, 2.5 cm particle spacing, particles of 1 cm radius:
       a folded layer rests on the sheet only above spacing / (2 sqrt 2), see `cloth.ClothConfig`) has
-      one of its four corners, uniform, folded over (`cloth.fold_corner`) by `fold_cells` uniform in
-      {5, 6}: the particles within 5 (15 of 100) or 6 (21 of 100) grid steps of the corner lie on the
-      sheet, turned about the diagonal fold line, covering 85% or 79% of the flat area;
+      one of its four corners, uniform, folded over (`cloth.fold_corner`, a rounded fold) across the
+      diagonal line `fold_cells` grid steps from it, uniform in {6, 7}: 21 or 28 of the 100 particles
+      turned over, the towel covering 86% or 80% of its flat area once the layer has settled;
     - the towel's centre is at x uniform in [-0.1, 0.0], y uniform in [-0.08, 0.08], its edges turned
       by a yaw uniform in [-pi/4, pi/4) (with the corner choice, the fold points any way).
 
