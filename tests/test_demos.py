@@ -25,6 +25,7 @@ DEMO_SAMPLE = {
     "HandoverCube",  # two grippers
     "LiftBasketHands",  # two LEAP hands
     "DragRopeToGoal",  # rope
+    "FlattenTowelCorner",  # cloth
     "PokeClayHand",  # clay
     "PourBeansIntoBowl",  # particles in containers
 }
