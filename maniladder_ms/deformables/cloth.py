@@ -35,6 +35,7 @@ import sapien.render
 import torch
 
 from mani_skill.envs.scene import ManiSkillScene
+from mani_skill.utils.geometry.rotation_conversions import quaternion_multiply
 from mani_skill.utils.structs.actor import Actor
 from mani_skill.utils.structs.pose import Pose
 
@@ -122,22 +123,49 @@ def towel(rows: int = 10, cols: int = 10, spacing: float = ClothConfig.spacing) 
     return ClothLayout(positions, links, border, dict(corners=[int(i) for i in corners]))
 
 
-def fold_corner(layout: ClothLayout, rows: int, cols: int, cells: int, gap: float) -> tuple[np.ndarray, np.ndarray]:
-    """A rows x cols towel `layout` with its (-x, -y) corner folded over onto the sheet: the particles of
-    grid cells (r, c) with r + c < `cells` turned half a turn about the fold line r + c = `cells`, so they
-    lie `gap` (m) above the sheet, mirrored onto cells (cells - c, cells - r). Returns local positions
-    [N, 3] and orientations [N, 4] (wxyz; the folded particles turned with the layer, so the drives
-    between them stay at rest)."""
+def fold_corner(layout: ClothLayout, rows: int, cols: int, cells: int, gap: float, corner: int = 0,
+                shape: tuple[np.ndarray, np.ndarray] = None) -> tuple[np.ndarray, np.ndarray]:
+    """A rows x cols towel `layout` with one corner folded over onto the sheet: the particles of grid
+    cells (r, c) with r + c < `cells` (r, c counted from that corner) turned half a turn about the fold
+    line r + c = `cells`, so they lie `gap` (m) above the sheet, mirrored onto cells (cells - c, cells - r).
+    `corner` in the order of `towel`'s named corners: 0 (-x, -y), 1 (-x, +y), 2 (+x, -y), 3 (+x, +y).
+    `shape` (positions, quats) folds a corner of an already folded towel (corners folded apart from each
+    other: their triangles must not meet). Returns local positions [N, 3] and orientations [N, 4] (wxyz;
+    the folded particles turned with the layer, so the drives between them stay at rest)."""
     spacing = np.linalg.norm(layout.positions[1] - layout.positions[0])
+    sx, sy = (-1 if corner < 2 else 1), (-1 if corner % 2 == 0 else 1)
     r, c = np.divmod(np.arange(rows * cols), cols)
+    r, c = (r if sx < 0 else rows - 1 - r), (c if sy < 0 else cols - 1 - c)
     folded = r + c < cells
-    axis = np.array([1.0, -1.0, 0.0]) / np.sqrt(2)
-    on_line = np.array([(cells - (rows - 1) / 2) * spacing, -(cols - 1) / 2 * spacing, gap / 2])
+    axis = np.array([-sx, sy, 0.0]) / np.sqrt(2)
+    on_line = np.array([sx * ((rows - 1) / 2 - cells) * spacing, sy * (cols - 1) / 2 * spacing, gap / 2])
     turn = 2 * np.outer(axis, axis) - np.eye(3)  # half a turn about the fold line
-    positions = layout.positions.copy()
+    if shape is None:
+        positions, quats = layout.positions.copy(), np.tile([1.0, 0.0, 0.0, 0.0], (len(layout.positions), 1))
+    else:
+        positions, quats = shape[0].copy(), shape[1].copy()
     positions[folded] = (positions[folded] - on_line) @ turn.T + on_line
-    quats = np.tile([1.0, 0.0, 0.0, 0.0], (len(positions), 1))
     quats[folded] = [0.0, axis[0], axis[1], 0.0]
+    return positions, quats
+
+
+def fold_edge(layout: ClothLayout, rows: int, cols: int, cells: int) -> tuple[np.ndarray, np.ndarray]:
+    """A rows x cols towel `layout` with its -x edge strip folded back over the sheet along a grid line:
+    row `cells` - 1 stands upright in the crease, rows below it lie one spacing above the sheet, upside
+    down (row `cells` - 2 right above row `cells`). Every link keeps its rest length (the drives' frames
+    meet), only the two links at the crease bend (by 90 degrees each), so the fold starts at rest but for
+    bending. Returns local positions [N, 3] and orientations [N, 4] (wxyz)."""
+    spacing = np.linalg.norm(layout.positions[1] - layout.positions[0])
+    r = np.arange(rows * cols) // cols
+    positions = layout.positions.copy()
+    quats = np.tile([1.0, 0.0, 0.0, 0.0], (len(positions), 1))
+    x_fold = layout.positions[cells * cols, 0]  # row `cells`: the first row left flat
+    crease, top = r == cells - 1, r < cells - 1
+    positions[crease, 0], positions[crease, 2] = x_fold - spacing / 2, positions[crease, 2] + spacing / 2
+    quats[crease] = [np.cos(np.pi / 4), 0.0, np.sin(np.pi / 4), 0.0]  # a quarter turn about y
+    positions[top, 0] = x_fold + (cells - 2 - r[top]) * spacing
+    positions[top, 2] += spacing
+    quats[top] = [0.0, 0.0, 1.0, 0.0]  # half a turn about y
     return positions, quats
 
 
@@ -219,6 +247,14 @@ class Cloth(SphereSet):
         world = pose.to_transformation_matrix()  # [b, 4, 4]
         xyz = torch.einsum("bij,nj->nbi", world[:, :3, :3], local) + world[None, :, :3, 3]
         q = pose.q[None].expand(n, b, 4)
+        self.place(xyz.reshape(-1, 3), q.reshape(-1, 4))
+
+    def set_shape(self, pose: Pose, positions: torch.Tensor, quats: torch.Tensor):
+        """Lay the sheet at `pose` (batched over the envs being reset, b) in a shape given by local particle
+        positions [b, N, 3] and orientations [b, N, 4] (wxyz; e.g. from `fold_corner`), at rest."""
+        world = pose.to_transformation_matrix()  # [b, 4, 4]
+        xyz = torch.einsum("bij,bnj->nbi", world[:, :3, :3], positions) + world[None, :, :3, 3]
+        q = quaternion_multiply(pose.q[None].expand(quats.shape[1], -1, 4), quats.transpose(0, 1))
         self.place(xyz.reshape(-1, 3), q.reshape(-1, 4))
 
 
