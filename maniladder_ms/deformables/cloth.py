@@ -123,28 +123,21 @@ def towel(rows: int = 10, cols: int = 10, spacing: float = ClothConfig.spacing) 
     return ClothLayout(positions, links, border, dict(corners=[int(i) for i in corners]))
 
 
-def fold_corner(layout: ClothLayout, rows: int, cols: int, cells: int, gap: float, corner: int = 0,
-                shape: tuple[np.ndarray, np.ndarray] = None) -> tuple[np.ndarray, np.ndarray]:
-    """A rows x cols towel `layout` with one corner folded over onto the sheet: the particles of grid
-    cells (r, c) with r + c < `cells` (r, c counted from that corner) turned half a turn about the fold
-    line r + c = `cells`, so they lie `gap` (m) above the sheet, mirrored onto cells (cells - c, cells - r).
-    `corner` in the order of `towel`'s named corners: 0 (-x, -y), 1 (-x, +y), 2 (+x, -y), 3 (+x, +y).
-    `shape` (positions, quats) folds a corner of an already folded towel (corners folded apart from each
-    other: their triangles must not meet). Returns local positions [N, 3] and orientations [N, 4] (wxyz;
-    the folded particles turned with the layer, so the drives between them stay at rest)."""
+def fold_corner(layout: ClothLayout, rows: int, cols: int, cells: int, gap: float) -> tuple[np.ndarray, np.ndarray]:
+    """A rows x cols towel `layout` with its (-x, -y) corner folded over onto the sheet: the particles of
+    grid cells (r, c) with r + c < `cells` turned half a turn about the fold line r + c = `cells`, so they
+    lie `gap` (m) above the sheet, mirrored onto cells (cells - c, cells - r). Returns local positions
+    [N, 3] and orientations [N, 4] (wxyz; the folded particles turned with the layer, so the drives
+    between them stay at rest)."""
     spacing = np.linalg.norm(layout.positions[1] - layout.positions[0])
-    sx, sy = (-1 if corner < 2 else 1), (-1 if corner % 2 == 0 else 1)
     r, c = np.divmod(np.arange(rows * cols), cols)
-    r, c = (r if sx < 0 else rows - 1 - r), (c if sy < 0 else cols - 1 - c)
     folded = r + c < cells
-    axis = np.array([-sx, sy, 0.0]) / np.sqrt(2)
-    on_line = np.array([sx * ((rows - 1) / 2 - cells) * spacing, sy * (cols - 1) / 2 * spacing, gap / 2])
+    axis = np.array([1.0, -1.0, 0.0]) / np.sqrt(2)
+    on_line = np.array([(cells - (rows - 1) / 2) * spacing, -(cols - 1) / 2 * spacing, gap / 2])
     turn = 2 * np.outer(axis, axis) - np.eye(3)  # half a turn about the fold line
-    if shape is None:
-        positions, quats = layout.positions.copy(), np.tile([1.0, 0.0, 0.0, 0.0], (len(layout.positions), 1))
-    else:
-        positions, quats = shape[0].copy(), shape[1].copy()
+    positions = layout.positions.copy()
     positions[folded] = (positions[folded] - on_line) @ turn.T + on_line
+    quats = np.tile([1.0, 0.0, 0.0, 0.0], (len(positions), 1))
     quats[folded] = [0.0, axis[0], axis[1], 0.0]
     return positions, quats
 
