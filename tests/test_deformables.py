@@ -310,6 +310,40 @@ def test_cloth_metrics_flat_and_folded():
     assert cloth.fraction_beyond(flat, torch.zeros(3), torch.tensor([1.0, 0, 0]))[0] == pytest.approx(0.5)
 
 
+def test_fold_edge_keeps_every_link_at_rest_length():
+    """`cloth.fold_edge`: the drive frames of every linked pair meet (they sit at the rest midpoint in each
+    particle's frame), the folded rows lie one spacing above the sheet, upside down, and the footprint
+    shrinks by the folded rows and the crease."""
+    from scipy.spatial.transform import Rotation
+
+    spacing = 0.025
+    layout = cloth.towel(10, 10, spacing)
+    positions, quats = cloth.fold_edge(layout, 10, 10, 4)
+    turn = Rotation.from_quat(quats[:, [1, 2, 3, 0]])  # scipy: xyzw
+    for i, j in layout.links:
+        mid = (layout.positions[i] + layout.positions[j]) / 2
+        a = positions[i] + turn[i].apply(mid - layout.positions[i])
+        b = positions[j] + turn[j].apply(mid - layout.positions[j])
+        assert np.linalg.norm(a - b) < 1e-9, (i, j)
+    rows = np.arange(100) // 10
+    assert np.allclose(positions[rows < 3, 2], spacing)  # 3 rows on top
+    assert np.allclose(positions[rows == 2, 0], positions[rows == 4, 0])  # right above row 4
+    assert np.allclose(positions[rows >= 4], layout.positions[rows >= 4])
+    area = metrics.footprint_area(torch.as_tensor(positions, dtype=torch.float32)[None], spacing)[0]
+    assert area / (100 * spacing**2) == pytest.approx(0.65, abs=0.03)  # 6.5 of 10 rows' length left
+
+
+def test_target_coverage_per_env_rectangle():
+    spacing = 0.025
+    flat = torch.as_tensor(cloth.towel(10, 10, spacing).positions, dtype=torch.float32)[None].repeat(3, 1, 1)
+    centre = torch.tensor([[0.0, 0.0], [0.05, 0.0], [0.0, 0.0]])
+    lifted = flat.clone()
+    lifted[2, :50, 2] = 0.1  # half the towel lifted off the table
+    coverage = metrics.target_coverage(torch.stack([flat[0], flat[1], lifted[2]]), spacing, centre, (0.125, 0.125),
+                                       max_height=0.03)
+    assert coverage.tolist() == pytest.approx([1.0, 0.8, 0.5])
+
+
 def test_cloth_layouts():
     shirt = cloth.shirt()
     assert len(shirt.positions) == 8 * 6 + 2 * 9

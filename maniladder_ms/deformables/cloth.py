@@ -167,6 +167,26 @@ def fold_corner(layout: ClothLayout, rows: int, cols: int, cells: int, gap: floa
     return positions, quats
 
 
+def fold_edge(layout: ClothLayout, rows: int, cols: int, cells: int) -> tuple[np.ndarray, np.ndarray]:
+    """A rows x cols towel `layout` with its -x edge strip folded back over the sheet along a grid line:
+    row `cells` - 1 stands upright in the crease, rows below it lie one spacing above the sheet, upside
+    down (row `cells` - 2 right above row `cells`). Every link keeps its rest length (the drives' frames
+    meet), only the two links at the crease bend (by 90 degrees each), so the fold starts at rest but for
+    bending. Returns local positions [N, 3] and orientations [N, 4] (wxyz)."""
+    spacing = np.linalg.norm(layout.positions[1] - layout.positions[0])
+    r = np.arange(rows * cols) // cols
+    positions = layout.positions.copy()
+    quats = np.tile([1.0, 0.0, 0.0, 0.0], (len(positions), 1))
+    x_fold = layout.positions[cells * cols, 0]  # row `cells`: the first row left flat
+    crease, top = r == cells - 1, r < cells - 1
+    positions[crease, 0], positions[crease, 2] = x_fold - spacing / 2, positions[crease, 2] + spacing / 2
+    quats[crease] = [np.cos(np.pi / 4), 0.0, np.sin(np.pi / 4), 0.0]  # a quarter turn about y
+    positions[top, 0] = x_fold + (cells - 2 - r[top]) * spacing
+    positions[top, 2] += spacing
+    quats[top] = [0.0, 0.0, 1.0, 0.0]  # half a turn about y
+    return positions, quats
+
+
 def tent_panel(rows: int = 8, cols: int = 12, spacing: float = 0.03) -> ClothLayout:
     """A tent panel: a larger-spaced rectangle; `grommets` are its four corners (to pin on pegs)."""
     layout = towel(rows, cols, spacing)
