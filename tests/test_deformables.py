@@ -130,7 +130,7 @@ def test_panda_picks_up_a_rope_end():
 def test_leap_hand_scissor_pinches_a_rope():
     """The LEAP hand takes the middle capsule of a rope lying on the table between its straight index and
     middle fingers (the "scissor" pinch: the only LEAP pinch whose contacts reach down to a 1.6 cm rope's
-    middle height), lifts it 22 cm and holds it 60 steps: a friction grasp only."""
+    middle height), lifts it 28 cm and holds it 60 steps: a friction grasp only."""
     from maniladder_ms.solvers.driven import DrivenSolver
     from maniladder_ms.tasks.lift_rope_hand import pinch_and_lift
 

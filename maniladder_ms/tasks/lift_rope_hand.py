@@ -89,8 +89,8 @@ class LiftRopeHandEnv(ManiLadderEnv):
 
 
 SCISSOR_RAMP_STEPS = 20  # closing the scissor over 1 s: 8/10 seeds held, 4/5 at 40 steps
-LIFT = 0.22  # the grasped capsule ends 23 cm up: about 17 of 20 capsule centres above 10 cm
-LIFT_STEPS = 35  # 6 mm a control step: faster lifts (25 steps for 25 cm) swing the rope out of the pinch
+LIFT = 0.28  # the grasped capsule ends 29 cm up, the rope hanging straight down both sides: 19 of 20 capsule centres above 10 cm
+LIFT_STEPS = 45  # 6 mm a control step: faster lifts (25 steps for 25 cm) swing the rope out of the pinch
 
 
 def pinch_and_lift(s: DrivenSolver, task: LiftRopeHandEnv):
