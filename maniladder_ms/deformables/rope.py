@@ -131,6 +131,21 @@ class Rope:
         self.set_shape(Pose.create_from_pq(root, yaw_quat(heading)), bend)
 
 
+class RopeTask:
+    """Mixin for a task env (before `ManiLadderEnv` in its bases) with one rope `self.rope` built from its
+    `rope_config` in `_load_scene`, and `grasp_segment`: the capsule a grasp near the middle takes."""
+
+    rope_config = RopeConfig()
+
+    @property
+    def grasp_segment(self) -> int:
+        return self.rope_config.segments // 2
+
+    def _load_scene(self, options: dict):
+        super()._load_scene(options)
+        self.rope = build_rope(self.scene, "rope", self.rope_config)
+
+
 def wavy_turns(batch: int, segments: int, max_amp: float) -> torch.Tensor:
     """Random in-plane turns for `Rope.lay_flat`, [batch, segments - 1]: a gentle S, the turn after capsule
     k being amp * sin(2 pi (k + 1) / segments + phase), amp uniform in [0, max_amp] rad, phase uniform

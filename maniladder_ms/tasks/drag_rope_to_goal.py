@@ -19,7 +19,7 @@ from maniladder_ms.solvers.panda import PandaSolver
 
 
 @register_task("DragRopeToGoal")
-class DragRopeToGoalEnv(ManiLadderEnv):
+class DragRopeToGoalEnv(rope.RopeTask, ManiLadderEnv):
     """**Task:** a rope lies on the table on one side of the robot's centre line, a square goal zone is
     marked on the other side; grasp the rope near its middle and drag the whole rope into the zone.
 
@@ -38,19 +38,12 @@ class DragRopeToGoalEnv(ManiLadderEnv):
 
     max_dense_reward = 5
     TASK_REGION = (-0.35, 0.25, -0.35, 0.35)
-    rope_config = rope.RopeConfig()
     zone_half = 0.11
     min_inside = 0.9
     on_table_height = 0.03
 
-    @property
-    def grasp_segment(self) -> int:
-        """The capsule a grasp near the middle takes (the solver's, and the reward's reach target)."""
-        return self.rope_config.segments // 2
-
     def _load_scene(self, options: dict):
-        super()._load_scene(options)
-        self.rope = rope.build_rope(self.scene, "rope", self.rope_config)
+        super()._load_scene(options)  # the rope (rope.RopeTask)
         self.zone = build_zone_marker(self.scene, "goal_zone", self.zone_half, (0.55, 0.85, 0.55, 1))
 
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):

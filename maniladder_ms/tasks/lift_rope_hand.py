@@ -15,7 +15,7 @@ from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver
 
 
 @register_task("LiftRopeHand")
-class LiftRopeHandEnv(ManiLadderEnv):
+class LiftRopeHandEnv(rope.RopeTask, ManiLadderEnv):
     """**Task:** a rope lies on the table; pick it up with the LEAP hand, so that at least half of it
     hangs well clear of the table.
 
@@ -34,18 +34,11 @@ class LiftRopeHandEnv(ManiLadderEnv):
     SUPPORTED_ROBOTS = ["ml_panda_leap"]
     max_dense_reward = 4
     TASK_REGION = (-0.35, 0.15, -0.3, 0.3)
-    rope_config = rope.RopeConfig()
     lift_height = 0.1
     min_lifted = 0.5
 
-    @property
-    def grasp_segment(self) -> int:
-        """The capsule a grasp near the middle takes (the solver's, and the reward's reach target)."""
-        return self.rope_config.segments // 2
-
     def _load_scene(self, options: dict):
-        super()._load_scene(options)
-        self.rope = rope.build_rope(self.scene, "rope", self.rope_config)
+        super()._load_scene(options)  # the rope (rope.RopeTask)
         self.hand = LeapContacts(self.agent)
 
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
