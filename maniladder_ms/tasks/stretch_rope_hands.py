@@ -18,7 +18,7 @@ SIDES = {"left": 1.0, "right": -1.0}  # sign of y on each arm's side of the tabl
 
 
 @register_task("StretchRopeHands")
-class StretchRopeHandsEnv(ManiLadderEnv):
+class StretchRopeHandsEnv(rope.RopeTask, ManiLadderEnv):
     """**Task:** a rope lies across the table between the two arms; each LEAP hand pinches it near one end,
     and together they lift it and stretch it straight in the air.
 
@@ -39,13 +39,11 @@ class StretchRopeHandsEnv(ManiLadderEnv):
     SUPPORTED_ROBOTS = ["ml_dual_panda_leap"]
     max_dense_reward = 6
     TASK_REGION = (-0.3, 0.1, -0.32, 0.32)
-    rope_config = rope.RopeConfig()
     min_straightness = 0.9
     lift_height = 0.05
 
     def _load_scene(self, options: dict):
-        super()._load_scene(options)
-        self.rope = rope.build_rope(self.scene, "rope", self.rope_config)
+        super()._load_scene(options)  # the rope (rope.RopeTask)
         self.hands = {side: LeapContacts(self.agent, f"{side}_") for side in SIDES}
 
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
