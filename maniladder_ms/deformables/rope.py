@@ -146,6 +146,47 @@ class RopeTask:
         self.rope = build_rope(self.scene, "rope", self.rope_config)
 
 
+class RopeBetweenArmsTask(RopeTask):
+    """`RopeTask` for two-arm tasks whose rope lies across the table between the arms: the rope
+    (`rope_config`) lies flat along y in a gentle S (`wavy_turns`, amp up to 0.15 rad), the mean of its
+    capsule centres at x uniform in [-0.15, -0.05], y uniform in [-0.03, 0.03], its first capsule heading
+    within +-15 degrees (uniform) of +y or of -y. The task defines `end_points()` ({"left", "right"} -> [B, 3],
+    where each arm takes the rope) and reports `left_grasped` / `right_grasped` in its info."""
+
+    def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
+        super()._initialize_episode(env_idx, options)
+        with torch.device(self.device):
+            b = len(env_idx)
+            turns = wavy_turns(b, self.rope_config.segments, 0.15)
+            heading = (np.pi / 2 + (torch.rand(b) * 2 - 1) * np.deg2rad(15)
+                       + torch.where(torch.rand(b) < 0.5, 0.0, np.pi))
+            middle = torch.stack([torch.rand(b) * 0.1 - 0.15, torch.rand(b) * 0.06 - 0.03], dim=1)
+            self.rope.lay_flat(middle, heading, turns)
+
+    def _get_obs_extra(self, info: dict):
+        sides = ("left", "right")
+        obs = {f"{side}_tcp_pose": self.agent.tcps[side].pose.raw_pose for side in sides}
+        obs.update(left_grasped=info["left_grasped"], right_grasped=info["right_grasped"])
+        if "state" in self.obs_mode:
+            obs["rope_points"] = self.rope.points().flatten(1)
+            for side, p in self.end_points().items():
+                obs[f"{side}_tcp_to_end"] = p - self.agent.tcps[side].pose.p
+        return obs
+
+    def _two_arm_reward(self, info: dict, *progress: torch.Tensor) -> torch.Tensor:
+        """Dense reward: each arm's reach to its end point (1 each), each arm's grasp (1 each), then with both
+        grasped each of `progress` (fractions of the goal, clamped to [0, 1]); `max_dense_reward` on success."""
+        ends = self.end_points()
+        reward = sum(1 - torch.tanh(5 * torch.linalg.norm(p - self.agent.tcps[side].pose.p, dim=1))
+                     for side, p in ends.items())
+        reward = reward + info["left_grasped"].float() + info["right_grasped"].float()
+        both = info["left_grasped"] & info["right_grasped"]
+        for fraction in progress:
+            reward = reward + fraction.clamp(0, 1) * both
+        reward[info["success"]] = self.max_dense_reward
+        return reward
+
+
 def wavy_turns(batch: int, segments: int, max_amp: float) -> torch.Tensor:
     """Random in-plane turns for `Rope.lay_flat`, [batch, segments - 1]: a gentle S, the turn after capsule
     k being amp * sin(2 pi (k + 1) / segments + phase), amp uniform in [0, max_amp] rad, phase uniform

@@ -18,7 +18,7 @@ SIDES = {"left": 1.0, "right": -1.0}  # sign of y on each arm's side of the tabl
 
 
 @register_task("LiftRopeBimanual")
-class LiftRopeBimanualEnv(ManiLadderEnv):
+class LiftRopeBimanualEnv(rope.RopeBetweenArmsTask, ManiLadderEnv):
     """**Task:** a rope lies across the table between the two arms; each gripper takes one end of it and
     together they lift it and hold it taut in the air.
 
@@ -35,38 +35,14 @@ class LiftRopeBimanualEnv(ManiLadderEnv):
     SUPPORTED_ROBOTS = ["ml_dual_panda"]
     max_dense_reward = 6
     TASK_REGION = (-0.3, 0.1, -0.32, 0.32)
-    rope_config = rope.RopeConfig()
     lift_height = 0.15
     min_spread = 0.8
-
-    def _load_scene(self, options: dict):
-        super()._load_scene(options)
-        self.rope = rope.build_rope(self.scene, "rope", self.rope_config)
-
-    def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
-        super()._initialize_episode(env_idx, options)
-        with torch.device(self.device):
-            b = len(env_idx)
-            turns = rope.wavy_turns(b, self.rope_config.segments, 0.15)
-            heading = (np.pi / 2 + (torch.rand(b) * 2 - 1) * np.deg2rad(15)
-                       + torch.where(torch.rand(b) < 0.5, 0.0, np.pi))
-            middle = torch.stack([torch.rand(b) * 0.1 - 0.15, torch.rand(b) * 0.06 - 0.03], dim=1)
-            self.rope.lay_flat(middle, heading, turns)
 
     def end_points(self) -> dict[str, torch.Tensor]:
         """Centres of the two end capsules, keyed by the arm on whose side each lies, [B, 3] each."""
         first, last = self.rope.links[0].pose.p, self.rope.links[-1].pose.p
         first_left = (first[:, 1] >= last[:, 1])[:, None]
         return {"left": torch.where(first_left, first, last), "right": torch.where(first_left, last, first)}
-
-    def _get_obs_extra(self, info: dict):
-        obs = {f"{side}_tcp_pose": self.agent.tcps[side].pose.raw_pose for side in SIDES}
-        obs.update(left_grasped=info["left_grasped"], right_grasped=info["right_grasped"])
-        if "state" in self.obs_mode:
-            obs["rope_points"] = self.rope.points().flatten(1)
-            for side, p in self.end_points().items():
-                obs[f"{side}_tcp_to_end"] = p - self.agent.tcps[side].pose.p
-        return obs
 
     def evaluate(self):
         points = self.rope.points()
@@ -87,14 +63,7 @@ class LiftRopeBimanualEnv(ManiLadderEnv):
         }
 
     def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
-        ends = self.end_points()
-        reward = sum(1 - torch.tanh(5 * torch.linalg.norm(ends[s] - self.agent.tcps[s].pose.p, dim=1)) for s in SIDES)
-        reward += info["left_grasped"].float() + info["right_grasped"].float()
-        both = info["left_grasped"] & info["right_grasped"]
-        reward += (info["ends_height"] / self.lift_height).clamp(0, 1) * both
-        reward += (info["spread"] / self.min_spread).clamp(0, 1) * both
-        reward[info["success"]] = self.max_dense_reward
-        return reward
+        return self._two_arm_reward(info, info["ends_height"] / self.lift_height, info["spread"] / self.min_spread)
 
 
 GRASP_CLEARANCE = 0.004  # TCP this far above the capsule centre: finger tips off the table, free to close

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 from typing import Any
 
-import numpy as np
 import torch
 
 from maniladder_ms.agents.hand_contact import LeapContacts
@@ -18,13 +17,13 @@ SIDES = {"left": 1.0, "right": -1.0}  # sign of y on each arm's side of the tabl
 
 
 @register_task("StretchRopeHands")
-class StretchRopeHandsEnv(rope.RopeTask, ManiLadderEnv):
+class StretchRopeHandsEnv(rope.RopeBetweenArmsTask, ManiLadderEnv):
     """**Task:** a rope lies across the table between the two arms; each LEAP hand pinches it near one end,
     and together they lift it and stretch it straight in the air.
 
-    **Randomisation:** the rope (`rope.RopeConfig()`: 40 cm, 20 capsules of 1.6 cm diameter) lies flat
-    across the table (along y) in a gentle S: the in-plane turn between capsules k and k + 1 is
-    amp * sin(2 pi (k + 1) / 20 + phase), amp uniform in [0, 0.15] rad, phase uniform; the mean of its
+    **Randomisation** (`rope.RopeBetweenArmsTask`): the rope (`rope.RopeConfig()`: 40 cm, 20 capsules of
+    1.6 cm diameter) lies flat across the table (along y) in a gentle S: the in-plane turn between capsules
+    k and k + 1 is amp * sin(2 pi (k + 1) / 20 + phase), amp uniform in [0, 0.15] rad, phase uniform; the mean of its
     capsule centres is at x uniform in [-0.15, -0.05], y uniform in [-0.03, 0.03]; its first capsule
     heads within +-15 degrees (uniform) of +y or of -y.
 
@@ -45,16 +44,6 @@ class StretchRopeHandsEnv(rope.RopeTask, ManiLadderEnv):
     def _load_scene(self, options: dict):
         super()._load_scene(options)  # the rope (rope.RopeTask)
         self.hands = {side: LeapContacts(self.agent, f"{side}_") for side in SIDES}
-
-    def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
-        super()._initialize_episode(env_idx, options)
-        with torch.device(self.device):
-            b = len(env_idx)
-            turns = rope.wavy_turns(b, self.rope_config.segments, 0.15)
-            heading = (np.pi / 2 + (torch.rand(b) * 2 - 1) * np.deg2rad(15)
-                       + torch.where(torch.rand(b) < 0.5, 0.0, np.pi))
-            middle = torch.stack([torch.rand(b) * 0.1 - 0.15, torch.rand(b) * 0.06 - 0.03], dim=1)
-            self.rope.lay_flat(middle, heading, turns)
 
     def first_is_left(self) -> torch.Tensor:
         """(B,) bool: the rope's first capsule lies on the left (+y) arm's side."""
@@ -83,15 +72,6 @@ class StretchRopeHandsEnv(rope.RopeTask, ManiLadderEnv):
         left_first = self.first_is_left()[:, None]
         return {"left": torch.where(left_first, first, last), "right": torch.where(left_first, last, first)}
 
-    def _get_obs_extra(self, info: dict):
-        obs = {f"{side}_tcp_pose": self.agent.tcps[side].pose.raw_pose for side in SIDES}
-        obs.update(left_grasped=info["left_grasped"], right_grasped=info["right_grasped"])
-        if "state" in self.obs_mode:
-            obs["rope_points"] = self.rope.points().flatten(1)
-            for side, p in self.end_points().items():
-                obs[f"{side}_tcp_to_end"] = p - self.agent.tcps[side].pose.p
-        return obs
-
     def evaluate(self):
         points = self.rope.points()
         straightness = rope.straightness(points)
@@ -110,14 +90,7 @@ class StretchRopeHandsEnv(rope.RopeTask, ManiLadderEnv):
         }
 
     def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
-        ends = self.end_points()
-        reward = sum(1 - torch.tanh(5 * torch.linalg.norm(ends[s] - self.agent.tcps[s].pose.p, dim=1)) for s in SIDES)
-        reward += info["left_grasped"].float() + info["right_grasped"].float()
-        both = info["left_grasped"] & info["right_grasped"]
-        reward += (info["lowest"] / self.lift_height).clamp(0, 1) * both
-        reward += (info["straightness"] / self.min_straightness).clamp(0, 1) * both
-        reward[info["success"]] = self.max_dense_reward
-        return reward
+        return self._two_arm_reward(info, info["lowest"] / self.lift_height, info["straightness"] / self.min_straightness)
 
 
 SCISSOR_RAMP_STEPS = 20  # as LiftRopeHand's
