@@ -44,7 +44,7 @@ class PourGrainsHandToCupEnv(CupToBowl, ManiLadderEnv):
     TASK_REGION = (-0.25, 0.1, -0.3, 0.2)
     # tall enough for the LEAP hand's side grasp: the thumb closes low on it, the three fingers above
     cup_shape = containers.glass(bottom_radius=0.027, top_radius=0.029, height=0.13)
-    bowl_shape = containers.cup(radius=0.035, height=0.08, wall=0.004)
+    bowl_shape = containers.cup(radius=0.035, height=0.11, wall=0.004)
     cup_name = "glass"
     bowl_name = "cup"
     particle_config = dataclasses.replace(particles.GRANULAR, count=60, radius=0.004)
@@ -99,19 +99,20 @@ class PourGrainsHandToCupEnv(CupToBowl, ManiLadderEnv):
         return reward
 
 
-# NOT READY (0 successes measured; see the branch's report). The solver's level side grasp closes LEAP's
-# "power" synergy, which was tuned for top-down grasps: on a standing vessel (its axis along the TCP's y)
-# the fingers curl round its far side and the thumb lies across its front, with nothing on the side the
-# fingers point to, so the glass tips in the hand. Seed 100: both hands grasp, the right lifts the glass
-# (tilt 16 deg with GRASP_SHIFT, 40 deg without), but on the carry it tips to ~55 deg in the hand, the wrist
-# roll does not tip it further (unchecked: IK limit or the glass turning in the hand) and no grain leaves
-# it. The whole script takes ~340 steps (catalog horizon 150). Next: a side-wrap synergy (thumb opposing
-# the fingers across the vessel), then the roll.
-GRASP_HEIGHT = {"left": 0.045, "right": 0.075}  # TCP height above each container's bottom
-POUR_HEIGHT = 0.19
+# NOT READY (seed 100 only: 40 % of the grains in the cup, 57 % spilled; no sweep). Level side grasps
+# with LEAP's "power" synergy (tuned top-down): the fingers stack along the vessel's axis, the thumb lies
+# across its front. GRASP_SHIFT keeps the glass upright on the lift; carrying at POUR_HEIGHT 0.19-0.21 the
+# glass hit the left hand and tipped in the hand, 0.25 clears it. A positive roll did not turn the wrist
+# (joint limit); the negative roll tips the glass fully. Grains then land partly on the left hand's top
+# finger, which stands above the cup's rim (the cup made 11 cm tall for that) and bounce out from the
+# ~12 cm drop. Script ~340 steps (catalog horizon 150). Next: lower the glass once over the cup, aim the
+# mouth from the measured glass pose, a side-wrap synergy.
+GRASP_HEIGHT = {"left": 0.045, "right": 0.06}  # TCP height above each container's bottom
+POUR_HEIGHT = 0.25
 GRASP_SHIFT = 0.02
-POUR_BACK = 0.04  # the glass' axis stops this far behind the cup's, against the pour direction
-POUR_ROLL = 2.6  # rad
+POUR_IN = 0.03
+POUR_BACK = 0.05  # the glass' axis stops this far behind the cup's, against the pour direction
+POUR_ROLL = -2.6  # rad: negative, tipping the mouth back towards the robot
 POUR_ROLL_STEPS = 50
 YAW = {"left": -np.pi / 2, "right": np.pi / 2}  # palm normals: the left hand presses -y, the right +y
 UP = {"left": -1.0, "right": 1.0}
@@ -146,8 +147,9 @@ def solve_pour_grains_hand_to_cup(env, seed: int) -> dict:
         s.move({"right_arm": (s.above(right.p, 0.1), right.q)}, max_steps=30)
         pointing = -right.approach / 0.1
         # a positive turn about the palm normal tips the glass' mouth towards pointing x up
-        pour_dir = torch.linalg.cross(pointing, torch.tensor([[0.0, 0.0, 1.0]], device=device).expand(n, 3))
-        pour_p = task.bowl.pose.p - POUR_BACK * pour_dir
+        pour_dir = np.sign(POUR_ROLL) * torch.linalg.cross(pointing, torch.tensor([[0.0, 0.0, 1.0]], device=device).expand(n, 3))
+        # the glass' mouth ends ~3 cm off the TCP along the palm normal as it tips
+        pour_p = task.bowl.pose.p - POUR_BACK * pour_dir - POUR_IN * pointing
         pour_p[:, 2] = POUR_HEIGHT
         s.move({"right_arm": (pour_p, right.q)}, max_steps=40, pos_tol=0.01, rot_tol=0.05)
         for k in range(1, POUR_ROLL_STEPS + 1):
