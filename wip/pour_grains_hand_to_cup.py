@@ -122,11 +122,18 @@ class PourGrainsHandToCupEnv(CupToBowl, ManiLadderEnv):
 #   (GRASP_IN -0.01), 1/5 (right grasp height 0.075, glass held 4/5, 20-43 % spilled).
 # - ~370-420 steps: the catalog horizon 150 cannot hold two LEAP grasps in sequence with a carry and a slow
 #   pour at these arm speeds (would need a YAML comment raising it to ~450).
-# Next: a firmer right grasp (fingertips carry almost no load: a thumb-opposed wrap that also presses the palm
-# on the glass), lifting the cup a little with the left hand so grains on its fingertips do not count as
-# spilled, a slower roll near the flow angle.
+# - Seed 102: the glass is knocked over before closing: the first move (60 steps) leaves the right hand far
+#   from its pose above the line-up, and the line-up move then sweeps the hand through the glass. Giving the
+#   first move 100 steps (pos_tol 0.01) and the line-up 40 does not help: 0/5 on seeds 100-104, the hands
+#   never arrive (the level side-grasp pose of the right arm, fingers pointing back at the robot, seems hard
+#   for the IK to reach from the rest pose) -- FIRST_MOVE_STEPS / LINE_UP_STEPS kept at 60 / 30.
+# Next: a reachable approach path for the side grasps (a via pose with the palm already turned; or fingers
+# pointing away from the robot, mirroring the roll), a firmer right grasp (fingertips carry almost no load:
+# a thumb-opposed wrap that also presses the palm on the glass), the left hand's fingers kept below the cup's
+# rim without losing its hold (grains land on them), a slower roll near the flow angle.
 GRASP_HEIGHT = {"left": 0.045, "right": 0.06}  # TCP height above each container's bottom
 GRASP_SHIFT = {"left": 0.02, "right": 0.04}
+FIRST_MOVE_STEPS, LINE_UP_STEPS = 60, 30  # the hands first go above their line-up poses, then down to them
 GRASP_IN = {"left": 0.0, "right": 0.0}  # the TCP this far past the vessel's axis along the palm normal
 # the right hand's closing: "power"'s fingers with the thumb opposite them, its joints beyond the base only
 # slightly bent ("power"'s 0.6 / 0.8 / 0.8 push the standing glass over by ~30 deg before it is lifted)
@@ -187,8 +194,8 @@ def solve_pour_grains_hand_to_cup(env, seed: int) -> dict:
             p = p - GRASP_SHIFT[side] * tcp_x  # the vessel sits towards the TCP's +x, where the fingers start to curl
             p = p + GRASP_IN[side] * pointing
             grasps.append(Grasp(f"{side}_arm", f"{side}_hand", p, q, -0.1 * pointing))
-        s.move({g.arm: (s.above(g.lined_up[0], 0.1), g.q) for g in grasps}, max_steps=60)
-        reach(s, grasps, line_up_steps=30)
+        s.move({g.arm: (s.above(g.lined_up[0], 0.1), g.q) for g in grasps}, max_steps=FIRST_MOVE_STEPS, pos_tol=0.01)
+        reach(s, grasps, line_up_steps=LINE_UP_STEPS)
         close_hands(s, {"left_hand": LEAP_SYNERGIES["power"], "right_hand": SIDE_WRAP})
         right = grasps[1]
         s.move({"right_arm": (s.above(right.p, LIFT), right.q)}, max_steps=30)
