@@ -207,6 +207,9 @@ def test_committed_samples_replay_to_success(task_id):
     for path in sorted((COMMITTED_DEMOS / task_id).glob("trajectory.*.h5")):
         checks = verify(path, progress=False)
         assert checks and all(c.success_from_actions and c.success_from_states for c in checks), path
+        # the replay retraces the recorded states: a start state off by float rounding (3.7e-9 m of a
+        # bowl's position) already drifts a particle pile by ~10 in state while the episode still succeeds
+        assert max(c.max_drift for c in checks) < 1e-4, path
 
 
 def test_demos_only_in_a_mode_the_solver_drives(tmp_path):

@@ -20,10 +20,21 @@ from . import particles
 
 class CupToBowl:
     """A plastic cup (inner radius 2.5 cm, 8 cm tall, 5.8 cm wide outside: a Panda gripper closes across
-    it) holding `particle_config` particles, and a bowl (inner radius 8 cm at the rim, 5 cm tall)."""
+    it) holding `particle_config` particles, and a bowl (inner radius 8 cm at the rim, 5 cm tall).
+
+    The roles are fixed (`self.cup` pours, `self.bowl` receives); a task may change their shapes and the
+    names of their actors (`cup_name`, `bowl_name`, also their obs keys): a glass pouring into a cup.
+    """
 
     cup_shape: ClassVar = containers.cup(radius=0.025, height=0.08, wall=0.004)
     bowl_shape: ClassVar = containers.bowl()
+    cup_name: ClassVar[str] = "cup"
+    bowl_name: ClassVar[str] = "bowl"
+    # where the containers stand: {"cup" / "bowl": ((x low, x high), (y low, y high))}, each uniform, drawn
+    # in this dict's order; with `cup_either_side` the cup's y range is mirrored to a random side of y = 0
+    # (that side drawn first)
+    placement: ClassVar[dict[str, tuple]]
+    cup_either_side: ClassVar[bool] = False
     particle_config: ClassVar[particles.ParticleConfig]
     particle_name: ClassVar[str]  # names the particle actors (<name>_<i>) and their obs entry
     success_fraction: ClassVar[float] = 0.8
@@ -36,20 +47,28 @@ class CupToBowl:
     bowl_color: ClassVar[tuple] = (0.35, 0.55, 0.75, 1)
 
     def _load_cup_and_bowl(self):
-        self.cup = containers.build_container(self.scene, "cup", self.cup_shape, color=(0.9, 0.9, 0.92, 1),
+        self.cup = containers.build_container(self.scene, self.cup_name, self.cup_shape, color=(0.9, 0.9, 0.92, 1),
                                               friction=self.cup_friction, density=self.cup_density)
-        self.bowl = containers.build_container(self.scene, "bowl", self.bowl_shape, color=self.bowl_color,
+        self.bowl = containers.build_container(self.scene, self.bowl_name, self.bowl_shape, color=self.bowl_color,
                                                density=self.bowl_density)
         self.particles = particles.build_particles(self.scene, self.particle_name, self.particle_config)
 
-    def _place_cup_and_bowl(self, cup_xyz: torch.Tensor, bowl_xyz: torch.Tensor):
-        """Stand the cup and the bowl upright at [b, 3] positions, the particles packed in the cup."""
-        self.cup.set_pose(Pose.create_from_pq(cup_xyz))
-        self.bowl.set_pose(Pose.create_from_pq(bowl_xyz))
-        particles.fill_upright(self.particles, self.cup_shape, cup_xyz)
+    def _place_cup_and_bowl(self, b: int):
+        """Stand the cup and the bowl upright at random `placement`s in `b` sub-scenes being reset (call
+        under `torch.device(self.device)`), the particles packed in the cup."""
+        side = torch.where(torch.rand(b) < 0.5, -1.0, 1.0) if self.cup_either_side else None
+        xyz = {}
+        for name, (x_range, y_range) in self.placement.items():
+            x, y = _uniform(b, *x_range), _uniform(b, *y_range)
+            if name == "cup" and side is not None:
+                y = side * y
+            xyz[name] = torch.stack([x, y, torch.zeros(b)], dim=1)
+        self.cup.set_pose(Pose.create_from_pq(xyz["cup"]))
+        self.bowl.set_pose(Pose.create_from_pq(xyz["bowl"]))
+        particles.fill_upright(self.particles, self.cup_shape, xyz["cup"])
 
     def _cup_and_bowl_obs(self) -> dict:
-        return {"cup_pose": self.cup.pose.raw_pose, "bowl_pose": self.bowl.pose.raw_pose,
+        return {f"{self.cup_name}_pose": self.cup.pose.raw_pose, f"{self.bowl_name}_pose": self.bowl.pose.raw_pose,
                 f"{self.particle_name}_positions": self.particles.positions().flatten(1)}
 
     def pour_metrics(self) -> dict:
@@ -64,3 +83,13 @@ class CupToBowl:
     def pour_reward(self, info: dict) -> torch.Tensor:
         """The particles' part of the dense reward: the share in the bowl, less what was spilled, [0, 1]."""
         return info["fraction_in_bowl"] * (1 - info["fraction_spilled"])
+
+
+def _uniform(b: int, low: float, high: float) -> torch.Tensor:
+    """[b] uniform draws in [low, high]: `(rand - 0.5) * width` for a range centred on 0, else
+    `rand * width + low`. The two forms are the float32 expressions the pour tasks drew before the
+    placement table; `rand * width + low` on a centred range differs from them by up to 3.7e-9 m, enough
+    for the particle piles to diverge (committed samples drifted by 13 and 18 in state) -- keep them exact."""
+    if low == -high:
+        return (torch.rand(b) - 0.5) * (high - low)
+    return torch.rand(b) * (high - low) + low

@@ -36,6 +36,8 @@ class PourBeansIntoBowlEnv(CupToBowl, ManiLadderEnv):
     TASK_REGION = (-0.2, 0.15, -0.25, 0.25)
     particle_config = dataclasses.replace(particles.GRANULAR, count=80, radius=0.004)
     particle_name = "beans"
+    placement = {"cup": ((-0.16, -0.1), (0.08, 0.16)), "bowl": ((0.0, 0.08), (-0.05, 0.05))}
+    cup_either_side = True
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -44,11 +46,7 @@ class PourBeansIntoBowlEnv(CupToBowl, ManiLadderEnv):
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
-            b = len(env_idx)
-            side = torch.where(torch.rand(b) < 0.5, -1.0, 1.0)
-            cup_xyz = torch.stack([torch.rand(b) * 0.06 - 0.16, side * (0.08 + torch.rand(b) * 0.08), torch.zeros(b)], dim=1)
-            bowl_xyz = torch.stack([torch.rand(b) * 0.08 + 0.0, (torch.rand(b) - 0.5) * 0.1, torch.zeros(b)], dim=1)
-            self._place_cup_and_bowl(cup_xyz, bowl_xyz)
+            self._place_cup_and_bowl(len(env_idx))
 
     def _get_obs_extra(self, info: dict):
         obs = dict(tcp_pose=self.agent.tcp_pose.raw_pose, is_grasped=info["is_grasped"])

@@ -42,6 +42,7 @@ class PourWaterHoldBowlEnv(CupToBowl, ManiLadderEnv):
     particle_name = "water"
     bowl_density = CupToBowl.cup_density  # ~0.1 kg: light, worth holding
     bowl_color = (0.85, 0.75, 0.55, 1)
+    placement = {"bowl": ((0.0, 0.06), (-0.04, 0.04)), "cup": ((-0.16, -0.1), (-0.26, -0.18))}
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -50,10 +51,7 @@ class PourWaterHoldBowlEnv(CupToBowl, ManiLadderEnv):
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
-            b = len(env_idx)
-            bowl_xyz = torch.stack([torch.rand(b) * 0.06, (torch.rand(b) - 0.5) * 0.08, torch.zeros(b)], dim=1)
-            cup_xyz = torch.stack([torch.rand(b) * 0.06 - 0.16, -0.26 + torch.rand(b) * 0.08, torch.zeros(b)], dim=1)
-            self._place_cup_and_bowl(cup_xyz, bowl_xyz)
+            self._place_cup_and_bowl(len(env_idx))
 
     def rim_point(self) -> torch.Tensor:
         """The middle of the bowl's wall at its left (+y) rim, 1 cm below the rim: where the left arm holds it."""
