@@ -3,4 +3,4 @@
 # Full sweeps: .venv/bin/python -m pytest -m slow
 set -euo pipefail
 cd "$(dirname "$0")/.."
-exec .venv/bin/python -m pytest -m "not slow or sample" "$@"
+exec .venv/bin/python -m pytest -m "not slow or sample" --durations=20 "$@"

@@ -232,10 +232,10 @@ def test_ee_delta_gripper_picks_up_a_flat_towel_corner(corner):
 
 @pytest.mark.parametrize("seed", range(2))
 def test_folded_towel_corner_stays_on_top_and_a_panda_unfolds_it(seed, monkeypatch):
-    """A towel lying flat with a corner folded over (15 of 100 particles): the folded layer rests on
-    the sheet (it does not sink through it: particles of radius 10 mm, see ClothConfig), and a Panda
-    pinching the folded corner particle from above and laying it at its flat position covers the flat
-    towel's area again."""
+    """A towel lying flat with a corner folded over (21 of 100 particles, `cloth.fold_corner`): the folded
+    layer rests on the sheet (it does not sink through it: particles of radius 10 mm, see ClothConfig)
+    and stays folded, and a Panda pinching the folded corner particle from above and laying it at its
+    flat position covers the flat towel's area again."""
     from maniladder_ms.deformables.showcase import TowelShowcaseEnv
     from maniladder_ms.solvers.panda import PandaSolver
 
@@ -248,29 +248,65 @@ def test_folded_towel_corner_stays_on_top_and_a_panda_unfolds_it(seed, monkeypat
             base, c = env.unwrapped, env.unwrapped.cloth
             _box_aside(base)
             r, spacing = c.config.radius, c.config.spacing
-            local, q = cloth.fold_corner(c.layout, 10, 10, 5, gap=2.2 * r)
+            local, q = cloth.fold_corner(c.layout, 10, 10, 6, gap=2.2 * r)
             offset = np.array([0.05, 0.0, r])
             c.place(torch.tensor(local + offset, dtype=torch.float32), torch.tensor(q, dtype=torch.float32))
             robot.grip(closed=False, steps=20)
             points = c.positions()
-            flat_area = 100 * spacing**2
-            assert metrics.footprint_area(points, spacing)[0] / flat_area == pytest.approx(0.85, abs=0.02)
+            assert cloth.coverage(points, c.layout, spacing)[0] == pytest.approx(0.86, abs=0.02)
             rows, cols = np.divmod(np.arange(100), 10)
-            assert points[0, rows + cols < 3, 2].min() > 2 * r  # the folded layer lies on the sheet
+            assert points[0, rows + cols < 4, 2].min() > 1.8 * r  # the folded layer lies on the sheet
             corner = points[0, 0].numpy()
             goal = c.layout.positions[0] + offset
             d = goal[:2] - corner[:2]
             yaw = robot.closest_grasp_yaw(float(np.arctan2(d[1], d[0])) + np.pi / 2 + rng.uniform(-0.2, 0.2))
-            robot.pick(robot.top_down_pose(corner, yaw), lift_height=0.04)
+            robot.pick(robot.top_down_pose(corner + [0, 0, 0.006], yaw), lift_height=0.04)
             robot.move(robot.top_down_pose(goal + [0, 0, 0.04], yaw))
             robot.move(robot.top_down_pose(goal + [0, 0, 0.005], yaw))
             robot.grip(closed=False)
             robot.move(robot.top_down_pose(goal + [0, 0, 0.06], yaw))
             points = c.positions()
             assert torch.isfinite(points).all()
-            assert metrics.footprint_area(points, spacing)[0] / flat_area > 0.95
+            assert cloth.coverage(points, c.layout, spacing)[0] > 0.95
     finally:
         env.close()
+
+
+@pytest.mark.parametrize("corner", range(4))
+def test_fold_corner_leaves_every_drive_at_rest(corner):
+    """Every link's two drive frames meet at one point in a folded towel (no drive pulls at the start),
+    no two unlinked particles of 10 mm overlap, the folded particles are those near `corner`, and the
+    layer lies `gap` above the sheet."""
+    from scipy.spatial.transform import Rotation
+
+    layout, r = cloth.towel(10, 10), 0.010
+    positions, quats = cloth.fold_corner(layout, 10, 10, 6, gap=2.2 * r, corner=corner)
+    turned = Rotation.from_quat(np.roll(quats, -1, axis=1))  # scipy: xyzw
+    for i, j in layout.links:
+        mid = (layout.positions[i] + layout.positions[j]) / 2
+        frame_i = positions[i] + turned[i].apply(mid - layout.positions[i])
+        frame_j = positions[j] + turned[j].apply(mid - layout.positions[j])
+        assert np.linalg.norm(frame_i - frame_j) < 1e-9
+    linked = set(layout.links)
+    gaps = np.linalg.norm(positions[:, None] - positions[None], axis=-1)
+    assert min(gaps[i, j] for i in range(100) for j in range(i + 1, 100) if (i, j) not in linked) > 2 * r
+    moved = np.linalg.norm(positions - layout.positions, axis=1) > 1e-9
+    assert moved.sum() == 21 and moved[layout.named["corners"][corner]]
+    assert positions[layout.named["corners"][corner], 2] == pytest.approx(2.2 * r)
+
+
+def test_cloth_coverage_ignores_the_towel_yaw():
+    spacing = 0.025
+    layout = cloth.towel(10, 10, spacing)
+    for k, cells in enumerate((6, 7)):
+        folded, _ = cloth.fold_corner(layout, 10, 10, cells, gap=0.022, corner=k)
+        for yaw in (0.0, 0.4, -0.7, 2.0):
+            turn = torch.tensor([[np.cos(yaw), -np.sin(yaw), 0], [np.sin(yaw), np.cos(yaw), 0], [0, 0, 1]], dtype=torch.float32)
+            shapes = torch.tensor(np.stack([layout.positions, folded]), dtype=torch.float32) @ turn.T + torch.tensor([0.1, -0.2, 0.01])
+            assert cloth.grid_yaw(shapes, layout.links)[0] == pytest.approx((yaw + np.pi / 4) % (np.pi / 2) - np.pi / 4, abs=1e-5)
+            flat, fold = cloth.coverage(shapes, layout, spacing).tolist()
+            assert flat == pytest.approx(1.0, abs=1e-5)
+            assert fold < 0.9
 
 
 def test_cloth_metrics_flat_and_folded():
@@ -295,6 +331,40 @@ def test_cloth_metrics_flat_and_folded():
     hanging[0, :, 2] = 0.31 - (x - x.min())  # hung by its -x edge over a bar at z = 0.3
     assert cloth.fraction_below(hanging, 0.3)[0] == pytest.approx(0.9)
     assert cloth.fraction_beyond(flat, torch.zeros(3), torch.tensor([1.0, 0, 0]))[0] == pytest.approx(0.5)
+
+
+def test_fold_edge_keeps_every_link_at_rest_length():
+    """`cloth.fold_edge`: the drive frames of every linked pair meet (they sit at the rest midpoint in each
+    particle's frame), the folded rows lie one spacing above the sheet, upside down, and the footprint
+    shrinks by the folded rows and the crease."""
+    from scipy.spatial.transform import Rotation
+
+    spacing = 0.025
+    layout = cloth.towel(10, 10, spacing)
+    positions, quats = cloth.fold_edge(layout, 10, 10, 4)
+    turn = Rotation.from_quat(quats[:, [1, 2, 3, 0]])  # scipy: xyzw
+    for i, j in layout.links:
+        mid = (layout.positions[i] + layout.positions[j]) / 2
+        a = positions[i] + turn[i].apply(mid - layout.positions[i])
+        b = positions[j] + turn[j].apply(mid - layout.positions[j])
+        assert np.linalg.norm(a - b) < 1e-9, (i, j)
+    rows = np.arange(100) // 10
+    assert np.allclose(positions[rows < 3, 2], spacing)  # 3 rows on top
+    assert np.allclose(positions[rows == 2, 0], positions[rows == 4, 0])  # right above row 4
+    assert np.allclose(positions[rows >= 4], layout.positions[rows >= 4])
+    area = metrics.footprint_area(torch.as_tensor(positions, dtype=torch.float32)[None], spacing)[0]
+    assert area / (100 * spacing**2) == pytest.approx(0.65, abs=0.03)  # 6.5 of 10 rows' length left
+
+
+def test_target_coverage_per_env_rectangle():
+    spacing = 0.025
+    flat = torch.as_tensor(cloth.towel(10, 10, spacing).positions, dtype=torch.float32)[None].repeat(3, 1, 1)
+    centre = torch.tensor([[0.0, 0.0], [0.05, 0.0], [0.0, 0.0]])
+    lifted = flat.clone()
+    lifted[2, :50, 2] = 0.1  # half the towel lifted off the table
+    coverage = metrics.target_coverage(torch.stack([flat[0], flat[1], lifted[2]]), spacing, centre, (0.125, 0.125),
+                                       max_height=0.03)
+    assert coverage.tolist() == pytest.approx([1.0, 0.8, 0.5])
 
 
 def test_cloth_layouts():

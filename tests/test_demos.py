@@ -16,28 +16,55 @@ from maniladder_ms.demos.stats import plot_stats
 from maniladder_ms.solvers import solver_for
 
 TASKS = [t.id for t in maniladder_ms.default_catalog().filter(implemented=True)]
-# ManiSkill's rgbd conversion renders every step of a demo from all cameras (~30 s a task on CPU): CI
-# converts one task per kind of solver and embodiment, the slow run all of them
+# Recording and verifying 3 demos costs 20-60 s a task: CI records one task per kind of solver, embodiment
+# and deformable (every task's solver still runs in test_l1_solvers and its committed samples replay below);
+# the slow run records all of them
+DEMO_SAMPLE = {
+    "PickPlacePen",  # mplib, single gripper, rigid
+    "LiftBottleHand",  # LEAP hand
+    "HandoverCube",  # two grippers
+    "LiftBasketHands",  # two LEAP hands
+    "DragRopeToGoal",  # rope
+    "FlattenTowelCorner",  # cloth
+    "PokeClayHand",  # clay
+    "PourBeansIntoBowl",  # particles in containers
+}
+# ManiSkill's rgbd conversion renders every step of a demo from all cameras (~30 s a task on CPU)
 RGBD_SAMPLE = {"PickPlacePen", "LiftBottleHand", "HandoverCube", "LiftBasketHands"}
 
 
+def sampled(tasks, sample):
+    """`tasks` as pytest params, those outside `sample` marked slow."""
+    return [t if t in sample else pytest.param(t, marks=pytest.mark.slow) for t in tasks]
+
+
 def own_demo_path(root, task_id):
-    """The task's demo file in its solver's own control mode (what `demo_root` records)."""
+    """The task's demo file in its solver's own control mode (what `recorded` records)."""
     return demo_path(root, task_id, "none", solver_for(task_id).control_mode)
 
 
 @pytest.fixture(scope="module")
 def demo_root(tmp_path_factory):
-    root = tmp_path_factory.mktemp("demos")
-    for task_id in TASKS:
-        report = generate(task_id, 3, root, control_mode=solver_for(task_id).control_mode, progress=False)
-        assert report.kept == 3
-    return root
+    return tmp_path_factory.mktemp("demos")
 
 
-@pytest.mark.parametrize("task_id", TASKS)
-def test_generated_demos_verify(demo_root, task_id):
-    path = own_demo_path(demo_root, task_id)
+@pytest.fixture(scope="module")
+def recorded(demo_root):
+    """Records 3 demos of a task into `demo_root` on first use; returns the demo file."""
+
+    def record(task_id):
+        path = own_demo_path(demo_root, task_id)
+        if not path.exists():
+            report = generate(task_id, 3, demo_root, control_mode=solver_for(task_id).control_mode, progress=False)
+            assert report.kept == 3
+        return path
+
+    return record
+
+
+@pytest.mark.parametrize("task_id", sampled(TASKS, DEMO_SAMPLE))
+def test_generated_demos_verify(recorded, task_id):
+    path = recorded(task_id)
     meta = json.loads(path.with_suffix(".json").read_text())
     assert meta["env_info"]["env_id"] == f"maniladder_ms:ManiLadder-{task_id}-v1"
     assert "render_backend" not in meta["env_info"]["env_kwargs"]
@@ -57,9 +84,9 @@ def _replay(path: Path, *args) -> str:
     return result.stdout + result.stderr
 
 
-@pytest.mark.parametrize("task_id", [t if t in RGBD_SAMPLE else pytest.param(t, marks=pytest.mark.slow) for t in TASKS])
-def test_replay_trajectory_converts_to_rgbd_keeping_success(demo_root, task_id):
-    path = own_demo_path(demo_root, task_id)
+@pytest.mark.parametrize("task_id", sampled(TASKS, RGBD_SAMPLE))
+def test_replay_trajectory_converts_to_rgbd_keeping_success(recorded, task_id):
+    path = recorded(task_id)
     out = _replay(path, "--use-env-states", "-o", "rgbd", "--save-traj", "--count", "1")
     assert "1/1=100.00% demos saved" in out
     converted = path.with_name(path.name.replace("trajectory.none.", "trajectory.rgbd."))
@@ -73,8 +100,8 @@ def test_replay_trajectory_converts_to_rgbd_keeping_success(demo_root, task_id):
 
 
 @pytest.mark.parametrize("target", ["pd_ee_delta_pose", "pd_joint_delta_pos"])
-def test_replay_trajectory_control_mode_conversion(demo_root, target):
-    out = _replay(demo_path(demo_root, "PickPlacePen", "none", "pd_joint_pos"), "-c", target, "--save-traj")
+def test_replay_trajectory_control_mode_conversion(recorded, target):
+    out = _replay(recorded("PickPlacePen"), "-c", target, "--save-traj")
     assert "3/3=100.00% demos saved" in out
 
 
@@ -86,7 +113,8 @@ def test_native_control_mode_recording(tmp_path, mode):
     assert all(c.success_from_actions for c in verify(report.path, progress=False))
 
 
-def test_existing_dataset_is_not_overwritten(demo_root):
+def test_existing_dataset_is_not_overwritten(recorded, demo_root):
+    recorded("PickPlacePen")
     with pytest.raises(FileExistsError, match="--overwrite"):
         generate("PickPlacePen", 3, demo_root, control_mode="pd_joint_pos", progress=False)
 
@@ -117,16 +145,18 @@ def test_parallel_workers(tmp_path):
     assert report.kept == 6 and len(report.attempts) == 10
 
 
-def test_stats_table_and_plot(demo_root, tmp_path):
+def test_stats_table_and_plot(recorded, demo_root, tmp_path):
+    for task_id in DEMO_SAMPLE:
+        recorded(task_id)
     rows = [r for r in dataset_stats(demo_root) if Path(r["file"]).name.startswith("trajectory.none.")]
-    assert {r["task"] for r in rows} == set(TASKS)
+    assert DEMO_SAMPLE <= {r["task"] for r in rows} <= set(TASKS)
     assert all(r["demos"] == 3 and r["min_len"] <= r["mean_len"] <= r["max_len"] <= r["horizon"] for r in rows)
     png = plot_stats(rows, tmp_path / "stats.png")
     assert png.stat().st_size > 10_000
 
 
-def test_broken_demo_files_are_clear_errors(demo_root, tmp_path):
-    good = demo_path(demo_root, "PickPlacePen", "none", "pd_joint_pos")
+def test_broken_demo_files_are_clear_errors(recorded, tmp_path):
+    good = recorded("PickPlacePen")
     truncated = tmp_path / "truncated.h5"
     truncated.write_bytes(good.read_bytes()[:2000])
     truncated.with_suffix(".json").write_text(good.with_suffix(".json").read_text())
@@ -153,10 +183,10 @@ def test_broken_demo_files_are_clear_errors(demo_root, tmp_path):
         generate("PickPlacePen", 1, tmp_path, seed=999_990, progress=False)
 
 
-def test_cli_demos_commands(demo_root, capsys):
+def test_cli_demos_commands(recorded, demo_root, capsys):
     from maniladder_ms.cli import main
 
-    assert main(["demos", "verify", str(demo_path(demo_root, "PickPlacePen", "none", "pd_joint_pos"))]) == 0
+    assert main(["demos", "verify", str(recorded("PickPlacePen"))]) == 0
     assert "3/3 episodes replay to success" in capsys.readouterr().out
     assert main(["demos", "stats", str(demo_root)]) == 0
     assert "PickPlacePen" in capsys.readouterr().out
@@ -164,10 +194,17 @@ def test_cli_demos_commands(demo_root, capsys):
     assert "not implemented yet" in capsys.readouterr().err
 
 
-def test_committed_samples_replay_to_success():
-    samples = sorted((Path(__file__).resolve().parents[1] / "demos").glob("*/trajectory.*.h5"))
+COMMITTED_DEMOS = Path(__file__).resolve().parents[1] / "demos"
+
+
+def test_every_task_has_committed_samples():
+    samples = COMMITTED_DEMOS.glob("*/trajectory.*.h5")
     assert {p.parent.name for p in samples} == set(TASKS)
-    for path in samples:
+
+
+@pytest.mark.parametrize("task_id", TASKS)
+def test_committed_samples_replay_to_success(task_id):
+    for path in sorted((COMMITTED_DEMOS / task_id).glob("trajectory.*.h5")):
         checks = verify(path, progress=False)
         assert checks and all(c.success_from_actions and c.success_from_states for c in checks), path
 

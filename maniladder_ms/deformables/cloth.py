@@ -18,6 +18,7 @@ Metrics on particle positions [B, N, 3] (`Cloth.positions()`); the footprint one
 `maniladder_ms.deformables.metrics` with tile = the cloth's spacing:
 - `metrics.footprint_area`: area (m^2) the sheet covers seen from above (flat: N * spacing^2);
 - `metrics.region_coverage`: fraction of a table rectangle that the sheet covers;
+- `coverage`: the share of the flat sheet's area it covers seen from above, in its own grid axes;
 - `fold_distance`: mean distance between particles paired by a fold (0 when perfectly folded);
 - `flatness`: standard deviation of particle heights (0 for a flat sheet);
 - `fraction_below`: fraction of particles lower than a height (hanging below a bar);
@@ -27,6 +28,7 @@ Metrics on particle positions [B, N, 3] (`Cloth.positions()`); the footprint one
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Optional
 
 import numpy as np
 import sapien
@@ -35,9 +37,11 @@ import sapien.render
 import torch
 
 from mani_skill.envs.scene import ManiSkillScene
+from mani_skill.utils.geometry.rotation_conversions import quaternion_multiply
 from mani_skill.utils.structs.actor import Actor
 from mani_skill.utils.structs.pose import Pose
 
+from .metrics import footprint_area
 from .spheres import SphereSet, build_spheres
 
 CONTACT_OFFSET = 0.003  # m: small, so a sheet lying on itself tracks few contact pairs
@@ -122,22 +126,64 @@ def towel(rows: int = 10, cols: int = 10, spacing: float = ClothConfig.spacing) 
     return ClothLayout(positions, links, border, dict(corners=[int(i) for i in corners]))
 
 
-def fold_corner(layout: ClothLayout, rows: int, cols: int, cells: int, gap: float) -> tuple[np.ndarray, np.ndarray]:
-    """A rows x cols towel `layout` with its (-x, -y) corner folded over onto the sheet: the particles of
-    grid cells (r, c) with r + c < `cells` turned half a turn about the fold line r + c = `cells`, so they
-    lie `gap` (m) above the sheet, mirrored onto cells (cells - c, cells - r). Returns local positions
-    [N, 3] and orientations [N, 4] (wxyz; the folded particles turned with the layer, so the drives
-    between them stay at rest)."""
+def fold_corner(layout: ClothLayout, rows: int, cols: int, cells: int, gap: float,
+                corner: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """A rows x cols towel `layout` with one corner folded over onto the sheet, every drive at rest.
+
+    `corner` indexes the towel's named corners, (-x,-y), (-x,+y), (+x,-y), (+x,+y). Counting grid cells
+    (r, c) from that corner, the particles of the diagonal lines r + c < `cells` fold over the line
+    r + c = `cells`, which stays flat: lines `cells` - 1 and `cells` - 2 make the fold's rounded edge
+    (turned by alpha and pi - alpha about the fold line, with sin alpha = gap / (2 d), d = spacing / sqrt 2
+    the distance between diagonal lines), the rest lie upside down `gap` (m) above the sheet, line
+    `cells` - 3 - m over line `cells` + m, in the hollows between the sheet's particles (they sink into
+    them when 2 radius < sqrt(d^2 + gap^2); they fall through the sheet when radius < d / 2, see
+    `ClothConfig`). The rounded edge makes every turned particle meet its neighbours' drives where they
+    do (each link's two frames at one point): a fold turned flat about the line through the particles
+    of line `cells` pulls its hinge links 2.8 cm apart (at 2.5 cm spacing), and that jolt unfolded two
+    of the four corners by itself. Returns local positions [N, 3] and orientations [N, 4] (wxyz)."""
     spacing = np.linalg.norm(layout.positions[1] - layout.positions[0])
+    d = spacing / np.sqrt(2)
+    sx, sy = (-1.0 if corner in (0, 1) else 1.0), (-1.0 if corner in (0, 2) else 1.0)
     r, c = np.divmod(np.arange(rows * cols), cols)
-    folded = r + c < cells
-    axis = np.array([1.0, -1.0, 0.0]) / np.sqrt(2)
-    on_line = np.array([(cells - (rows - 1) / 2) * spacing, -(cols - 1) / 2 * spacing, gap / 2])
-    turn = 2 * np.outer(axis, axis) - np.eye(3)  # half a turn about the fold line
+    line = (r if sx < 0 else rows - 1 - r) + (c if sy < 0 else cols - 1 - c)  # diagonal line from the corner
+    into = np.array([-sx, -sy, 0.0]) / np.sqrt(2)  # horizontal, from the corner into the sheet
+    axis = np.cross([0.0, 0.0, 1.0], into)  # turning about it by 0 < t < pi lifts the corner side up and over
+    alpha = np.arcsin(gap / (2 * d))
+    # walk the cross-section from the fold line's last flat joint: each line's particle sits half a link
+    # past the previous joint, along its own turned direction, and the next joint half a link further
+    turns, offsets, heights = {}, {}, {}
+    joint = np.array([-d / 2, 0.0])  # (along `into` from line `cells`, up)
+    for j in range(1, cells + 1):
+        t = alpha if j == 1 else np.pi - alpha if j == 2 else np.pi
+        half = d / 2 * np.array([-np.cos(t), np.sin(t)])
+        turns[cells - j], (offsets[cells - j], heights[cells - j]) = t, joint + half
+        joint = joint + 2 * half
     positions = layout.positions.copy()
-    positions[folded] = (positions[folded] - on_line) @ turn.T + on_line
     quats = np.tile([1.0, 0.0, 0.0, 0.0], (len(positions), 1))
-    quats[folded] = [0.0, axis[0], axis[1], 0.0]
+    for i in np.nonzero(line < cells)[0]:
+        k = line[i]
+        positions[i] += (offsets[k] - (k - cells) * d) * into + [0.0, 0.0, heights[k]]
+        quats[i] = [np.cos(turns[k] / 2), *(np.sin(turns[k] / 2) * axis)]
+    return positions, quats
+
+
+def fold_edge(layout: ClothLayout, rows: int, cols: int, cells: int) -> tuple[np.ndarray, np.ndarray]:
+    """A rows x cols towel `layout` with its -x edge strip folded back over the sheet along a grid line:
+    row `cells` - 1 stands upright in the crease, rows below it lie one spacing above the sheet, upside
+    down (row `cells` - 2 right above row `cells`). Every link keeps its rest length (the drives' frames
+    meet), only the two links at the crease bend (by 90 degrees each), so the fold starts at rest but for
+    bending. Returns local positions [N, 3] and orientations [N, 4] (wxyz)."""
+    spacing = np.linalg.norm(layout.positions[1] - layout.positions[0])
+    r = np.arange(rows * cols) // cols
+    positions = layout.positions.copy()
+    quats = np.tile([1.0, 0.0, 0.0, 0.0], (len(positions), 1))
+    x_fold = layout.positions[cells * cols, 0]  # row `cells`: the first row left flat
+    crease, top = r == cells - 1, r < cells - 1
+    positions[crease, 0], positions[crease, 2] = x_fold - spacing / 2, positions[crease, 2] + spacing / 2
+    quats[crease] = [np.cos(np.pi / 4), 0.0, np.sin(np.pi / 4), 0.0]  # a quarter turn about y
+    positions[top, 0] = x_fold + (cells - 2 - r[top]) * spacing
+    positions[top, 2] += spacing
+    quats[top] = [0.0, 0.0, 1.0, 0.0]  # half a turn about y
     return positions, quats
 
 
@@ -214,11 +260,20 @@ class Cloth(SphereSet):
 
     def set_rest_shape(self, pose: Pose):
         """Lay the sheet in its rest shape at `pose` (batched over the envs being reset), at rest."""
-        local = torch.as_tensor(self.layout.positions, dtype=torch.float32, device=pose.device)
+        self.set_shape(torch.as_tensor(self.layout.positions, dtype=torch.float32, device=pose.device), None, pose)
+
+    def set_shape(self, local: torch.Tensor, local_q: Optional[torch.Tensor], pose: Pose):
+        """Lay the sheet at `pose` [b] (the envs being reset) in a shape given in its local frame, at rest:
+        particle positions `local` [N, 3] or [b, N, 3] and orientations `local_q` [N, 4] or [b, N, 4]
+        (wxyz; None: unturned), e.g. `fold_corner`'s."""
         n, b = len(self.spheres), pose.p.shape[0]
+        local = torch.as_tensor(local, dtype=torch.float32, device=pose.device).expand(b, n, 3)
         world = pose.to_transformation_matrix()  # [b, 4, 4]
-        xyz = torch.einsum("bij,nj->nbi", world[:, :3, :3], local) + world[None, :, :3, 3]
+        xyz = torch.einsum("bij,bnj->nbi", world[:, :3, :3], local) + world[None, :, :3, 3]
         q = pose.q[None].expand(n, b, 4)
+        if local_q is not None:
+            local_q = torch.as_tensor(local_q, dtype=torch.float32, device=pose.device).expand(b, n, 4)
+            q = quaternion_multiply(q, local_q.transpose(0, 1))
         self.place(xyz.reshape(-1, 3), q.reshape(-1, 4))
 
 
@@ -296,3 +351,24 @@ def fraction_beyond(points: torch.Tensor, point: torch.Tensor, normal: torch.Ten
     """Fraction of particles on the side of the plane through `point` [3] facing `normal` [3], [B]
     (with a vertical plane through a bar: the share of the sheet on that side of the bar)."""
     return (((points - point) * normal).sum(dim=-1) > 0).float().mean(dim=1)
+
+
+def grid_yaw(points: torch.Tensor, links: list[tuple[int, int]]) -> torch.Tensor:
+    """Yaw (rad, modulo pi/2) of a grid sheet's axes, [B]: the mean direction of its links' top-down
+    vectors, each weighted by its horizontal length, with angles taken four times (grid links point
+    along yaw + k pi/2, and so do those of a layer folded over about a diagonal)."""
+    i, j = map(list, zip(*links))
+    d = points[:, j, :2] - points[:, i, :2]
+    angle, weight = torch.atan2(d[..., 1], d[..., 0]), torch.linalg.norm(d, dim=-1)
+    return torch.atan2((weight * torch.sin(4 * angle)).sum(dim=1), (weight * torch.cos(4 * angle)).sum(dim=1)) / 4
+
+
+def coverage(points: torch.Tensor, layout: ClothLayout, spacing: float) -> torch.Tensor:
+    """Top-down area a grid sheet covers over its flat area (N * spacing^2), [B]: `metrics.footprint_area`
+    with the points turned by -`grid_yaw`, so the square tiles line up with the sheet (a flat sheet
+    covers 1.0 whatever its yaw; a towel with 15 of its 100 particles folded over 0.85)."""
+    yaw = grid_yaw(points, layout.links)
+    cos, sin = torch.cos(-yaw)[:, None], torch.sin(-yaw)[:, None]
+    x, y = points[..., 0], points[..., 1]
+    turned = torch.stack([cos * x - sin * y, sin * x + cos * y, points[..., 2]], dim=-1)
+    return footprint_area(turned, spacing) / (len(layout.positions) * spacing**2)

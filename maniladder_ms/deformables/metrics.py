@@ -5,6 +5,7 @@ Each particle counts as a square tile (or cube) of side `tile` centred on it, ra
 - `footprint_area`: area (m^2) the particles cover seen from above;
 - `footprint_grid` + `iou`: shape agreement with a target footprint given as a boolean grid;
 - `region_coverage`: fraction of a table rectangle that the particles cover;
+- `target_coverage`: the same for a rectangle placed per env (a target area marked on the table);
 - `voxel_grid` + `iou`: 3D shape agreement.
 """
 
@@ -59,6 +60,18 @@ def footprint_area(points: torch.Tensor, tile: float, cell: float = None) -> tor
 def region_coverage(points: torch.Tensor, tile: float, region: tuple[float, float, float, float], cell: float = None) -> torch.Tensor:
     """Fraction of the table rectangle region = (xmin, xmax, ymin, ymax) covered from above, [B]."""
     return footprint_grid(points, tile, region, cell).flatten(1).float().mean(dim=1)
+
+
+def target_coverage(points: torch.Tensor, tile: float, center: torch.Tensor, half_size: tuple[float, float],
+                    max_height: float = None, cell: float = None) -> torch.Tensor:
+    """Fraction of the table rectangle of half sizes `half_size` (x, y) centred at `center` [B, 2+] (one per
+    env, axis-aligned) covered from above, [B]; with `max_height`, particles higher up (lifted off the
+    table) do not count."""
+    rel = points - torch.nn.functional.pad(center[:, None, :2], (0, 1))
+    if max_height is not None:
+        rel = torch.where((points[..., 2:] > max_height), torch.full_like(rel, 1e3), rel)
+    hx, hy = half_size
+    return region_coverage(rel, tile, (-hx, hx, -hy, hy), cell)
 
 
 def voxel_grid(points: torch.Tensor, tile: float, region: tuple[float, ...], cell: float = None) -> torch.Tensor:

@@ -106,6 +106,14 @@ def glide(s: DrivenSolver, paths: dict, step_length: float = LIFT_STEP, settle_s
     s.move({arm: (end, q) for arm, (_, end, q) in paths.items()}, max_steps=settle_steps)
 
 
+def follow_paths(s: DrivenSolver, paths: dict, steps: int, settle_steps: int = 5):
+    """Move arms along curves together: `paths` maps arm -> (path, q), path(t) the world TCP position [B, 3]
+    at t in [0, 1]; the targets advance by 1 / `steps` of the way each control step (`glide` for curves)."""
+    for k in range(1, steps + 1):
+        s.step({arm: (path(k / steps), q) for arm, (path, q) in paths.items()})
+    s.move({arm: (path(1.0), q) for arm, (path, q) in paths.items()}, max_steps=settle_steps)
+
+
 def lift_together(s: DrivenSolver, grasps: list[Grasp], height: float):
     """Both arms reach their grasps on one object, close together, and lift it by `height`: their targets
     rise together by `LIFT_STEP` a control step, so the object stays level."""
