@@ -94,10 +94,6 @@ class DragTowelHandEnv(ManiLadderEnv):
         return reward
 
 
-# the tips' middle this far outwards of the corner particle along the towel's diagonal: the inner ends of
-# the fingertips (3.5 cm along the diagonal) then stop 1-3 mm short of the corner's two edge neighbours
-# (same 18/20 on seeds 100-119 at 2, 5 and 8 mm)
-CORNER_OUTSET = 0.005
 DRAG_SPEED = 0.006  # m a control step
 SCISSOR_RAMP_STEPS = 20
 
@@ -121,12 +117,7 @@ def solve_drag_towel_hand(env, seed: int) -> dict:
         task: DragTowelHandEnv = env.unwrapped
         points = task.towel.positions()
         corner = points[torch.arange(len(points), device=points.device), leading_corner(task)]
-        outwards = corner - task.centroid()
-        outwards[:, 2] = 0
-        outwards = torch.nn.functional.normalize(outwards, dim=1)
-        centre = corner + outwards * CORNER_OUTSET
-        centre[:, 2] = task.cloth_config.radius
-        tcp, q = DrivenSolver.scissor_pose(centre, torch.atan2(outwards[:, 1], outwards[:, 0]))
+        tcp, q = DrivenSolver.corner_scissor_pose(corner, task.centroid(), task.cloth_config.radius)
         s.set_ee("hand", "scissor_open", steps=1)
         s.move({"arm": (s.above(tcp, APPROACH_HEIGHT), q)}, max_steps=60)
         s.move({"arm": (tcp, q)}, max_steps=40, pos_tol=0.003)
