@@ -4,12 +4,14 @@ keyframe reached, state round trip, wrist cameras, TidyBot base drive, cube lift
 import gymnasium as gym
 import numpy as np
 import pytest
+import sapien
 import torch
+from mani_skill.utils.geometry.rotation_conversions import quaternion_apply, quaternion_invert
 from mani_skill.agents.registration import REGISTERED_AGENTS
 
 import maniladder_ms  # noqa: F401  (registers the agents)
 from maniladder_ms.agents import AGENT_UIDS
-from maniladder_ms.agents.helpers import Driver, drive_base_to, hold_action
+from maniladder_ms.agents.helpers import Driver, drive_base_to, hold_action, leap_fingertip
 from maniladder_ms.solvers.driven import DrivenSolver
 from maniladder_ms.agents.gallery import CUBE_HALF, CYLINDER_HALF_LENGTH
 
@@ -90,6 +92,31 @@ def test_rest_keyframe_reached_and_held(uid):
             env.step(hold_action(agent, rest))
         err = (agent.robot.get_qpos() - rest).abs().max().item()
         assert err < 0.01, err
+    finally:
+        env.close()
+
+
+@pytest.mark.parametrize("uid,prefix", [("ml_panda_leap", ""), ("ml_dual_panda_leap", "left_"),
+                                        ("ml_dual_panda_leap", "right_")])
+def test_leap_fingertip_is_the_end_of_the_tip(uid, prefix):
+    """`leap_fingertip` lies on the end face of each finger's tip collision box, the face furthest from
+    the joint (a left hand is reflected: its fingers run the other way in their link frames)."""
+    env = make(uid)
+    try:
+        env.reset(seed=0)
+        agent = env.unwrapped.agent
+        for finger in ("index", "middle", "ring"):
+            link = agent.robot.links_map[f"{prefix}leap_{finger}_tip"]
+            (box,) = link._objs[0].entity.find_component_by_type(sapien.physx.PhysxArticulationLinkComponent
+                                                                  ).collision_shapes
+            pose = link.pose
+            local = quaternion_apply(quaternion_invert(pose.q), leap_fingertip(agent, finger, prefix) - pose.p)[0]
+            centre, half = torch.as_tensor(box.local_pose.p), torch.as_tensor(box.half_size)
+            offset = local - centre
+            far = int(torch.argmax(half))  # the finger's long axis
+            assert torch.all(offset.abs() <= half + 1e-4), (finger, local)
+            assert abs(float(offset[far])) == pytest.approx(float(half[far]), abs=1e-4), (finger, local)
+            assert float((centre + offset).abs()[far]) > float(centre.abs()[far]), (finger, local)  # the far end
     finally:
         env.close()
 

@@ -55,14 +55,18 @@ LEAP_SYNERGIES = {
     "point": np.array([0.0, 1.57, 0.0, 0.0, 0.0, 0.0, 1.6, 1.6, 0.0, 0.0, 1.6, 1.6, 0.0, 0.0, 0.0, 0.0]),
 }
 # centre of the end face of a LEAP finger's tip (index, middle, ring) in its tip link's frame: the end of
-# the tip's collision box (scripts/make_agents.py), the finger running along the link's -y
+# the tip's collision box (scripts/make_agents.py), the finger running along the link's -y (a left hand,
+# reflected in y, along +y)
 LEAP_TIP_END = (0.0, -0.0495, 0.0145)
 
 
 def leap_fingertip(agent, finger: str = "index", prefix: str = "") -> torch.Tensor:
-    """World position (num_envs, 3) of the end of a LEAP finger (index, middle, ring), where it presses."""
+    """World position (num_envs, 3) of the end of a LEAP finger (index, middle, ring), where it presses;
+    `prefix` "left_" / "right_" picks a hand of a two-arm agent."""
     tip = agent.robot.links_map[f"{prefix}leap_{finger}_tip"].pose
-    end = torch.tensor(LEAP_TIP_END, dtype=tip.p.dtype, device=tip.p.device).expand_as(tip.p)
+    x, y, z = LEAP_TIP_END
+    end = torch.tensor((x, -y if prefix.startswith("left") else y, z), dtype=tip.p.dtype, device=tip.p.device)
+    end = end.expand_as(tip.p)
     return tip.p + quaternion_apply(tip.q, end)
 
 

@@ -25,6 +25,10 @@ APPROACH_HEIGHT = 0.1  # metres above a grasp where the vertical descent starts
 # middle of the gap between the spread tips; the left hand mirrors it), 3.6 cm below the tcp, which keeps
 # the tips' ends ~3 mm above the table when the capsule lies on it
 SCISSOR_OFFSET = (0.0165, 0.007, 0.036)
+# a cloth corner particle in the scissor pinch: the tips' middle this far outwards of it along the sheet's
+# diagonal, so the tips' inner ends (3.5 cm along the diagonal) stop 1-3 mm short of the corner's two edge
+# neighbours (DragTowelHand: the same 18/20 seeds at 2, 5 and 8 mm)
+CORNER_OUTSET = 0.005
 
 
 class DrivenSolver(Driver):
@@ -52,14 +56,30 @@ class DrivenSolver(Driver):
         return torch.remainder(yaw + period / 2, period) - period / 2
 
     @staticmethod
-    def scissor_pose(centre: torch.Tensor, yaw: torch.Tensor, mirror: bool = False):
+    def scissor_pose(centre: torch.Tensor, yaw: torch.Tensor, mirror: bool = False, around: float = 0.0):
         """TCP pose (p, q) of a top-down LEAP hand whose "scissor" pinch closes on a rope capsule centred at
-        `centre` (n, 3) and lying along world yaw `yaw` (n,); `mirror` for a left hand."""
+        `centre` (n, 3) and lying along world yaw `yaw` (n,) (of the two hand yaws, the one nearest `around`:
+        0 for a single arm, the way an arm of a dual-arm robot points across the table for it); `mirror`
+        for a left hand."""
         n = centre.shape[0]
-        q = top_down_quat(DrivenSolver.neutral_yaw(yaw, torch.pi), n, device=centre.device)
+        q = top_down_quat(DrivenSolver.neutral_yaw(yaw - around, torch.pi) + around, n, device=centre.device)
         x, y, z = SCISSOR_OFFSET
         offset = torch.tensor([x, -y if mirror else y, z], device=centre.device).expand(n, 3)
         return centre - quaternion_apply(q, offset), q
+
+    @staticmethod
+    def corner_scissor_pose(corner: torch.Tensor, sheet_centre: torch.Tensor, radius: float, mirror: bool = False,
+                            around: float = 0.0):
+        """TCP pose (p, q) of a top-down LEAP hand whose "scissor" pinch closes on a cloth corner particle
+        at `corner` (n, 3) of a sheet centred at `sheet_centre` (n, 3); `radius`: the particle's. The
+        fingers lie along the sheet's diagonal, their tips' middle `CORNER_OUTSET` outwards of the corner;
+        `mirror`, `around`: as `scissor_pose`."""
+        outwards = corner - sheet_centre
+        outwards[:, 2] = 0
+        outwards = torch.nn.functional.normalize(outwards, dim=1)
+        centre = corner + outwards * CORNER_OUTSET
+        centre[:, 2] = radius
+        return DrivenSolver.scissor_pose(centre, torch.atan2(outwards[:, 1], outwards[:, 0]), mirror, around)
 
     def above(self, p: torch.Tensor, height: float) -> torch.Tensor:
         return p + torch.tensor([0.0, 0.0, height], device=p.device)

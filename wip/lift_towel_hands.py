@@ -1,0 +1,129 @@
+"""LiftTowelHands (L1 deformable DX): both LEAP hands lift a towel by two corners until it hangs free."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import torch
+
+from mani_skill.utils.structs.pose import Pose
+
+from maniladder_ms.agents.hand_contact import LeapContacts
+from maniladder_ms.deformables import cloth
+from maniladder_ms.envs import ManiLadderEnv, register_task
+from maniladder_ms.geometry import yaw_quat
+from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
+from maniladder_ms.solvers.bimanual import Grasp, glide, grasp_together, reach
+from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver
+
+ROWS = COLS = 8
+SIDES = ("left", "right")
+# the top-down hand yaw each arm reaches the towel's corners with: +-45 degrees from it, either arm stops 2-5 cm
+# short of a corner at 14.6 cm height (seed 100), so the towel lies with a diagonal along y
+ARM_YAW = {"left": np.pi / 2, "right": -np.pi / 2}
+
+
+@register_task("LiftTowelHands")
+class LiftTowelHandsEnv(ManiLadderEnv):
+    """**Task:** a towel lies flat on the table between the two arms, one corner towards each arm; each
+    LEAP hand takes the corner on its side and together they lift the towel until it hangs free of the table.
+
+    **Randomisation:** the towel (`cloth.towel(8, 8)`: 2.5 cm particle spacing, particles of 1 cm radius,
+    17.5 cm between corner centres, 24.7 cm across the diagonal) lies flat, its centre at x uniform in
+    [-0.14, -0.06], y uniform in [-0.03, 0.03], its edges turned by a yaw uniform in
+    [pi/4 - pi/12, pi/4 + pi/12] (a diagonal within 15 degrees of the y axis).
+
+    **Success:** every towel particle is at least `clearance` = 1 cm above the table (its lowest point,
+    centre minus radius), and each hand holds the corner on its side (`left_grasped`, `right_grasped`: the
+    hand's index and middle finger both touch that corner particle, the "scissor" pinch the solver uses).
+    """
+
+    SUPPORTED_ROBOTS = ["ml_dual_panda_leap"]
+    max_dense_reward = 6
+    TASK_REGION = (-0.28, 0.08, -0.2, 0.2)  # towel centres plus the towel's half diagonal
+    cloth_config = cloth.ClothConfig(radius=0.010)
+    clearance = 0.01
+
+    def _load_scene(self, options: dict):
+        super()._load_scene(options)
+        self.towel = cloth.build_cloth(self.scene, "towel", cloth.towel(ROWS, COLS, self.cloth_config.spacing),
+                                       self.cloth_config)
+        self.hands = {side: LeapContacts(self.agent, f"{side}_") for side in SIDES}
+
+    def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
+        super()._initialize_episode(env_idx, options)
+        with torch.device(self.device):
+            b = len(env_idx)
+            centre = torch.stack([torch.rand(b) * 0.08 - 0.14, torch.rand(b) * 0.06 - 0.03,
+                                  torch.full((b,), self.cloth_config.radius)], dim=1)
+            yaw = np.pi / 4 + (torch.rand(b) * 2 - 1) * (np.pi / 12)
+            self.towel.set_rest_shape(Pose.create_from_pq(centre, yaw_quat(yaw)))
+
+    def hand_corners(self) -> dict[str, int]:
+        """The particle index of each hand's corner: the corners furthest left (+y) and right at reset (the
+        towel's yaw keeps them the same two: the corners on the diagonal x + y of its own grid)."""
+        corners = self.towel.layout.named["corners"]
+        along = [float(self.towel.layout.positions[i, 0] + self.towel.layout.positions[i, 1]) for i in corners]
+        return {"left": corners[int(np.argmax(along))], "right": corners[int(np.argmin(along))]}
+
+    def _get_obs_extra(self, info: dict):
+        obs = {f"{side}_tcp_pose": self.agent.tcps[side].pose.raw_pose for side in SIDES}
+        obs.update(left_grasped=info["left_grasped"], right_grasped=info["right_grasped"])
+        if "state" in self.obs_mode:
+            points = self.towel.positions()
+            obs["towel_points"] = points.flatten(1)
+            for side, i in self.hand_corners().items():
+                obs[f"{side}_tcp_to_corner"] = points[:, i] - self.agent.tcps[side].pose.p
+        return obs
+
+    def evaluate(self):
+        lowest = self.towel.positions()[..., 2].amin(dim=1) - self.cloth_config.radius
+        grasped = {side: self.hands[side].is_scissoring(self.scene, self.towel.spheres[i])
+                   for side, i in self.hand_corners().items()}
+        return {
+            "success": (lowest >= self.clearance) & grasped["left"] & grasped["right"],
+            "lowest": lowest,
+            "left_grasped": grasped["left"],
+            "right_grasped": grasped["right"],
+        }
+
+    def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
+        points = self.towel.positions()
+        reward = sum(1 - torch.tanh(5 * torch.linalg.norm(points[:, i] - self.agent.tcps[side].pose.p, dim=1))
+                     for side, i in self.hand_corners().items())
+        both = info["left_grasped"] & info["right_grasped"]
+        reward += info["left_grasped"].float() + info["right_grasped"].float()
+        reward += 2 * both * (info["lowest"] / self.clearance).clamp(0, 1)
+        reward[info["success"]] = self.max_dense_reward
+        return reward
+
+
+HOLD_HEIGHT = 0.28  # the pinched corners end this high: the 17.5 cm towel hanging below them clears the table
+SCISSOR_RAMP_STEPS = 20
+LIFT_STEP = 0.006  # metres a control step
+
+
+@register_solver("LiftTowelHands", control_modes=TCP_DELTA_MODES)
+def solve_lift_towel_hands(env, seed: int) -> dict:
+    """Each hand scissor-pinches the corner on its side (as DragTowelHand's corner pinch), both close together,
+    then both rise together to `HOLD_HEIGHT`."""
+    with DrivenSolver.episode(env, seed) as s:
+        task: LiftTowelHandsEnv = env.unwrapped
+        points = task.towel.positions()
+        centroid = points.mean(dim=1)
+        above = torch.tensor([0.0, 0.0, APPROACH_HEIGHT], device=task.device)
+        grasps = []
+        for side, i in task.hand_corners().items():
+            p, q = DrivenSolver.corner_scissor_pose(points[:, i], centroid, task.cloth_config.radius,
+                                                    mirror=side == "left", around=ARM_YAW[side])
+            grasps.append(Grasp(f"{side}_arm", f"{side}_hand", p, q, above))
+        for g in grasps:
+            s.set_ee(g.ee, "scissor_open", steps=0)
+        reach(s, grasps, preshape=None)
+        grasp_together(s, [g.ee for g in grasps], "scissor", ramp_steps=SCISSOR_RAMP_STEPS)
+        up = torch.tensor([0.0, 0.0, HOLD_HEIGHT], device=task.device)
+        glide(s, {g.arm: (g.p, g.p * torch.tensor([1.0, 1.0, 0.0], device=task.device) + up, g.q) for g in grasps},
+              step_length=LIFT_STEP)
+        s.hold_until_success()
+        return s.info
