@@ -27,8 +27,11 @@ APPROACH_HEIGHT = 0.1  # metres above a grasp where the vertical descent starts
 SCISSOR_OFFSET = (0.0165, 0.007, 0.036)
 # a cloth corner particle in the scissor pinch: the tips' middle this far outwards of it along the sheet's
 # diagonal, so the tips' inner ends (3.5 cm along the diagonal) stop 1-3 mm short of the corner's two edge
-# neighbours (DragTowelHand: the same 18/20 seeds at 2, 5 and 8 mm)
+# neighbours (DragTowelHand, with the first, saturating scissor targets: the same 18/20 seeds at 2, 5 and 8 mm)
 CORNER_OUTSET = 0.005
+# control steps over which a LEAP hand swings into the "scissor" pinch (1 s): on LiftRopeHand 8/10 seeds held
+# at 20 steps, 4/5 at 40
+SCISSOR_RAMP_STEPS = 20
 
 
 class DrivenSolver(Driver):

@@ -15,7 +15,7 @@ from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.geometry import yaw_quat
 from maniladder_ms.objects.markers import MARKER_THICKNESS, build_zone_marker
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
-from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver
+from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver, SCISSOR_RAMP_STEPS
 
 ROWS = COLS = 8
 
@@ -95,7 +95,6 @@ class DragTowelHandEnv(ManiLadderEnv):
 
 
 DRAG_SPEED = 0.006  # m a control step
-SCISSOR_RAMP_STEPS = 20
 
 
 def leading_corner(task: DragTowelHandEnv) -> torch.Tensor:

@@ -11,7 +11,7 @@ from maniladder_ms.agents.hand_contact import LeapContacts
 from maniladder_ms.deformables import rope
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
-from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver
+from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver, SCISSOR_RAMP_STEPS
 
 
 @register_task("LiftRopeHand")
@@ -81,7 +81,6 @@ class LiftRopeHandEnv(rope.RopeTask, ManiLadderEnv):
         return reward
 
 
-SCISSOR_RAMP_STEPS = 20  # closing the scissor over 1 s: 8/10 seeds held, 4/5 at 40 steps
 LIFT = 0.28  # the grasped capsule ends 29 cm up, the rope hanging straight down both sides: 19 of 20 capsule centres above 10 cm
 LIFT_STEPS = 45  # 6 mm a control step: faster lifts (25 steps for 25 cm) swing the rope out of the pinch
 

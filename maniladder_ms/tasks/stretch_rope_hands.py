@@ -11,7 +11,7 @@ from maniladder_ms.deformables import rope
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.bimanual import Grasp, glide, grasp_together, reach
-from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver
+from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver, SCISSOR_RAMP_STEPS
 
 SIDES = {"left": 1.0, "right": -1.0}  # sign of y on each arm's side of the table
 
@@ -93,7 +93,6 @@ class StretchRopeHandsEnv(rope.RopeBetweenArmsTask, ManiLadderEnv):
         return self._two_arm_reward(info, info["lowest"] / self.lift_height, info["straightness"] / self.min_straightness)
 
 
-SCISSOR_RAMP_STEPS = 20  # as LiftRopeHand's
 LIFT_STEP = 0.006  # metres a control step, as LiftRopeHand's lift: faster swings the rope out of the pinch
 HOLD_HEIGHT = 0.15  # the pinched capsules end this high: the sagging rope and its hanging ends clear 5 cm
 HOLD_SPREAD = 0.335  # metres between the pinched capsule centres at the end (0.34 between them along the rope)
