@@ -1,0 +1,375 @@
+"""HandoverBallHands (L1 rigid DX): pass a tennis ball from the left LEAP hand to the right one.
+
+UNREGISTERED draft (wip/): load it with importlib (spec_from_file_location + exec_module) to register
+the task and its solver. NOT SOLVED: best measured rates and every variant tried are in
+wip/handover_ball_hands_FINDINGS.md; the module-level constants of the solver section are its knobs.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import sapien
+import sapien.physx as physx
+import sapien.render
+import torch
+
+from mani_skill.utils.geometry.rotation_conversions import axis_angle_to_matrix, matrix_to_quaternion, quaternion_to_matrix
+from mani_skill.utils.structs.pose import Pose
+
+from maniladder_ms.agents.hand_contact import LeapContacts
+from maniladder_ms.agents.helpers import LEAP_SYNERGIES, top_down_quat
+from maniladder_ms.envs import ManiLadderEnv, register_task
+from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
+from maniladder_ms.solvers.driven import DrivenSolver
+
+BALL_RADIUS = 0.0335  # a tennis ball: 6.7 cm across, 58 g
+BALL_MASS = 0.058
+BALL_FRICTION = 0.8  # felt
+# the stand: a ring of small boxes the ball sits in, so that it does not roll away before the pick
+STAND_RING_RADIUS = 0.02  # to the boxes' centres
+STAND_HEIGHT = 0.015
+STAND_SEGMENTS = 12
+
+
+def build_ball(scene, name: str, color=(0.8, 0.95, 0.2, 1)):
+    """A tennis ball: a sphere of `BALL_RADIUS`, `BALL_MASS`, felt friction."""
+    builder = scene.create_actor_builder()
+    volume = 4 / 3 * np.pi * BALL_RADIUS ** 3
+    material = physx.PhysxMaterial(BALL_FRICTION, BALL_FRICTION, 0.0)
+    builder.add_sphere_collision(radius=BALL_RADIUS, material=material, density=BALL_MASS / volume)
+    builder.add_sphere_visual(radius=BALL_RADIUS, material=sapien.render.RenderMaterial(base_color=list(color), roughness=0.9))
+    builder.initial_pose = sapien.Pose(p=[0, 0.2, 0.1])
+    return builder.build(name=name)
+
+
+def build_ring_stand(scene, name: str, color=(0.35, 0.35, 0.4, 1)):
+    """A ring of `STAND_SEGMENTS` small boxes (1 cm wide, `STAND_HEIGHT` tall) round a circle of
+    `STAND_RING_RADIUS`, standing on z = 0; kinematic (the table holds it)."""
+    builder = scene.create_actor_builder()
+    mat = sapien.render.RenderMaterial(base_color=list(color), roughness=0.6)
+    seg = STAND_RING_RADIUS * np.sin(np.pi / STAND_SEGMENTS) + 0.002
+    for k in range(STAND_SEGMENTS):
+        a = 2 * np.pi * k / STAND_SEGMENTS
+        pose = sapien.Pose(p=[STAND_RING_RADIUS * np.cos(a), STAND_RING_RADIUS * np.sin(a), STAND_HEIGHT / 2],
+                           q=[np.cos(a / 2), 0, 0, np.sin(a / 2)])
+        half = [0.004, seg, STAND_HEIGHT / 2]
+        builder.add_box_collision(pose=pose, half_size=half)
+        builder.add_box_visual(pose=pose, half_size=half, material=mat)
+    builder.initial_pose = sapien.Pose(p=[0, 0.2, 0])
+    return builder.build_kinematic(name=name)
+
+
+def ball_rest_height() -> float:
+    """Ball centre height when it sits in the stand: on the ring's inner top edges."""
+    inner = STAND_RING_RADIUS - 0.004
+    return STAND_HEIGHT + float(np.sqrt(BALL_RADIUS ** 2 - inner ** 2))
+
+
+@register_task("HandoverBallHands")
+class HandoverBallHandsEnv(ManiLadderEnv):
+    """**Task:** the left LEAP hand picks up a tennis ball from a ring stand on the left of the table and
+    passes it to the right LEAP hand in mid-air.
+
+    **Randomisation:** the ball (6.7 cm, 58 g) sits in its ring stand (4 cm ring, 1.5 cm tall, fixed to
+    the table), the stand's centre uniform in x in [-0.15, -0.05], y in [0.12, 0.22].
+
+    **Success:** the right hand holds the ball (a finger and the thumb or palm touch it), the left hand
+    does not touch it, and the ball's centre is at least `lift_height` = 10 cm above the table.
+    """
+
+    SUPPORTED_ROBOTS = ["ml_dual_panda_leap"]
+    max_dense_reward = 8
+    TASK_REGION = (-0.25, 0.05, -0.3, 0.3)
+    lift_height = 0.1
+
+    def _load_scene(self, options: dict):
+        super()._load_scene(options)
+        self.ball = build_ball(self.scene, "ball")
+        self.stand = build_ring_stand(self.scene, "stand")
+        self.hands = {side: LeapContacts(self.agent, f"{side}_") for side in ("left", "right")}
+
+    def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
+        super()._initialize_episode(env_idx, options)
+        with torch.device(self.device):
+            b = len(env_idx)
+            xy = torch.stack([torch.rand(b) * 0.1 - 0.15, torch.rand(b) * 0.1 + 0.12], dim=1)
+            self.stand.set_pose(Pose.create_from_pq(torch.cat([xy, torch.zeros(b, 1)], dim=1)))
+            ball = torch.cat([xy, torch.full((b, 1), ball_rest_height() + 0.001)], dim=1)
+            self.ball.set_pose(Pose.create_from_pq(ball))
+            self.ball.set_linear_velocity(torch.zeros(b, 3))
+            self.ball.set_angular_velocity(torch.zeros(b, 3))
+
+    def _get_obs_extra(self, info: dict):
+        obs = dict(left_tcp_pose=self.agent.tcps["left"].pose.raw_pose, right_tcp_pose=self.agent.tcps["right"].pose.raw_pose,
+                   left_grasped=info["left_grasped"], right_grasped=info["right_grasped"])
+        if "state" in self.obs_mode:
+            obs.update(ball_pose=self.ball.pose.raw_pose,
+                       left_tcp_to_ball=self.ball.pose.p - self.agent.tcps["left"].pose.p,
+                       right_tcp_to_ball=self.ball.pose.p - self.agent.tcps["right"].pose.p)
+        return obs
+
+    def evaluate(self):
+        left_grasped = self.hands["left"].is_grasping(self.scene, self.ball)
+        left_touch = self.hands["left"].touches(self.scene, self.ball)
+        right_grasped = self.hands["right"].is_grasping(self.scene, self.ball)
+        is_lifted = self.ball.pose.p[:, 2] >= self.lift_height
+        return {
+            "success": right_grasped & ~left_touch & is_lifted,
+            "is_lifted": is_lifted,
+            "left_grasped": left_grasped,
+            "left_touch": left_touch,
+            "right_grasped": right_grasped,
+        }
+
+    def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
+        ball = self.ball.pose.p
+        left_reach = torch.linalg.norm(ball - self.agent.tcps["left"].pose.p, dim=1)
+        right_reach = torch.linalg.norm(ball - self.agent.tcps["right"].pose.p, dim=1)
+        left, right = info["left_grasped"].float(), info["right_grasped"].float()
+        height = (ball[:, 2] / self.lift_height).clamp(max=1)
+        # stages: the left reaches and grasps and lifts; the right reaches the held ball and grasps it;
+        # the left lets go
+        reward = (1 - torch.tanh(5 * left_reach)) + left + left * height
+        reward = torch.where(right.bool(), reward.clamp(min=3), reward)
+        reward += 2 * (1 - torch.tanh(5 * right_reach)) * torch.maximum(left, right) + right
+        reward += right * (1 - info["left_touch"].float()) * height
+        reward[info["success"]] = self.max_dense_reward
+        return reward
+
+
+# ----------------------------------------------------------------------------------------------------
+# solver
+# ----------------------------------------------------------------------------------------------------
+# Two solvers, both measured (wip/handover_ball_hands_FINDINGS.md); neither reaches the 45/50 bar:
+# - `solve_handover_ball_flip` (REGISTERED): the left picks, rolls palm-up holding the ball, the right takes a
+#   top-down power grasp of its top, the left opens and drops away: 5/50 on seeds 100-149 (sweep);
+# - `solve_handover_ball_taker_up`: the left holds top-down at MEET, the right rolls palm-up and comes up under
+#   the ball, the left lets go onto its palm, the right closes a cage: 1/10 on seeds 100-109 with the "power"
+#   giver grip, 0/10 with GIVER_SYNERGY (its stronger thumb kicks the ball off the palm on opening).
+DEBUG = False  # print each phase: ball, TCPs, grasp flags, the ball in the right TCP frame and its contacts
+
+# the giver's grip: fingers further round at the knuckle (j1 2.1), less at PIP/DIP, than "power". Holding the ball
+# 100 steps at MEET after the carry (seeds 100-109): power 5/10, [0,1.8,0.6,0.4] 7/10, this 10/10; it also keeps
+# the ball through the roll to palm-up (4/4) where power drops it at 30-60 degrees of tilt
+GIVER_SYNERGY = [0, 2.1, 0.3, 0.2] * 3 + [1.6, 0.6, 0.8, 0.8]
+# palm-up by rolling in 12 waypoints of pi/12 about a TCP axis, 8 servo steps each (one 180-degree target and a
+# joint-space path servoed one waypoint a step both fail to get there)
+TAKER_ROLL_WAYPOINTS = 12
+ROLL_STEPS = 8
+PARALLEL_ROLL = True  # taker-up: the right rolls in the background while the left picks (saves ~100 steps)
+
+# --- taker-up variant
+MEET = (-0.1, 0.02, 0.36)  # left TCP during the handover: high enough for the palm-up right wrist (0.256 m below)
+TAKER_ROLL_OFFSET = (0.0, -0.2, -0.12)  # where the right turns palm-up: clear of the ball and the left hand
+ROLL_YAW, ROLL_SIGN, ROLL_AXIS = -np.pi / 2, -1.0, 1  # flange swings towards +y (centre) then up; fingers end +y
+# right TCP from the ball: the palm (TCP z -0.08) just touching the ball's bottom, the ball over the palm's middle
+TAKE_OFFSET = [0.03, 0.03, 0.047]
+TAKER_PRESHAPE = "open"  # the preshape's thumb, swung over the palm, pushes the ball on the way up
+TAKER_SYNERGY = [0, 1.9, 0.4, 0.3] * 3 + [1.6, 0.2, 0.2, 0.2]  # cage: fingers a wall at +x_tcp, thumb at -x_tcp
+RELEASE_FIRST = True  # the left opens first (a right closing while the left holds hits the left's ring finger)
+GIVER_OPEN_STEPS = 20
+TAKER_DELAY = 5  # control steps into the left's opening before the right's cage starts closing
+TAKER_CLOSE_STEPS = 40
+HOLD_STEPS = 8
+GIVER_RETREAT = (0.0, 0.03, 0.1)
+
+
+def _close_to(s, part, goal, ramp_steps: int = 40, hold_steps: int = 8):
+    """Driver.close_hand to any joint-target vector (or synergy name)."""
+    if isinstance(goal, str):
+        goal = LEAP_SYNERGIES[goal]
+    start = s.ee_cmd[part].clone()
+    goal = torch.as_tensor(np.asarray(goal), dtype=torch.float32, device=s.base.device)
+    for k in range(1, ramp_steps + 1):
+        s.set_ee(part, start + (goal - start) * k / ramp_steps, steps=1)
+        if DEBUG and k % 5 == 0:
+            _log(s, f"{part} {k}")
+    s.set_ee(part, goal.expand_as(start), steps=hold_steps)
+
+
+def _log(s, stage: str):
+    if DEBUG:
+        task = s.base
+        info = task.evaluate()
+        print(f"  [{stage}] step {int(task.elapsed_steps[0])} ball {task.ball.pose.p[0].cpu().numpy().round(3)} "
+              f"L {s.tcp('left_arm').p[0].cpu().numpy().round(3)} R {s.tcp('right_arm').p[0].cpu().numpy().round(3)} "
+              f"Lg {bool(info['left_grasped'][0])} Rg {bool(info['right_grasped'][0])} "
+              f"Rz {quaternion_to_matrix(s.tcp('right_arm').q)[0, :, 2].cpu().numpy().round(2)}", flush=True)
+        inv = s.tcp("right_arm").inv()
+        print("   ball in R tcp", (inv * task.ball.pose).p[0].cpu().numpy().round(3), [
+            (l.name.replace("_leap_", ":"), round(float(task.scene.get_pairwise_contact_forces(task.ball, l).norm(dim=1)[0]), 2))
+            for l in task.agent.robot.links if l.name.startswith(("left_leap", "right_leap"))
+            and float(task.scene.get_pairwise_contact_forces(task.ball, l).norm(dim=1)[0]) > 0.05])
+
+
+def roll_to_palm_up(s: DrivenSolver, arm: str, yaw: float, roll_sign: float, end: torch.Tensor, waypoints: int,
+                    max_steps: int = 10):
+    """Turn a top-down hand (yaw `yaw`) palm-up by rolling it about its TCP y axis in `waypoints` equal
+    steps while its TCP moves in a straight line to `end`: each waypoint is a short servo move, so the
+    arm's differential IK follows (one 180-degree target the servo does not reach)."""
+    n = s.base.num_envs
+    r0 = quaternion_to_matrix(top_down_quat(yaw, n, device=s.base.device))
+    axis = r0[:, :, 1]
+    p0 = s.tcp(arm).p.clone()
+    for k in range(1, waypoints + 1):
+        t = k / waypoints
+        rk = axis_angle_to_matrix(axis * roll_sign * np.pi * t) @ r0
+        s.move({arm: (p0 + (end - p0) * t, matrix_to_quaternion(rk))}, max_steps=max_steps, pos_tol=0.01, rot_tol=0.05)
+    return matrix_to_quaternion(rk)
+
+
+class _Solver(DrivenSolver):
+    """DrivenSolver that can run one arm along a target sequence in the background (`background`: an
+    iterator of {arm: (p, q)}, one item a control step) while the solver's phases move the other arm;
+    `move` then waits only for the arms it was given."""
+
+    background = None
+
+    def grasp(self, ee_part: str):
+        if ee_part == "left_hand":
+            _close_to(self, ee_part, GIVER_SYNERGY)
+        else:
+            super().grasp(ee_part)
+
+    def step(self, targets: dict | None = None, base_vel=None):
+        if self.background is not None:
+            try:
+                self.arm_targets.update(next(self.background))
+            except StopIteration:
+                self.background = None
+        return super().step(targets, base_vel)
+
+    def move(self, targets: dict, max_steps: int = 60, pos_tol: float = 0.005, rot_tol: float = 0.03):
+        for _ in range(max_steps):
+            errs = self.step(targets)
+            if all(bool((errs[a][0] < pos_tol).all() and (errs[a][1] < rot_tol).all()) for a in targets):
+                break
+        return self.last
+
+
+def roll_targets(s: DrivenSolver, arm: str, yaw: float, roll_sign: float, end: torch.Tensor, waypoints: int,
+                 steps_per_waypoint: int, axis_index: int = 1):
+    """The targets of `roll_to_palm_up` (rolling about the TCP's x (`axis_index` 0) or y axis),
+    `steps_per_waypoint` control steps each, as a background sequence."""
+    n = s.base.num_envs
+    r0 = quaternion_to_matrix(top_down_quat(yaw, n, device=s.base.device))
+    axis = r0[:, :, axis_index]
+    p0 = s.tcp(arm).p.clone()
+    for k in range(1, waypoints + 1):
+        t = k / waypoints
+        rk = axis_angle_to_matrix(axis * roll_sign * np.pi * t) @ r0
+        for _ in range(steps_per_waypoint):
+            yield {arm: (p0 + (end - p0) * t, matrix_to_quaternion(rk))}
+
+
+def solve_handover_ball_taker_up(env, seed: int) -> dict:
+    """Taker-up variant: the left picks top-down (GIVER_SYNERGY) and carries the ball to MEET; the right rolls
+    palm-up (in the background) and comes up under the ball, palm just touching; the left opens and the right
+    closes a cage round the ball on its palm; the left backs off upwards. Fails mostly in the swap: the left's
+    opening kicks the ball off the flat palm (FINDINGS)."""
+    with _Solver.episode(env, seed) as s:
+        task: HandoverBallHandsEnv = env.unwrapped
+        dev, n = task.device, task.num_envs
+        meet = torch.tensor([MEET], device=dev).expand(n, 3)
+        aside = meet + torch.tensor(TAKER_ROLL_OFFSET, device=dev)
+        if PARALLEL_ROLL:
+            s.background = roll_targets(s, "right_arm", ROLL_YAW, ROLL_SIGN, aside, TAKER_ROLL_WAYPOINTS, ROLL_STEPS,
+                                        ROLL_AXIS)
+        s.pick("left_arm", "left_hand", task.ball.pose.p.clone(), 0.0, lift=0.12)
+        give_q = top_down_quat(0.0, n, device=dev)
+        s.move({"left_arm": (meet, give_q)}, max_steps=60, pos_tol=0.01)
+        _log(s, "carried")
+        # the right hand: top-down at yaw -90 deg (fingers towards -y), rolled about world x so its fingers
+        # swing down and round: palm-up, fingers towards +y, below the ball
+        if PARALLEL_ROLL:
+            while s.background is not None:
+                s.step()
+            take_q = s.arm_targets["right_arm"][1]
+        else:
+            take_q = roll_to_palm_up(s, "right_arm", -np.pi / 2, -1.0, aside, TAKER_ROLL_WAYPOINTS)
+        _log(s, "rolled")
+        s.move({"right_arm": (meet + torch.tensor([0.0, 0.0, -0.1], device=dev), take_q)}, max_steps=60, pos_tol=0.01)
+        _log(s, "below")
+        s.set_ee("right_hand", TAKER_PRESHAPE, steps=5)
+        take_p = task.ball.pose.p + torch.tensor(TAKE_OFFSET, device=dev)
+        s.move({"right_arm": (take_p - torch.tensor([0, 0, 0.03], device=dev), take_q)}, max_steps=30, pos_tol=0.004)
+        take_p = task.ball.pose.p + torch.tensor(TAKE_OFFSET, device=dev)
+        s.move({"right_arm": (take_p, take_q)}, max_steps=30, pos_tol=0.003)
+        if DEBUG:
+            print("   take err", (take_p - s.tcp("right_arm").p)[0].cpu().numpy().round(4))
+        _log(s, "under")
+        if RELEASE_FIRST:
+            # the left lets the ball down onto the level palm; then the right closes round it, the left backs off
+            # the two ramps overlap: the right's fingers and thumb rise round the ball while the left's open
+            start_l, start_r = s.ee_cmd["left_hand"].clone(), s.ee_cmd["right_hand"].clone()
+            goal_l = torch.as_tensor(LEAP_SYNERGIES["open"], dtype=torch.float32, device=dev)
+            goal_r = torch.as_tensor(np.asarray(TAKER_SYNERGY), dtype=torch.float32, device=dev)
+            total = max(GIVER_OPEN_STEPS, TAKER_DELAY + TAKER_CLOSE_STEPS) + HOLD_STEPS
+            for k in range(1, total + 1):
+                a_l = min(k / GIVER_OPEN_STEPS, 1.0)
+                a_r = min(max(k - TAKER_DELAY, 0) / TAKER_CLOSE_STEPS, 1.0)
+                s.set_ee("left_hand", start_l + (goal_l - start_l) * a_l, steps=0)
+                s.set_ee("right_hand", start_r + (goal_r - start_r) * a_r, steps=1)
+                if DEBUG and k % 5 == 0:
+                    _log(s, f"swap {k}")
+            _log(s, "taken")
+            tcp = s.tcp("left_arm")
+            s.move({"left_arm": (tcp.p + torch.tensor(GIVER_RETREAT, device=dev), tcp.q)}, max_steps=30, pos_tol=0.02)
+            _log(s, "retreated")
+        else:
+            _close_to(s, "right_hand", TAKER_SYNERGY)
+            _log(s, "taken")
+            _close_to(s, "left_hand", "open", ramp_steps=GIVER_OPEN_STEPS, hold_steps=4)
+            _log(s, "released")
+            tcp = s.tcp("left_arm")
+            s.move({"left_arm": (tcp.p + torch.tensor(GIVER_RETREAT, device=dev), tcp.q)}, max_steps=30, pos_tol=0.02)
+        s.hold_until_success()
+        return s.info
+
+
+# --- flip variant
+FLIP_MEET = (-0.12, 0.08, 0.36)  # the left TCP, palm-up, at the end of its roll (the ball sits ~4.6 cm to its +y)
+TAKER_YAW = 0.0  # the right's top-down yaw: its pinch along world x, across the left's (along world y); yaw pi: 0/2
+# the right's TCP from the ball: 2 cm to +y moves its finger row off the left's curled fingers (-y side):
+# seeds 100-103: 0 -> 0/2 (100, 101), +0.02 -> 1/4, +0.03 -> 0/4, 1.5 cm lower -> 0/2
+FLIP_TAKE_OFFSET = [0.0, 0.02, 0.0]
+FLIP_TAKER_PRESHAPE = "preshape"  # "open" (thumb out, swept in on closing): 0/4
+FLIP_GIVER_DROP = (0.0, 0.05, -0.1)  # the left, opened, drops away under the right's grasp
+
+
+@register_solver("HandoverBallHands", control_modes=TCP_DELTA_MODES)
+def solve_handover_ball_flip(env, seed: int) -> dict:
+    """Variant (idea 1 of the brief): the left picks top-down at yaw 90 deg with GIVER_SYNERGY and rolls
+    palm-up about its TCP y axis (world x) while carrying the ball to FLIP_MEET; the right takes a top-down
+    power grasp of the ball's exposed top; the left opens and drops away; the right lifts."""
+    with _Solver.episode(env, seed) as s:
+        task: HandoverBallHandsEnv = env.unwrapped
+        dev, n = task.device, task.num_envs
+        s.pick("left_arm", "left_hand", task.ball.pose.p.clone(), np.pi / 2, lift=0.12)
+        _log(s, "picked")
+        flip = torch.tensor([FLIP_MEET], device=dev).expand(n, 3)
+        take_q = top_down_quat(TAKER_YAW, n, device=dev)
+        # the right lines up above where the ball will be while the left rolls
+        s.arm_targets["right_arm"] = (flip + torch.tensor([0.0, 0.046, 0.1], device=dev), take_q)
+        s.background = roll_targets(s, "left_arm", np.pi / 2, -1.0, flip, TAKER_ROLL_WAYPOINTS, ROLL_STEPS, 1)
+        while s.background is not None:
+            s.step()
+        s.move({"left_arm": s.arm_targets["left_arm"]}, max_steps=20, pos_tol=0.01, rot_tol=0.05)
+        _log(s, "flipped")
+        ball = task.ball.pose.p.clone()
+        s.move({"right_arm": (ball + torch.tensor([0, 0, 0.1], device=dev), take_q)}, max_steps=30, pos_tol=0.01)
+        s.set_ee("right_hand", FLIP_TAKER_PRESHAPE, steps=5)
+        ball = task.ball.pose.p.clone()
+        s.move({"right_arm": (ball + torch.tensor(FLIP_TAKE_OFFSET, device=dev), take_q)}, max_steps=40, pos_tol=0.003)
+        _log(s, "over")
+        s.grasp("right_hand")
+        _log(s, "taken")
+        s.release("left_hand", steps=10)
+        tcp = s.tcp("left_arm")
+        s.move({"left_arm": (tcp.p + torch.tensor(FLIP_GIVER_DROP, device=dev), tcp.q)}, max_steps=20, pos_tol=0.02)
+        _log(s, "dropped")
+        s.hold_until_success()
+        return s.info
+
