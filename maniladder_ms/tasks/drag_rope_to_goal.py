@@ -5,7 +5,6 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-import sapien
 import torch
 
 from mani_skill.utils.structs.pose import Pose
@@ -113,9 +112,6 @@ def solve_drag_rope_to_goal(env, seed: int) -> dict:
         direction /= np.linalg.norm(direction)
         end = zone[:2] + LEAD * direction
         release = robot.top_down_pose([end[0], end[1], task.rope_config.radius + 0.005], yaw)
-        robot.move(sapien.Pose([0, 0, DRAG_HEIGHT]) * release)
-        robot.move(release)
-        robot.grip(closed=False)
-        robot.move(sapien.Pose([0, 0, 0.06]) * release)
+        robot.place(release, approach_height=DRAG_HEIGHT)
         robot.hold_until_success()
         return robot.info

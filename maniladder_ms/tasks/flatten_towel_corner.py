@@ -131,9 +131,6 @@ def solve_flatten_towel_corner(env, seed: int) -> dict:
         robot.grip(closed=True)
         robot.move(sapien.Pose([0, 0, LIFT]) * grasp)
         release = robot.top_down_pose(task.corner_goal()[0].cpu().numpy() + [0, 0, RELEASE_HEIGHT], yaw)
-        robot.move(sapien.Pose([0, 0, LIFT]) * release)
-        robot.move(release)
-        robot.grip(closed=False)
-        robot.move(sapien.Pose([0, 0, 0.06]) * release)
+        robot.place(release, approach_height=LIFT)
         robot.hold_until_success()
         return robot.info
