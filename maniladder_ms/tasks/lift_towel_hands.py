@@ -28,6 +28,14 @@ ARM_YAW = {"left": np.pi / 2, "right": -np.pi / 2}
 TOWEL_YAW_MIN, TOWEL_YAW_MAX = np.pi / 4 - np.pi / 36, np.pi / 4 + np.pi / 12
 
 
+def side_corners(layout: cloth.ClothLayout) -> dict[str, int]:
+    """The particle index of each hand's corner: the corners furthest left (+y) and right at reset (the
+    towel's yaw keeps them the same two: the corners on the diagonal x + y of its own grid)."""
+    corners = layout.named["corners"]
+    along = [float(layout.positions[i, 0] + layout.positions[i, 1]) for i in corners]
+    return {"left": corners[int(np.argmax(along))], "right": corners[int(np.argmin(along))]}
+
+
 @register_task("LiftTowelHands")
 class LiftTowelHandsEnv(ManiLadderEnv):
     """**Task:** a towel lies flat on the table between the two arms, one corner towards each arm; each
@@ -54,6 +62,7 @@ class LiftTowelHandsEnv(ManiLadderEnv):
         self.towel = cloth.build_cloth(self.scene, "towel", cloth.towel(ROWS, COLS, self.cloth_config.spacing),
                                        self.cloth_config)
         self.hands = {side: LeapContacts(self.agent, f"{side}_") for side in SIDES}
+        self.hand_corners = side_corners(self.towel.layout)
 
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
         super()._initialize_episode(env_idx, options)
@@ -64,27 +73,20 @@ class LiftTowelHandsEnv(ManiLadderEnv):
             yaw = TOWEL_YAW_MIN + torch.rand(b) * (TOWEL_YAW_MAX - TOWEL_YAW_MIN)
             self.towel.set_rest_shape(Pose.create_from_pq(centre, yaw_quat(yaw)))
 
-    def hand_corners(self) -> dict[str, int]:
-        """The particle index of each hand's corner: the corners furthest left (+y) and right at reset (the
-        towel's yaw keeps them the same two: the corners on the diagonal x + y of its own grid)."""
-        corners = self.towel.layout.named["corners"]
-        along = [float(self.towel.layout.positions[i, 0] + self.towel.layout.positions[i, 1]) for i in corners]
-        return {"left": corners[int(np.argmax(along))], "right": corners[int(np.argmin(along))]}
-
     def _get_obs_extra(self, info: dict):
         obs = {f"{side}_tcp_pose": self.agent.tcps[side].pose.raw_pose for side in SIDES}
         obs.update(left_grasped=info["left_grasped"], right_grasped=info["right_grasped"])
         if "state" in self.obs_mode:
             points = self.towel.positions()
             obs["towel_points"] = points.flatten(1)
-            for side, i in self.hand_corners().items():
+            for side, i in self.hand_corners.items():
                 obs[f"{side}_tcp_to_corner"] = points[:, i] - self.agent.tcps[side].pose.p
         return obs
 
     def evaluate(self):
         lowest = self.towel.positions()[..., 2].amin(dim=1) - self.cloth_config.radius
         grasped = {side: self.hands[side].is_scissoring(self.scene, self.towel.spheres[i])
-                   for side, i in self.hand_corners().items()}
+                   for side, i in self.hand_corners.items()}
         return {
             "success": (lowest >= self.clearance) & grasped["left"] & grasped["right"],
             "lowest": lowest,
@@ -95,7 +97,7 @@ class LiftTowelHandsEnv(ManiLadderEnv):
     def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
         points = self.towel.positions()
         reward = sum(1 - torch.tanh(5 * torch.linalg.norm(points[:, i] - self.agent.tcps[side].pose.p, dim=1))
-                     for side, i in self.hand_corners().items())
+                     for side, i in self.hand_corners.items())
         both = info["left_grasped"] & info["right_grasped"]
         reward += info["left_grasped"].float() + info["right_grasped"].float()
         reward += 2 * both * (info["lowest"] / self.clearance).clamp(0, 1)
@@ -117,7 +119,7 @@ def solve_lift_towel_hands(env, seed: int) -> dict:
         centroid = points.mean(dim=1)
         above = torch.tensor([0.0, 0.0, APPROACH_HEIGHT], device=task.device)
         grasps = []
-        for side, i in task.hand_corners().items():
+        for side, i in task.hand_corners.items():
             p, q = DrivenSolver.corner_scissor_pose(points[:, i], centroid, task.cloth_config.radius,
                                                     mirror=side == "left", around=ARM_YAW[side])
             grasps.append(Grasp(f"{side}_arm", f"{side}_hand", p, q, above))
