@@ -81,6 +81,10 @@ class ManiLadderEnv(BaseEnv):
     # into a scene that simulated on part ways (many persistent contacts: clay, particle piles); state
     # checks then restore into freshly built scenes, which agree exactly
     RESTORES_NEED_FRESH_SCENE: ClassVar[bool] = False
+    # joint name -> angle overriding the agent's rest keyframe at reset: a task whose grasps need the hands
+    # turned far from the rest pose starts them ready (servoing a ~180 deg wrist turn from rest lands the
+    # IK on a wrong branch on some seeds)
+    READY_JOINTS: ClassVar[dict[str, float]] = {}
 
     def __init__(
         self,
@@ -140,8 +144,10 @@ class ManiLadderEnv(BaseEnv):
         with torch.device(self.device):
             b = len(env_idx)
             qpos = torch.as_tensor(self.agent.keyframes["rest"].qpos, dtype=torch.float32).repeat(b, 1)
-            # noise on the arm joints only: the gripper starts open and a mobile base where it is
             active = [joint.name for joint in self.agent.robot.active_joints]
+            for name, angle in self.READY_JOINTS.items():
+                qpos[:, active.index(name)] = angle
+            # noise on the arm joints only: the gripper starts open and a mobile base where it is
             arm = [active.index(name) for name in self.agent.arm_joint_names]
             qpos[:, arm] += torch.randn(b, len(arm)) * self.robot_init_qpos_noise
             self.agent.reset(qpos)
