@@ -67,6 +67,18 @@ def test_seeded_reset_reproduces_obs(state_env):
     assert not torch.allclose(a, c)
 
 
+def test_reset_puts_the_robot_in_the_task_ready_pose(state_env):
+    """The rest keyframe, with the joints a task names in READY_JOINTS overridden (plus the reset noise)."""
+    base = state_env.unwrapped
+    state_env.reset(seed=3)
+    names = [joint.name for joint in base.agent.robot.active_joints]
+    expected = np.array(base.agent.keyframes["rest"].qpos, dtype=np.float32)
+    for name, angle in base.READY_JOINTS.items():
+        expected[names.index(name)] = angle
+    # noise std 0.02 on the arm joints: 0.1 is 5 sigma
+    assert np.abs(base.agent.robot.get_qpos()[0].numpy() - expected).max() < 0.1
+
+
 def test_state_round_trip_after_50_steps(state_env):
     state_env.reset(seed=3)
     base = state_env.unwrapped

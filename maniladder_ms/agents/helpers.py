@@ -197,13 +197,16 @@ class Driver:
             self.step()
         return self.last
 
-    def close_hand(self, part: str = "hand", synergy: str = "power", ramp_steps: int = 40, hold_steps: int = 8):
-        """Move LEAP joint targets from the current command to a synergy linearly, then hold.
+    def close_hand(self, part: str = "hand", synergy="power", ramp_steps: int = 40, hold_steps: int = 8):
+        """Move LEAP joint targets from the current command to a synergy (a name, or 16 joint targets)
+        linearly, then hold.
 
         The slow ramp (2 s) lets fingers and thumb reach the object together; faster closing pushes a
         small object out (a 5 cm cube: 19/20 seeds lifted at 40 steps, 17/20 at 25).
         """
-        start, goal = self.ee_cmd[part].clone(), torch.as_tensor(LEAP_SYNERGIES[synergy], dtype=torch.float32,
+        if isinstance(synergy, str):
+            synergy = LEAP_SYNERGIES[synergy]
+        start, goal = self.ee_cmd[part].clone(), torch.as_tensor(np.asarray(synergy), dtype=torch.float32,
                                                                   device=self.base.device)
         for k in range(1, ramp_steps + 1):
             self.set_ee(part, start + (goal - start) * k / ramp_steps, steps=1)

@@ -77,11 +77,17 @@ def grasp_together(s: DrivenSolver, ee_parts: list[str], synergy: str = "power",
         for _ in range(10):  # as DrivenSolver.grasp
             s.step()
         return
-    start = {ee: s.ee_cmd[ee].clone() for ee in leap}
-    goal = torch.as_tensor(LEAP_SYNERGIES[synergy], dtype=torch.float32, device=s.base.device)
+    close_hands(s, {ee: LEAP_SYNERGIES[synergy] for ee in leap}, ramp_steps)
+
+
+def close_hands(s: DrivenSolver, targets: dict, ramp_steps: int = HAND_RAMP_STEPS):
+    """Close LEAP hands together, each to its own 16 joint targets (`targets`: hand part -> targets), their
+    commands ramping linearly over `ramp_steps`, then held `HAND_HOLD_STEPS`."""
+    start = {ee: s.ee_cmd[ee].clone() for ee in targets}
+    goal = {ee: torch.as_tensor(t, dtype=torch.float32, device=s.base.device) for ee, t in targets.items()}
     for k in range(1, ramp_steps + HAND_HOLD_STEPS + 1):
-        for ee in leap:
-            s.set_ee(ee, start[ee] + (goal - start[ee]) * min(k, ramp_steps) / ramp_steps, steps=0)
+        for ee in targets:
+            s.set_ee(ee, start[ee] + (goal[ee] - start[ee]) * min(k, ramp_steps) / ramp_steps, steps=0)
         s.step()
 
 

@@ -1,10 +1,4 @@
-"""HandoverBallHands (L1 rigid DX): pass a tennis ball from the left LEAP hand to the right one.
-
-UNREGISTERED draft (wip/): load it with importlib (spec_from_file_location + exec_module) to register
-the task and its solver. The registered solver, `solve_handover_ball_cradle` (a palm-up right hand under a
-relaxed top-down left), measured 45/50 on seeds 100-149 (`sweep`); every variant tried and its rate is in
-wip/handover_ball_hands_FINDINGS.md; the module-level constants of the solver section are its knobs.
-"""
+"""HandoverBallHands (L1 rigid DX): pass a tennis ball from the left LEAP hand to the right one."""
 
 from __future__ import annotations
 
@@ -142,17 +136,10 @@ class HandoverBallHandsEnv(ManiLadderEnv):
 
 
 # ----------------------------------------------------------------------------------------------------
-# solver
+# solver: the left picks and carries, the right rolls palm-up and takes the ball from below (the "cradle").
+# Measured alternatives (git history of wip/handover_ball_hands*.md): the right taking a top-down grasp of a ball
+# the left holds palm-up, 5/50; the left letting go onto a flat palm-up right hand first, 0-1/10.
 # ----------------------------------------------------------------------------------------------------
-# Three solvers, all measured (wip/handover_ball_hands_FINDINGS.md):
-# - `solve_handover_ball_cradle` (REGISTERED, at the end of the module): 45/50 on seeds 100-149 (sweep);
-# - `solve_handover_ball_flip`: the left picks, rolls palm-up holding the ball, the right takes a
-#   top-down power grasp of its top, the left opens and drops away: 5/50 on seeds 100-149 (sweep);
-# - `solve_handover_ball_taker_up`: the left holds top-down at MEET, the right rolls palm-up and comes up under
-#   the ball, the left lets go onto its palm, the right closes a cage: 1/10 on seeds 100-109 with the "power"
-#   giver grip, 0/10 with GIVER_SYNERGY (its stronger thumb kicks the ball off the palm on opening).
-DEBUG = False  # print each phase: ball, TCPs, grasp flags, the ball in the right TCP frame and its contacts
-
 # the giver's grip: fingers further round at the knuckle (j1 2.1), less at PIP/DIP, than "power". Holding the ball
 # 100 steps at MEET after the carry (seeds 100-109): power 5/10, [0,1.8,0.6,0.4] 7/10, this 10/10; it also keeps
 # the ball through the roll to palm-up (4/4) where power drops it at 30-60 degrees of tilt
@@ -161,66 +148,9 @@ GIVER_SYNERGY = [0, 2.1, 0.3, 0.2] * 3 + [1.6, 0.6, 0.8, 0.8]
 # joint-space path servoed one waypoint a step both fail to get there)
 TAKER_ROLL_WAYPOINTS = 12
 ROLL_STEPS = 8
-PARALLEL_ROLL = True  # taker-up: the right rolls in the background while the left picks (saves ~100 steps)
-
-# --- taker-up variant
+# roll the right palm-up in the background while the left picks
 MEET = (-0.1, 0.02, 0.36)  # left TCP during the handover: high enough for the palm-up right wrist (0.256 m below)
 TAKER_ROLL_OFFSET = (0.0, -0.2, -0.12)  # where the right turns palm-up: clear of the ball and the left hand
-ROLL_YAW, ROLL_SIGN, ROLL_AXIS = -np.pi / 2, -1.0, 1  # flange swings towards +y (centre) then up; fingers end +y
-# right TCP from the ball: the palm (TCP z -0.08) just touching the ball's bottom, the ball over the palm's middle
-TAKE_OFFSET = [0.03, 0.03, 0.047]
-TAKER_PRESHAPE = "open"  # the preshape's thumb, swung over the palm, pushes the ball on the way up
-TAKER_SYNERGY = [0, 1.9, 0.4, 0.3] * 3 + [1.6, 0.2, 0.2, 0.2]  # cage: fingers a wall at +x_tcp, thumb at -x_tcp
-RELEASE_FIRST = True  # the left opens first (a right closing while the left holds hits the left's ring finger)
-GIVER_OPEN_STEPS = 20
-TAKER_DELAY = 5  # control steps into the left's opening before the right's cage starts closing
-TAKER_CLOSE_STEPS = 40
-HOLD_STEPS = 8
-GIVER_RETREAT = (0.0, 0.03, 0.1)
-
-
-def _close_to(s, part, goal, ramp_steps: int = 40, hold_steps: int = 8):
-    """Driver.close_hand to any joint-target vector (or synergy name)."""
-    if isinstance(goal, str):
-        goal = LEAP_SYNERGIES[goal]
-    start = s.ee_cmd[part].clone()
-    goal = torch.as_tensor(np.asarray(goal), dtype=torch.float32, device=s.base.device)
-    for k in range(1, ramp_steps + 1):
-        s.set_ee(part, start + (goal - start) * k / ramp_steps, steps=1)
-        if DEBUG and k % 5 == 0:
-            _log(s, f"{part} {k}")
-    s.set_ee(part, goal.expand_as(start), steps=hold_steps)
-
-
-def _log(s, stage: str):
-    if DEBUG:
-        task = s.base
-        info = task.evaluate()
-        print(f"  [{stage}] step {int(task.elapsed_steps[0])} ball {task.ball.pose.p[0].cpu().numpy().round(3)} "
-              f"L {s.tcp('left_arm').p[0].cpu().numpy().round(3)} R {s.tcp('right_arm').p[0].cpu().numpy().round(3)} "
-              f"Lg {bool(info['left_grasped'][0])} Rg {bool(info['right_grasped'][0])} "
-              f"Rz {quaternion_to_matrix(s.tcp('right_arm').q)[0, :, 2].cpu().numpy().round(2)}", flush=True)
-        inv = s.tcp("right_arm").inv()
-        print("   ball in R tcp", (inv * task.ball.pose).p[0].cpu().numpy().round(3), [
-            (l.name.replace("_leap_", ":"), round(float(task.scene.get_pairwise_contact_forces(task.ball, l).norm(dim=1)[0]), 2))
-            for l in task.agent.robot.links if l.name.startswith(("left_leap", "right_leap"))
-            and float(task.scene.get_pairwise_contact_forces(task.ball, l).norm(dim=1)[0]) > 0.05])
-
-
-def roll_to_palm_up(s: DrivenSolver, arm: str, yaw: float, roll_sign: float, end: torch.Tensor, waypoints: int,
-                    max_steps: int = 10):
-    """Turn a top-down hand (yaw `yaw`) palm-up by rolling it about its TCP y axis in `waypoints` equal
-    steps while its TCP moves in a straight line to `end`: each waypoint is a short servo move, so the
-    arm's differential IK follows (one 180-degree target the servo does not reach)."""
-    n = s.base.num_envs
-    r0 = quaternion_to_matrix(top_down_quat(yaw, n, device=s.base.device))
-    axis = r0[:, :, 1]
-    p0 = s.tcp(arm).p.clone()
-    for k in range(1, waypoints + 1):
-        t = k / waypoints
-        rk = axis_angle_to_matrix(axis * roll_sign * np.pi * t) @ r0
-        s.move({arm: (p0 + (end - p0) * t, matrix_to_quaternion(rk))}, max_steps=max_steps, pos_tol=0.01, rot_tol=0.05)
-    return matrix_to_quaternion(rk)
 
 
 class _Solver(DrivenSolver):
@@ -232,7 +162,7 @@ class _Solver(DrivenSolver):
 
     def grasp(self, ee_part: str):
         if ee_part == "left_hand":
-            _close_to(self, ee_part, GIVER_SYNERGY)
+            self.close_hand(ee_part, GIVER_SYNERGY)
         else:
             super().grasp(ee_part)
 
@@ -253,12 +183,13 @@ class _Solver(DrivenSolver):
 
 
 def roll_targets(s: DrivenSolver, arm: str, yaw: float, roll_sign: float, end: torch.Tensor, waypoints: int,
-                 steps_per_waypoint: int, axis_index: int = 1):
-    """The targets of `roll_to_palm_up` (rolling about the TCP's x (`axis_index` 0) or y axis),
-    `steps_per_waypoint` control steps each, as a background sequence."""
+                 steps_per_waypoint: int):
+    """A background sequence turning a top-down hand (yaw `yaw`) palm-up: `waypoints` equal rolls about its
+    TCP y axis (sense `roll_sign`) while its TCP moves in a straight line to `end`, `steps_per_waypoint`
+    control steps each, so the arm's differential IK follows (one 180-degree target it does not reach)."""
     n = s.base.num_envs
     r0 = quaternion_to_matrix(top_down_quat(yaw, n, device=s.base.device))
-    axis = r0[:, :, axis_index]
+    axis = r0[:, :, 1]
     p0 = s.tcp(arm).p.clone()
     for k in range(1, waypoints + 1):
         t = k / waypoints
@@ -267,117 +198,6 @@ def roll_targets(s: DrivenSolver, arm: str, yaw: float, roll_sign: float, end: t
             yield {arm: (p0 + (end - p0) * t, matrix_to_quaternion(rk))}
 
 
-def solve_handover_ball_taker_up(env, seed: int) -> dict:
-    """Taker-up variant: the left picks top-down (GIVER_SYNERGY) and carries the ball to MEET; the right rolls
-    palm-up (in the background) and comes up under the ball, palm just touching; the left opens and the right
-    closes a cage round the ball on its palm; the left backs off upwards. Fails mostly in the swap: the left's
-    opening kicks the ball off the flat palm (FINDINGS)."""
-    with _Solver.episode(env, seed) as s:
-        task: HandoverBallHandsEnv = env.unwrapped
-        dev, n = task.device, task.num_envs
-        meet = torch.tensor([MEET], device=dev).expand(n, 3)
-        aside = meet + torch.tensor(TAKER_ROLL_OFFSET, device=dev)
-        if PARALLEL_ROLL:
-            s.background = roll_targets(s, "right_arm", ROLL_YAW, ROLL_SIGN, aside, TAKER_ROLL_WAYPOINTS, ROLL_STEPS,
-                                        ROLL_AXIS)
-        s.pick("left_arm", "left_hand", task.ball.pose.p.clone(), 0.0, lift=0.12)
-        give_q = top_down_quat(0.0, n, device=dev)
-        s.move({"left_arm": (meet, give_q)}, max_steps=60, pos_tol=0.01)
-        _log(s, "carried")
-        # the right hand: top-down at yaw -90 deg (fingers towards -y), rolled about world x so its fingers
-        # swing down and round: palm-up, fingers towards +y, below the ball
-        if PARALLEL_ROLL:
-            while s.background is not None:
-                s.step()
-            take_q = s.arm_targets["right_arm"][1]
-        else:
-            take_q = roll_to_palm_up(s, "right_arm", -np.pi / 2, -1.0, aside, TAKER_ROLL_WAYPOINTS)
-        _log(s, "rolled")
-        s.move({"right_arm": (meet + torch.tensor([0.0, 0.0, -0.1], device=dev), take_q)}, max_steps=60, pos_tol=0.01)
-        _log(s, "below")
-        s.set_ee("right_hand", TAKER_PRESHAPE, steps=5)
-        take_p = task.ball.pose.p + torch.tensor(TAKE_OFFSET, device=dev)
-        s.move({"right_arm": (take_p - torch.tensor([0, 0, 0.03], device=dev), take_q)}, max_steps=30, pos_tol=0.004)
-        take_p = task.ball.pose.p + torch.tensor(TAKE_OFFSET, device=dev)
-        s.move({"right_arm": (take_p, take_q)}, max_steps=30, pos_tol=0.003)
-        if DEBUG:
-            print("   take err", (take_p - s.tcp("right_arm").p)[0].cpu().numpy().round(4))
-        _log(s, "under")
-        if RELEASE_FIRST:
-            # the left lets the ball down onto the level palm; then the right closes round it, the left backs off
-            # the two ramps overlap: the right's fingers and thumb rise round the ball while the left's open
-            start_l, start_r = s.ee_cmd["left_hand"].clone(), s.ee_cmd["right_hand"].clone()
-            goal_l = torch.as_tensor(LEAP_SYNERGIES["open"], dtype=torch.float32, device=dev)
-            goal_r = torch.as_tensor(np.asarray(TAKER_SYNERGY), dtype=torch.float32, device=dev)
-            total = max(GIVER_OPEN_STEPS, TAKER_DELAY + TAKER_CLOSE_STEPS) + HOLD_STEPS
-            for k in range(1, total + 1):
-                a_l = min(k / GIVER_OPEN_STEPS, 1.0)
-                a_r = min(max(k - TAKER_DELAY, 0) / TAKER_CLOSE_STEPS, 1.0)
-                s.set_ee("left_hand", start_l + (goal_l - start_l) * a_l, steps=0)
-                s.set_ee("right_hand", start_r + (goal_r - start_r) * a_r, steps=1)
-                if DEBUG and k % 5 == 0:
-                    _log(s, f"swap {k}")
-            _log(s, "taken")
-            tcp = s.tcp("left_arm")
-            s.move({"left_arm": (tcp.p + torch.tensor(GIVER_RETREAT, device=dev), tcp.q)}, max_steps=30, pos_tol=0.02)
-            _log(s, "retreated")
-        else:
-            _close_to(s, "right_hand", TAKER_SYNERGY)
-            _log(s, "taken")
-            _close_to(s, "left_hand", "open", ramp_steps=GIVER_OPEN_STEPS, hold_steps=4)
-            _log(s, "released")
-            tcp = s.tcp("left_arm")
-            s.move({"left_arm": (tcp.p + torch.tensor(GIVER_RETREAT, device=dev), tcp.q)}, max_steps=30, pos_tol=0.02)
-        s.hold_until_success()
-        return s.info
-
-
-# --- flip variant
-FLIP_MEET = (-0.12, 0.08, 0.36)  # the left TCP, palm-up, at the end of its roll (the ball sits ~4.6 cm to its +y)
-TAKER_YAW = 0.0  # the right's top-down yaw: its pinch along world x, across the left's (along world y); yaw pi: 0/2
-# the right's TCP from the ball: 2 cm to +y moves its finger row off the left's curled fingers (-y side):
-# seeds 100-103: 0 -> 0/2 (100, 101), +0.02 -> 1/4, +0.03 -> 0/4, 1.5 cm lower -> 0/2
-FLIP_TAKE_OFFSET = [0.0, 0.02, 0.0]
-FLIP_TAKER_PRESHAPE = "preshape"  # "open" (thumb out, swept in on closing): 0/4
-FLIP_GIVER_DROP = (0.0, 0.05, -0.1)  # the left, opened, drops away under the right's grasp
-
-
-def solve_handover_ball_flip(env, seed: int) -> dict:
-    """Variant (idea 1 of the brief): the left picks top-down at yaw 90 deg with GIVER_SYNERGY and rolls
-    palm-up about its TCP y axis (world x) while carrying the ball to FLIP_MEET; the right takes a top-down
-    power grasp of the ball's exposed top; the left opens and drops away; the right lifts."""
-    with _Solver.episode(env, seed) as s:
-        task: HandoverBallHandsEnv = env.unwrapped
-        dev, n = task.device, task.num_envs
-        s.pick("left_arm", "left_hand", task.ball.pose.p.clone(), np.pi / 2, lift=0.12)
-        _log(s, "picked")
-        flip = torch.tensor([FLIP_MEET], device=dev).expand(n, 3)
-        take_q = top_down_quat(TAKER_YAW, n, device=dev)
-        # the right lines up above where the ball will be while the left rolls
-        s.arm_targets["right_arm"] = (flip + torch.tensor([0.0, 0.046, 0.1], device=dev), take_q)
-        s.background = roll_targets(s, "left_arm", np.pi / 2, -1.0, flip, TAKER_ROLL_WAYPOINTS, ROLL_STEPS, 1)
-        while s.background is not None:
-            s.step()
-        s.move({"left_arm": s.arm_targets["left_arm"]}, max_steps=20, pos_tol=0.01, rot_tol=0.05)
-        _log(s, "flipped")
-        ball = task.ball.pose.p.clone()
-        s.move({"right_arm": (ball + torch.tensor([0, 0, 0.1], device=dev), take_q)}, max_steps=30, pos_tol=0.01)
-        s.set_ee("right_hand", FLIP_TAKER_PRESHAPE, steps=5)
-        ball = task.ball.pose.p.clone()
-        s.move({"right_arm": (ball + torch.tensor(FLIP_TAKE_OFFSET, device=dev), take_q)}, max_steps=40, pos_tol=0.003)
-        _log(s, "over")
-        s.grasp("right_hand")
-        _log(s, "taken")
-        s.release("left_hand", steps=10)
-        tcp = s.tcp("left_arm")
-        s.move({"left_arm": (tcp.p + torch.tensor(FLIP_GIVER_DROP, device=dev), tcp.q)}, max_steps=20, pos_tol=0.02)
-        _log(s, "dropped")
-        s.hold_until_success()
-        return s.info
-
-
-
-# --- cradle variant (helper "ball2", 2026-11-23): the REGISTERED solver
 # The giver holds the ball top-down with GIVER_SYNERGY: its contacts (index tip, middle tip, thumb tip) all sit at or
 # above the ball's equator (measured in the ball frame: index +0.007, middle +0.015, thumb +0.031 m), so the lower
 # hemisphere is free for a palm-up taker. The swap that works: the taker's palm comes up under the ball with a gap,
@@ -415,12 +235,11 @@ def solve_handover_ball_cradle(env, seed: int) -> dict:
         dev, n = task.device, task.num_envs
         meet = torch.tensor([MEET], device=dev).expand(n, 3)
         aside = meet + torch.tensor(TAKER_ROLL_OFFSET, device=dev)
-        s.background = roll_targets(s, "right_arm", CRADLE_TAKER_YAW, -1.0, aside, TAKER_ROLL_WAYPOINTS, ROLL_STEPS, 1)
+        s.background = roll_targets(s, "right_arm", CRADLE_TAKER_YAW, -1.0, aside, TAKER_ROLL_WAYPOINTS, ROLL_STEPS)
         s.pick("left_arm", "left_hand", task.ball.pose.p.clone(), 0.0, lift=0.12)
         s.move({"left_arm": (meet, top_down_quat(0.0, n, device=dev))}, max_steps=60, pos_tol=0.01)
         while s.background is not None:
             s.step()
-        _log(s, "carried")
         take_q = s.arm_targets["right_arm"][1]
         # right TCP from the ball: minus the ball's offset in the taker frame, turned into the world
         off = -(quaternion_to_matrix(take_q) @ torch.tensor(CRADLE_BALL_IN_TAKER, device=dev).reshape(1, 3, 1))[..., 0]
@@ -430,12 +249,10 @@ def solve_handover_ball_cradle(env, seed: int) -> dict:
         s.move({"right_arm": (task.ball.pose.p + off - CRADLE_APPROACH * down, take_q)}, max_steps=30, pos_tol=0.004)
         glide(s, {"right_arm": (s.tcp("right_arm").p.clone(), task.ball.pose.p + off, take_q)}, step_length=0.003,
               settle_steps=10)
-        _log(s, "under")
-        _close_to(s, "right_hand", CRADLE_DISH, ramp_steps=15, hold_steps=3)
+        s.close_hand("right_hand", CRADLE_DISH, ramp_steps=15, hold_steps=3)
         # relax: the giver's targets to its measured joint positions (its squeeze ~30 N -> ~1 N, nothing moves)
         relaxed = task.agent.controller.controllers["left_hand"].qpos.clone()
-        _close_to(s, "left_hand", relaxed, ramp_steps=5, hold_steps=5)
-        _log(s, "relaxed")
+        s.close_hand("left_hand", relaxed, ramp_steps=5, hold_steps=5)
         giver0, taker0 = s.ee_cmd["left_hand"].clone(), s.ee_cmd["right_hand"].clone()
         grip = torch.as_tensor(np.asarray(CRADLE_TAKER_GRIP), dtype=torch.float32, device=dev)
         tcp = s.tcp("left_arm")
@@ -444,9 +261,6 @@ def solve_handover_ball_cradle(env, seed: int) -> dict:
             s.set_ee("left_hand", giver0 * (1 - min(k / CRADLE_GIVER_OPEN_STEPS, 1.0)), steps=0)
             s.set_ee("right_hand", taker0 + (grip - taker0) * min(k / CRADLE_TAKER_CLOSE_STEPS, 1.0), steps=0)
             s.step({"left_arm": (lp + min(k * CRADLE_GIVER_RISE, CRADLE_GIVER_LIFT) * down, lq)})
-            if DEBUG and k % 10 == 0:
-                _log(s, f"swap {k}")
-        _log(s, "swapped")
         # closed loop: the ball still on the right palm but no finger on it (it rolled into the thumb / ring corner,
         # where "power" fingers pass over it): curl the fingers further. Seeds 108 and 111 (ball at R-TCP
         # (-0.049, 0.06), palm + thumb DIP only): [0, 1.5, 1.4, 1.2] flings it off, [0, 1.9, 1.0, 0.8] holds it with
@@ -457,8 +271,7 @@ def solve_handover_ball_cradle(env, seed: int) -> dict:
             s.step()
             held &= s.info["right_grasped"]
         on_palm = (task.ball.pose.p - s.tcp("right_arm").p).norm(dim=1) < 0.1
-        if CRADLE_SQUEEZE is not None and bool((on_palm & ~held).any()):
-            _close_to(s, "right_hand", CRADLE_SQUEEZE, ramp_steps=20, hold_steps=5)
-            _log(s, "squeezed")
+        if bool((on_palm & ~held).any()):
+            s.close_hand("right_hand", CRADLE_SQUEEZE, ramp_steps=20, hold_steps=5)
         s.hold_until_success()
         return s.info

@@ -1,0 +1,222 @@
+"""PourGrainsHandToCup (L1 deformable DX): one LEAP hand holds a cup, the other pours grains into it from a glass."""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+import numpy as np
+import torch
+
+from mani_skill.utils.geometry.rotation_conversions import axis_angle_to_quaternion, quaternion_apply, quaternion_multiply
+
+from maniladder_ms.agents.hand_contact import LeapContacts
+from maniladder_ms.deformables import particles
+from maniladder_ms.deformables.pouring import CupToBowl
+from maniladder_ms.envs import ManiLadderEnv, register_task
+from maniladder_ms.objects import containers
+from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
+from maniladder_ms.solvers.bimanual import Grasp, close_hands, glide, tcp_quat
+from maniladder_ms.solvers.driven import DrivenSolver
+
+# The left hand pours and the right holds. Both take side grasps, palm level with the container, the finger row
+# upright. The pourer's grasp needs its thumb low, under the glass' grains. For the right Panda that grasp puts
+# joint 7 at 2.88 of its 2.90 rad limit: pinocchio IK finds no other solution with the elbow up, and servoing to
+# it left the arm 0.5-0.6 rad short on ~30 % of seeds. For the left Panda, joint 7 is at -1.4 rad, with >= 0.8 rad
+# to every limit over the reach, carry and roll. The right hand holds the cup with its thumb high (margin 0.96).
+POURER, HOLDER = "left", "right"
+# arm joints 1-7 of the ready pose: each hand 10 cm above its line-up point for the middle of its container's
+# placement range, turned for its side grasp (pinocchio IK; of 200 random starts, the solution furthest from
+# the joint limits: 1.08 rad left, 0.96 rad right). From the top-down rest pose that is a ~180 degree wrist turn,
+# which pd_ee_delta_pose servoing landed on a wrong IK branch on ~30 % of seeds
+READY_ARM_JOINTS = {POURER: (0.487, 0.683, -0.076, -1.836, -1.191, 1.363, -1.379),
+                    HOLDER: (0.664, 0.602, -0.869, -2.112, 1.569, 1.393, -0.213)}
+
+
+@register_task("PourGrainsHandToCup")
+class PourGrainsHandToCupEnv(CupToBowl, ManiLadderEnv):
+    """**Task:** the right LEAP hand holds a cup standing on the table while the left LEAP hand picks up a
+    glass of grains and pours them into the cup.
+
+    **Randomisation:**
+    - the cup (plastic, inner radius 3.5 cm, 11 cm tall, 7.8 cm wide outside) stands in front of the right
+      arm, x in [-0.06, 0], y in [-0.06, 0];
+    - the glass (inner radius 2.7 cm at the floor widening to 2.9 cm at the rim, 13 cm tall) stands to the
+      left behind it, x in [-0.16, -0.1], y in [0.14, 0.2], holding 60 grains (granular spheres, radius 4 mm)
+      packed from its floor with a small random jitter;
+    - the arms start in a ready pose (`READY_JOINTS`, plus the usual joint noise): each hand raised above its
+      container, palm turned in for a side grasp.
+
+    **Success:** at least `success_fraction` = 70 % of the grains lie inside the cup's inner volume (below
+    its rim, `particles.fraction_inside`) and the right hand holds the cup (`cup_held`: a finger link and a
+    thumb or palm link each press on it).
+
+    (In `CupToBowl`'s terms the glass is the pouring `self.cup` and the held cup the receiving `self.bowl`.)
+    """
+
+    SUPPORTED_ROBOTS = ["ml_dual_panda_leap"]
+    max_dense_reward = 6
+    TASK_REGION = (-0.25, 0.12, -0.25, 0.25)
+    READY_JOINTS = {f"{side}_panda_joint{i}": angle for side, angles in READY_ARM_JOINTS.items()
+                    for i, angle in enumerate(angles, 1)}
+    # tall enough for the LEAP hand's side grasp: the thumb closes low on it, the three fingers above
+    cup_shape = containers.glass(bottom_radius=0.027, top_radius=0.029, height=0.13)
+    bowl_shape = containers.cup(radius=0.035, height=0.11, wall=0.004)
+    cup_name = "glass"
+    bowl_name = "cup"
+    particle_config = dataclasses.replace(particles.GRANULAR, count=60, radius=0.004)
+    particle_name = "grains"
+    success_fraction = 0.7
+    bowl_density = CupToBowl.cup_density  # a light plastic cup, as the glass
+    bowl_color = (0.8, 0.35, 0.3, 1)
+    placement = {"bowl": ((-0.06, 0.0), (-0.06, 0.0)), "cup": ((-0.16, -0.1), (0.14, 0.2))}
+
+    def _load_scene(self, options: dict):
+        super()._load_scene(options)
+        self._load_cup_and_bowl()
+        self.hands = {side: LeapContacts(self.agent, f"{side}_") for side in (POURER, HOLDER)}
+
+    def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
+        super()._initialize_episode(env_idx, options)
+        with torch.device(self.device):
+            self._place_cup_and_bowl(len(env_idx))
+
+    def _get_obs_extra(self, info: dict):
+        obs = dict(left_tcp_pose=self.agent.tcps["left"].pose.raw_pose, right_tcp_pose=self.agent.tcps["right"].pose.raw_pose,
+                   cup_held=info["cup_held"], glass_grasped=info["glass_grasped"])
+        if "state" in self.obs_mode:
+            obs.update(self._cup_and_bowl_obs())
+        return obs
+
+    def evaluate(self):
+        metrics = self.pour_metrics()
+        cup_held = self.hands[HOLDER].is_grasping(self.scene, self.bowl)
+        return {
+            **metrics,
+            "success": metrics["success"] & cup_held,
+            "fraction_in_held_cup": metrics["fraction_in_bowl"],
+            "fraction_in_glass": metrics["fraction_in_cup"],
+            "cup_held": cup_held,
+            "glass_grasped": self.hands[POURER].is_grasping(self.scene, self.cup),
+            "glass_lifted": self.cup.pose.p[:, 2] > 0.05,
+        }
+
+    def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
+        # holder: reach and hold the cup; pourer: reach the glass, grasp, lift, carry beside the cup; then the
+        # grains in the cup
+        mid = torch.tensor([0, 0, 0.04], device=self.device)
+        reach_cup = 1 - torch.tanh(5 * torch.linalg.norm(self.bowl.pose.p + mid - self.agent.tcps[HOLDER].pose.p, dim=1))
+        reach_glass = 1 - torch.tanh(5 * torch.linalg.norm(self.cup.pose.p + mid - self.agent.tcps[POURER].pose.p, dim=1))
+        grasped = info["glass_grasped"].float()
+        carry = 1 - torch.tanh(5 * torch.linalg.norm((self.bowl.pose.p - self.cup.pose.p)[:, :2], dim=1))
+        reward = 0.5 * (reach_cup + info["cup_held"].float()) + 0.5 * reach_glass + grasped
+        reward += carry * grasped * info["glass_lifted"]
+        reward += 2 * self.pour_reward(info) * info["cup_held"]
+        reward[info["success"]] = self.max_dense_reward
+        return reward
+
+
+# Side grasps: the palm normal's yaw, its tilt below the horizontal, which way the finger row runs (the TCP's y
+# along +-z: the pourer's thumb low, the holder's high), the TCP's height above the container's floor, and its
+# shifts along the TCP's x (towards where the fingers start to curl) and along the palm normal (past the axis).
+SIDE_GRASP = {
+    # the glass: LEAP "power"'s fingers with the thumb joints beyond its base only slightly bent ("power"'s 0.6 /
+    # 0.8 / 0.8 pushed the standing glass over by ~30 deg while closing)
+    POURER: dict(yaw=-np.pi / 2, pitch=0.0, up=-1.0, height=0.06, shift=0.04, inwards=0.0,
+                 approach="preshape", close=np.array([0.0, 1.5, 0.6, 0.4] * 3 + [1.6, 0.3, 0.3, 0.3])),
+    # the cup, palm tilted 0.3 rad down: "power"'s fingers and the thumb swung in 1 rad, straight, pressing the
+    # cup's near side below the rim (seeds 106/107/109/110: fingers only held by one fingertip and a flickering
+    # palm contact, the cup counted held on 8 of 15 seeds; a thumb swung 0.6 or curled at its outer joints reached
+    # over the rim and 18-55 % of the grains got in; this thumb: 3/4, thumb 8-38 N, three fingertips 6-14 N).
+    # The hand comes in open: "preshape"'s swung thumb met the cup first and tilted it 17-24 deg. Its row's
+    # lowest finger clears the table at a TCP height of 7.5 cm
+    HOLDER: dict(yaw=np.pi / 2, pitch=0.3, up=-1.0, height=0.075, shift=0.02, inwards=0.035,
+                 approach="open", close=np.array([0.0, 1.5, 0.6, 0.4] * 3 + [1.0, 0.0, 0.0, 0.0])),
+}
+LINE_UP_DISTANCE = 0.1  # along the palm normal, before moving in
+ABOVE = 0.1  # the first target: this far above the line-up point (the ready pose is there)
+# the pourer's thumb swings under its palm before the descent: open, it hangs ~11 cm below the TCP and met the
+# table at the line-up; swung for 5 steps only, the glass then pivoted 30-45 deg in the carry
+PRESHAPE_STEPS = 20
+LIFT = 0.1
+CARRY_STEP = 0.01  # m per control step
+CARRY_BESIDE = 0.08  # the upright glass' axis this far from the cup's, against the pour direction
+# the glass' bottom above the table while carried, and the mouth's height at the end of the roll: with 0.14 /
+# 0.16 the glass and the pourer's fingers hit the holder's hand (held on 1 of 5 seeds), with 0.18 / 0.19 4 of 5
+CARRY_BOTTOM, MOUTH_HEIGHT = 0.18, 0.19
+# rad about the pourer's palm normal (-y): this sign tips the mouth towards the robot (-x), turning the left
+# Panda's joint 7 from -1.5 to ~1.0 rad (the other sign would need -3.9, past its limit)
+POUR_ROLL, POUR_ROLL_STEPS, POUR_HOLD_STEPS = 2.4, 70, 60
+CLEAR = 0.02  # the glass' lower bottom edge clears the cup's rim by this during the roll
+
+
+def side_grasp(vessel_p: torch.Tensor, spec: dict) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """(TCP p, q, palm normal) of a side grasp `spec` (a SIDE_GRASP entry) on an upright container standing
+    at `vessel_p` (n, 3)."""
+    n, device = vessel_p.shape[0], vessel_p.device
+    c = np.cos(spec["pitch"])
+    pointing = torch.tensor([[c * np.cos(spec["yaw"]), c * np.sin(spec["yaw"]), -np.sin(spec["pitch"])]],
+                            dtype=torch.float32, device=device).expand(n, 3)
+    up = torch.tensor([[0.0, 0.0, spec["up"]]], device=device).expand(n, 3)
+    q = tcp_quat(pointing, up)
+    tcp_x = torch.linalg.cross(up, pointing)
+    p = vessel_p + torch.tensor([0.0, 0.0, spec["height"]], device=device)
+    return p - spec["shift"] * tcp_x + spec["inwards"] * pointing, q, pointing
+
+
+def glass_mouth(task: PourGrainsHandToCupEnv) -> torch.Tensor:
+    """World position (n, 3) of the centre of the glass' mouth, from its measured pose."""
+    height = task.cup_shape.inner[-1][0]
+    local = torch.tensor([0.0, 0.0, height], device=task.device).expand(task.num_envs, 3)
+    return task.cup.pose.p + quaternion_apply(task.cup.pose.q, local)
+
+
+def pour(s: DrivenSolver, task: PourGrainsHandToCupEnv, arm: str, pointing: torch.Tensor, q: torch.Tensor):
+    """Roll the held glass by POUR_ROLL about the palm normal `pointing` (from TCP orientation `q`), steering
+    its measured mouth along a line to MOUTH_HEIGHT over the cup, never so low that the glass' bottom edge
+    meets the cup's rim; then hold until the task succeeds (at most POUR_HOLD_STEPS)."""
+    start = glass_mouth(task)
+    end = task.bowl.pose.p.clone()
+    end[:, 2] = MOUTH_HEIGHT
+    rim, glass_h = task.bowl_shape.inner[-1][0], task.cup_shape.inner[-1][0]
+    glass_r = task.cup_shape.inner[-1][1] + task.cup_shape.wall
+    for k in range(1, POUR_ROLL_STEPS + POUR_HOLD_STEPS + 1):
+        f = min(k, POUR_ROLL_STEPS) / POUR_ROLL_STEPS
+        tilt = POUR_ROLL * f
+        goal = start + (end - start) * f
+        floor_z = rim + CLEAR + max(0.0, glass_h * np.cos(tilt)) + glass_r * np.sin(tilt)
+        goal[:, 2] = goal[:, 2].clamp(min=floor_z)
+        s.step({arm: (s.tcp(arm).p + goal - glass_mouth(task), quaternion_multiply(axis_angle_to_quaternion(pointing * tilt), q))})
+        if bool(s.info["success"].all()):
+            return
+
+
+@register_solver("PourGrainsHandToCup", control_modes=TCP_DELTA_MODES)
+def solve_pour_grains_hand_to_cup(env, seed: int) -> dict:
+    """Both hands line up beside their containers from the ready pose and move in; the holder closes on the
+    cup, the pourer on the glass, lifts it, carries it upright beside the cup and rolls it over the cup."""
+    with DrivenSolver.episode(env, seed) as s:
+        task: PourGrainsHandToCupEnv = env.unwrapped
+        grasps, normals = [], {}
+        for side, vessel in ((HOLDER, task.bowl), (POURER, task.cup)):
+            p, q, normals[side] = side_grasp(vessel.pose.p, SIDE_GRASP[side])
+            grasps.append(Grasp(f"{side}_arm", f"{side}_hand", p, q, -LINE_UP_DISTANCE * normals[side]))
+        s.move({g.arm: (s.above(g.lined_up[0], ABOVE), g.q) for g in grasps}, max_steps=60, pos_tol=0.01)
+        for g, side in zip(grasps, (HOLDER, POURER)):
+            s.set_ee(g.ee, SIDE_GRASP[side]["approach"], steps=0)
+        for _ in range(PRESHAPE_STEPS):
+            s.step()
+        s.move({g.arm: g.lined_up for g in grasps}, max_steps=60)
+        s.move({g.arm: (g.p, g.q) for g in grasps}, max_steps=40, pos_tol=0.003)
+        close_hands(s, {g.ee: SIDE_GRASP[side]["close"] for g, side in zip(grasps, (HOLDER, POURER))})
+        glass = grasps[1]
+        s.move({glass.arm: (s.above(glass.p, LIFT), glass.q)}, max_steps=30)
+        # the roll tips the mouth along palm normal x up: carry the glass to the cup's other side
+        direction = torch.linalg.cross(normals[POURER], torch.tensor([[0.0, 0.0, 1.0]], device=task.device).expand_as(glass.p))
+        held = s.tcp(glass.arm).p - task.cup.pose.p  # the TCP relative to the glass' bottom, as held
+        carry = task.bowl.pose.p - CARRY_BESIDE * direction + held
+        carry[:, 2] = CARRY_BOTTOM + held[:, 2]
+        glide(s, {glass.arm: (s.tcp(glass.arm).p, carry, glass.q)}, step_length=CARRY_STEP)
+        pour(s, task, glass.arm, normals[POURER], glass.q)
+        s.hold_until_success(max_steps=40)
+        return s.info
