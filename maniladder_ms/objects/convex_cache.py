@@ -12,10 +12,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from maniladder_ms.paths import PACKAGE_DIR, cache_dir
-
-# decompositions that committed demos depend on, shipped with the package (looked up before the cache)
-SHIPPED_DIR = PACKAGE_DIR / "data" / "convex"
+from maniladder_ms.paths import cache_dir
 
 
 def mesh_key(mesh: trimesh.Trimesh, settings: list) -> str:
@@ -31,16 +28,11 @@ def cached_convex_parts(mesh: trimesh.Trimesh, kind: str, threshold: float, max_
 
     threshold: CoACD's concavity threshold (lower is finer: more hulls, slower); max_hulls caps the parts.
     """
-    name = f"{kind}_{mesh_key(mesh, [threshold, max_hulls])}"
-    # CoACD is not deterministic (PourGrainsHandToCup's glass and cup came out different on each fresh
-    # decomposition, PourWaterHoldBowl's bowl once), and recorded demos replay only with the parts they were
-    # recorded with: the parts the committed demos use ship in the package
-    for path in (SHIPPED_DIR / folder / name, None):
-        path = path or cache_dir(folder, name)
-        visual = path / "visual.obj"
-        parts = sorted(path.glob("part_*.obj"))
-        if visual.exists() and parts:
-            return visual, parts
+    path = cache_dir(folder, f"{kind}_{mesh_key(mesh, [threshold, max_hulls])}")
+    visual = path / "visual.obj"
+    parts = sorted(path.glob("part_*.obj"))
+    if visual.exists() and parts:
+        return visual, parts
     import coacd
 
     coacd.set_log_level("error")
