@@ -34,11 +34,17 @@ class LeapContacts:
 
     def is_grasping(self, scene, obj) -> torch.Tensor:
         """(num_envs,) bool: the object is pinched between a finger and the thumb (or the palm)."""
-        return self._touch(scene, self.fingers, obj) & self._touch(scene, self.thumb + self.palm, obj)
+        return self._both_touch(scene, obj, self.fingers, self.thumb + self.palm)
 
     def is_scissoring(self, scene, obj) -> torch.Tensor:
         """(num_envs,) bool: the object is held between the index and the middle finger (the "scissor" synergy)."""
-        return self._touch(scene, self.scissor["index"], obj) & self._touch(scene, self.scissor["middle"], obj)
+        return self._both_touch(scene, obj, self.scissor["index"], self.scissor["middle"])
+
+    @staticmethod
+    def _both_touch(scene, obj, first, second) -> torch.Tensor:
+        """(num_envs,) bool: a link of `first` and a link of `second` touch `obj` (one contact query for both)."""
+        touching = link_forces(scene, obj, first + second) >= CONTACT_FORCE
+        return touching[: len(first)].any(dim=0) & touching[len(first):].any(dim=0)
 
 
 def link_forces(scene, obj, links) -> torch.Tensor:
