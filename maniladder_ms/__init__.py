@@ -9,8 +9,8 @@ from __future__ import annotations
 __version__ = "0.1.0"
 
 from .catalog import Catalog, CatalogError, TaskSpec, UnknownTaskError, default_catalog, load_catalog
+from . import agents  # noqa: F401  (registers the agents; first: the base env uses agents.effectors)
 from .envs import ManiLadderEnv, UnsupportedRobotError
-from . import agents  # noqa: F401  (registers the agents)
 from . import tasks  # noqa: F401  (registers the envs)
 
 

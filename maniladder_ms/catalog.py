@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import dataclasses
 import difflib
+import re
+import string
 from functools import lru_cache
 from importlib import resources
 from pathlib import Path
@@ -64,6 +66,12 @@ class TaskSpec:
     horizon: int
     demo_plan: str
     scores: dict
+    # the task family: one env class holds the family's rule (`evaluate`) and reads `params`, this row's
+    # numbers (sizes, tolerances, counts); rows whose scenes differ register thin subclasses of it
+    family: str = ""
+    params: dict = dataclasses.field(default_factory=dict)
+    # `success` with `{param:unit}` placeholders, as written in the catalog; `success` is it rendered
+    success_template: str = ""
 
     @property
     def implemented(self) -> bool:
@@ -77,6 +85,45 @@ class TaskSpec:
         d["skills"] = list(self.skills)
         d["implemented"] = self.implemented
         return d
+
+
+def snake_case(name: str) -> str:
+    """CamelCase -> snake_case ("PickPlacePen" -> "pick_place_pen", "Stack6Blocks" -> "stack6_blocks")."""
+    return re.sub(r"(?<=[a-z0-9])(?=[A-Z])", "_", name).lower()
+
+
+# units of `{param:unit}` placeholders in success text: a factor on the param's (SI) value and a suffix
+PARAM_UNITS = {"": (1, ""), "m": (1, " m"), "cm": (100, " cm"), "mm": (1000, " mm"), "deg": (1, " deg"),
+               "pct": (100, "%"), "x": (1, "x"), "s": (1, " s"), "kg": (1, " kg"), "g": (1000, " g")}
+
+
+def format_param(value, unit: str) -> str:
+    if unit not in PARAM_UNITS:
+        raise CatalogError(f"unknown unit {unit!r} in a success placeholder; known: {', '.join(u for u in PARAM_UNITS if u)}")
+    factor, suffix = PARAM_UNITS[unit]
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(format_param(v, unit).removesuffix(suffix) for v in value) + "]" + suffix
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return f"{value}{suffix}"
+    return f"{round(value * factor, 6):g}{suffix}"
+
+
+def template_fields(template: str) -> list[tuple[str, str]]:
+    """(param name, unit) of every `{name:unit}` placeholder of a success template."""
+    return [(name, spec or "") for _, name, spec, _ in string.Formatter().parse(template) if name is not None]
+
+
+def render_success(template: str, params: dict, where: str = "") -> str:
+    """The success text with each `{name:unit}` replaced by the param's value in that unit."""
+    out = []
+    for literal, name, spec, _ in string.Formatter().parse(template):
+        out.append(literal)
+        if name is None:
+            continue
+        if name not in params:
+            raise CatalogError(f"{where}: success text names {{{name}}}, which is not in the row's params")
+        out.append(format_param(params[name], spec or ""))
+    return "".join(out)
 
 
 def suite_name(level: int, object_property: str, embodiment: str) -> str:
@@ -202,6 +249,12 @@ def _parse_tasks(data: dict, source: str):
         missing_scores = [k for k in SCORE_KEYS if k not in raw["scores"]]
         if missing_scores:
             raise CatalogError(f"{where}: missing score(s) {', '.join(missing_scores)}")
+        family = raw.get("family", raw["id"])
+        if not isinstance(family, str) or not re.fullmatch(r"[A-Z][A-Za-z0-9]*", family):
+            raise CatalogError(f"{where}: family must be a CamelCase name, got {family!r}")
+        params = raw.get("params") or {}
+        if not isinstance(params, dict):
+            raise CatalogError(f"{where}: params must be a mapping of name -> value, got {params!r}")
         yield TaskSpec(
             id=raw["id"],
             env_id=raw["env_id"],
@@ -213,7 +266,10 @@ def _parse_tasks(data: dict, source: str):
             mobile=bool(raw["mobile"]),
             skills=tuple(raw["skills"]),
             description=raw["description"],
-            success=raw["success"],
+            success=render_success(raw["success"], params, where),
+            success_template=raw["success"],
+            family=family,
+            params=params,
             horizon=raw["horizon"],
             demo_plan=raw["demo"].get("plan", ""),
             scores={k: raw["scores"][k] for k in SCORE_KEYS},

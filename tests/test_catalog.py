@@ -90,3 +90,40 @@ def test_unparsable_catalog_file(tmp_path):
     bad.write_text("- just a list\n")
     with pytest.raises(CatalogError, match="expected a mapping"):
         load_catalog(bad)
+
+
+def _success_section(doc: str) -> str:
+    """The **Success:** paragraph of a task class docstring (up to the next bold heading or the end)."""
+    import re
+
+    match = re.search(r"\*\*Success:\*\*(.*?)(?=\n\s*\*\*[A-Z][a-z]+[^*]*:\*\*|\Z)", doc or "", re.S)
+    assert match, "the docstring has no **Success:** section"
+    return match.group(1)
+
+
+@pytest.mark.parametrize("task_id", [t.id for t in maniladder_ms.default_catalog().filter(implemented=True)])
+def test_success_numbers_live_in_params_only(task_id):
+    """The numbers of a task's rule live in its catalog row's `params`: the catalog's success text is
+    rendered from them, the class reads exactly them, and the docstring's Success section names them
+    instead of repeating numbers that could drift."""
+    from maniladder_ms.catalog import template_fields
+    from mani_skill.utils.registration import REGISTERED_ENVS
+
+    spec = maniladder_ms.default_catalog().get(task_id)
+    cls = REGISTERED_ENVS[spec.env_id].cls
+    assert set(cls.PARAMS) == set(spec.params), f"{cls.__name__}.PARAMS != the catalog row's params"
+    section = _success_section(cls.__doc__)
+    assert not any(ch.isdigit() for ch in section), f"{cls.__name__}: a number in the Success section: {section!r}"
+    for name, _ in template_fields(spec.success_template):
+        assert f"`{name}`" in section, f"{cls.__name__}: the Success section does not name `{name}`"
+
+
+def test_success_text_is_rendered_from_params():
+    from maniladder_ms.catalog import CatalogError, render_success
+
+    assert render_success("within {tol:cm}, tilt < {tilt:deg}, {share:pct} in", dict(tol=0.02, tilt=15, share=0.8)) == \
+        "within 2 cm, tilt < 15 deg, 80% in"
+    with pytest.raises(CatalogError, match="not in the row's params"):
+        render_success("within {tol:cm}", {}, "row X")
+    with pytest.raises(CatalogError, match="unknown unit"):
+        render_success("within {tol:furlong}", dict(tol=1))

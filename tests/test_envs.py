@@ -92,6 +92,7 @@ def test_state_round_trip_after_50_steps(state_env):
     assert not torch.allclose(flat(base.get_obs()), saved_obs, atol=1e-3)  # the state really moved on
     base.set_state(saved)
     assert torch.allclose(flat(base.get_obs()), saved_obs, atol=1e-5)
+    assert torch.allclose(base.get_state(), saved, atol=1e-6)  # episode memory and clay fields included
     # the same actions from the restored state give the same obs, every time it is restored. (Compared
     # with the run that went on live, restored runs drift where the robot was touching something: PhysX
     # contact warm-start caches are not part of the state; measured up to 1 rad/s on a finger pressing
@@ -113,6 +114,26 @@ def test_state_round_trip_after_50_steps(state_env):
         base.set_state(saved)
         again = [flat(state_env.step(a)[0]) for a in actions[50:55]]
     assert max(float((x - y).abs().max()) for x, y in zip(again, first)) < 1e-5
+
+
+def test_no_success_at_reset_holding_still_or_acting_randomly(state_env):
+    """A rule met without doing the task measures nothing: never success at reset, while the robot holds
+    its pose (30 steps) or under uniform random actions (60 steps), on a few seeds."""
+    from maniladder_ms.agents.helpers import hold_action
+
+    base = state_env.unwrapped
+    for seed in (0, 1):
+        _, info = state_env.reset(seed=seed)
+        assert not info["success"].any(), f"success at reset (seed {seed})"
+        for t in range(30):
+            info = state_env.step(hold_action(base.agent))[-1]
+            assert not info["success"].any(), f"success holding still (seed {seed}, step {t})"
+    rng = np.random.default_rng(0)
+    for seed in (2, 3):
+        state_env.reset(seed=seed)
+        for t in range(60):
+            info = state_env.step(rng.uniform(-1, 1, state_env.action_space.shape).astype(np.float32))[-1]
+            assert not info["success"].any(), f"success under random actions (seed {seed}, step {t})"
 
 
 @pytest.mark.parametrize("reward_mode", ["sparse", "dense", "normalized_dense"])

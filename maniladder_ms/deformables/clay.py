@@ -171,10 +171,9 @@ class ClayEnvMixin:
 
     - plasticity: every clay body `relax()`es after each control step;
     - state: each body's rest offsets (`<name>_rest`) and start positions (`<name>_start`, what its
-      task measures against) are in `get_state_dict` and set back by `set_state_dict`, so recorded demos
-      and replays from env states keep the clay's plastic shape and reference. ManiSkill's flat
-      `set_state` reads only actors and articulations: here it also takes these back from the end of
-      the vector, where `get_state` (the flattened state dict) puts them.
+      task measures against) are extra state fields of the base env (`_extra_state_fields`: in
+      `get_state_dict`, set back by `set_state_dict` and the flat `set_state`), so recorded demos and
+      replays from env states keep the clay's plastic shape and reference.
     """
 
     # PhysX keeps contact caches outside the env state. With the clay's hundreds of persistent contacts
@@ -204,41 +203,17 @@ class ClayEnvMixin:
         origin = torch.stack([uniform(x), uniform(y), torch.full((b,), self.clay_config.radius, device=device)], dim=1)
         self.clay.reset(env_idx, origin, yaw=uniform(yaw), scale=uniform(scale))
 
-    def _clay_state_fields(self):
-        """(key, current value [B, k], setter(value, env_idx)) of every clay state field, in state order."""
+    def _extra_state_fields(self):
+        """The base env's fields (episode memory), then each clay body's rest offsets and start positions."""
+        yield from super()._extra_state_fields()
         for body in self.clay_bodies():
             yield f"{body.name}_rest", body.state(), body.set_state
             yield f"{body.name}_start", body.start.flatten(1).clone(), body.set_start
 
     def _after_control_step(self):
-        super()._after_control_step()
         for body in self.clay_bodies():
             body.relax()
-
-    def get_state_dict(self):
-        state = super().get_state_dict()
-        for key, value, _ in self._clay_state_fields():
-            state[key] = value
-        return state
-
-    def set_state_dict(self, state: dict, env_idx: torch.Tensor = None):
-        super().set_state_dict(state, env_idx)
-        idx = torch.arange(self.num_envs, device=self.device) if env_idx is None else env_idx
-        for key, _, setter in self._clay_state_fields():
-            if key in state:
-                setter(state[key], idx)
-
-    def set_state(self, state: torch.Tensor, env_idx: torch.Tensor = None):
-        super().set_state(state, env_idx)
-        state = torch.as_tensor(state)
-        if state.shape[-1] != self.get_state().shape[-1]:
-            return  # not a full flat state of this env: no clay fields in it
-        idx = torch.arange(self.num_envs, device=self.device) if env_idx is None else env_idx
-        fields = list(self._clay_state_fields())
-        start = state.shape[-1] - sum(value.shape[1] for _, value, _ in fields)
-        for _, value, setter in fields:
-            setter(state[..., start:start + value.shape[1]], idx)
-            start += value.shape[1]
+        super()._after_control_step()  # the episode memory sees the relaxed clay
 
 
 def build_clay(scene: ManiSkillScene, name: str, layout: np.ndarray, config: ClayConfig = ClayConfig()) -> Clay:

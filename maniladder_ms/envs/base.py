@@ -5,6 +5,15 @@ domain randomisation), the camera rig (front, left and top third-view cameras pl
 wrist cameras), robot placement and rest pose, supported-robot checks and the render-backend choice.
 Tasks add their objects in `_load_scene`, randomise them in `_initialize_episode` (after calling
 super), and define `evaluate` and the dense rewards, as ManiSkill tasks do.
+
+What every task's rule, reward and solver use:
+- `self.params`: the task's numbers (sizes, tolerances, counts) from its catalog row's `params`, also set as
+  attributes (`self.margin`); a family class lists the names it reads in `PARAMS`, one class serving every
+  catalog row of its family;
+- `self.ee`: the end-effector vocabulary (`agents.effectors.EndEffectors`: `sides`, `tcp(side)`,
+  `holds(obj, side)`, `touches(obj, side)`, `is_open(side)`), the same for all five agents;
+- `self.memory`: episode memory (`envs.memory.EpisodeMemory`: latched flags, counters, stored values),
+  updated in `_update_memory` after every control step and part of the env state.
 """
 
 from __future__ import annotations
@@ -21,8 +30,10 @@ from mani_skill.envs.sapien_env import BaseEnv
 from mani_skill.sensors.camera import CameraConfig
 from mani_skill.utils import sapien_utils
 
-from maniladder_ms.catalog import TaskSpec, default_catalog
+from maniladder_ms.agents.effectors import EndEffectors
+from maniladder_ms.catalog import CatalogError, TaskSpec, default_catalog
 
+from .memory import EpisodeMemory
 from .scene import LadderScene
 
 ROBOT_BASE_POSE = sapien.Pose(p=[-0.615, 0, 0])
@@ -85,6 +96,8 @@ class ManiLadderEnv(BaseEnv):
     # turned far from the rest pose starts them ready (servoing a ~180 deg wrist turn from rest lands the
     # IK on a wrong branch on some seeds)
     READY_JOINTS: ClassVar[dict[str, float]] = {}
+    # the names of the catalog `params` a task (family) class reads: its catalog row must give exactly these
+    PARAMS: ClassVar[tuple[str, ...]] = ()
 
     def __init__(
         self,
@@ -97,6 +110,7 @@ class ManiLadderEnv(BaseEnv):
         **kwargs,
     ):
         self.task_spec = None if task_id is None else default_catalog().get(task_id)
+        self.params = self._read_params()
         robot_uids = self.SUPPORTED_ROBOTS[0] if robot_uids is None else robot_uids
         if robot_uids not in self.SUPPORTED_ROBOTS:
             raise UnsupportedRobotError(
@@ -108,6 +122,19 @@ class ManiLadderEnv(BaseEnv):
             kwargs.setdefault("reconfiguration_freq", 1)
         render_backend = resolve_render_backend(render_backend, kwargs.get("obs_mode"), kwargs.get("render_mode"))
         super().__init__(*args, robot_uids=robot_uids, render_backend=render_backend, **kwargs)
+
+    def _read_params(self) -> dict:
+        """The catalog row's `params`, checked against the class's `PARAMS`, set as attributes."""
+        params = {} if self.task_spec is None else dict(self.task_spec.params)
+        if self.task_spec is not None and set(params) != set(self.PARAMS):
+            missing, unknown = sorted(set(self.PARAMS) - set(params)), sorted(set(params) - set(self.PARAMS))
+            raise CatalogError(
+                f"catalog row {self.task_spec.id}: params must be exactly what {type(self).__name__} reads "
+                f"(missing: {missing or 'none'}; not read by the class: {unknown or 'none'})"
+            )
+        for name, value in params.items():
+            setattr(self, name, tuple(value) if isinstance(value, list) else value)
+        return params
 
     # ---- cameras ------------------------------------------------------------------------------
     @property
@@ -135,6 +162,9 @@ class ManiLadderEnv(BaseEnv):
     def _load_scene(self, options: dict):
         self.ladder_scene = LadderScene(self, randomize=self.domain_randomization)
         self.ladder_scene.build()
+        self.ee = EndEffectors(self.agent, self.scene)
+        # tasks declare their fields after calling super()._load_scene
+        self.memory = EpisodeMemory(self.num_envs, self.device)
 
     def _load_lighting(self, options: dict):
         self.ladder_scene.load_lighting()
@@ -153,6 +183,48 @@ class ManiLadderEnv(BaseEnv):
             self.agent.reset(qpos)
             self.agent.robot.set_pose(ROBOT_BASE_POSE)
             self.ladder_scene.initialize(env_idx, keep_out=self.TASK_REGION)
+            self.memory.reset(env_idx)
+
+    # ---- episode memory and state -----------------------------------------------------------------
+    def _update_memory(self):
+        """Update `self.memory` from the scene; called once after every control step. Tasks whose rule
+        reads history override it (`self.memory.latch(...)`, `count`, `store`)."""
+
+    def _after_control_step(self):
+        super()._after_control_step()
+        self._update_memory()
+
+    def _extra_state_fields(self):
+        """(key, value (num_envs, k), setter(value, env_idx)) of state kept outside PhysX, in state order:
+        the episode memory here; subclasses (clay) add theirs after calling super."""
+        yield from self.memory.state_fields()
+
+    def get_state_dict(self):
+        state = super().get_state_dict()
+        for key, value, _ in self._extra_state_fields():
+            state[key] = value
+        return state
+
+    def set_state_dict(self, state: dict, env_idx: torch.Tensor = None):
+        super().set_state_dict(state, env_idx)
+        idx = torch.arange(self.num_envs, device=self.device) if env_idx is None else env_idx
+        for key, _, setter in self._extra_state_fields():
+            if key in state:  # states recorded before a field existed leave it as it is
+                setter(state[key], idx)
+
+    def set_state(self, state: torch.Tensor, env_idx: torch.Tensor = None):
+        """ManiSkill's flat `set_state` reads only actors and articulations: the extra fields are taken back
+        from the end of the vector, where `get_state` (the flattened state dict) puts them."""
+        super().set_state(state, env_idx)
+        fields = list(self._extra_state_fields())
+        state = torch.as_tensor(state)
+        if not fields or state.shape[-1] != self.get_state().shape[-1]:
+            return  # no extra fields, or not a full flat state of this env
+        idx = torch.arange(self.num_envs, device=self.device) if env_idx is None else env_idx
+        start = state.shape[-1] - sum(value.shape[1] for _, value, _ in fields)
+        for _, value, setter in fields:
+            setter(state[..., start:start + value.shape[1]], idx)
+            start += value.shape[1]
 
     # ---- reward -------------------------------------------------------------------------------
     def compute_normalized_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):

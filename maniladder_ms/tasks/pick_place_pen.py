@@ -21,26 +21,22 @@ class PickPlacePenEnv(ManiLadderEnv):
     """**Task:** pick up a pen lying on the table and put it down inside an open tray.
 
     **Randomisation:**
-    - the pen (14 cm long, 1.6 cm diameter) lies flat with a uniform random yaw, its centre uniform in
+    - the pen (`pen_length` long, 2 x `pen_radius` thick) lies flat with a uniform random yaw, its centre uniform in
       x in [-0.12, 0.08], |y| in [0.06, 0.2] on a random side of the robot's centre line;
-    - the tray (inner 22 x 11 cm, walls 3 cm high) stands on the other side, centre x in [-0.1, 0.1],
+    - the tray (inner 2 x `tray_inner_half`, walls `tray_wall_height` high) stands on the other side, centre x in [-0.1, 0.1],
       |y| in [0.1, 0.2], yaw uniform in [-pi/4, pi/4].
 
     **Success:** the pen centre, in the tray's frame, lies inside the tray's inner footprint shrunk by
-    `margin` = 2 cm on every side; the pen centre is below the rim (top of the walls); and the gripper
-    has released it (not grasping it).
+    `margin` on every side; the pen centre is below the rim (top of the walls); and the gripper does not
+    hold it (`ee.holds`).
     """
 
     max_dense_reward = 6
 
     TASK_REGION = (-0.25, 0.2, -0.32, 0.32)
-    pen_length = 0.14
-    pen_radius = 0.008
-    tray_inner_half = (0.11, 0.055)
-    tray_wall_height = 0.03
+    PARAMS = ("pen_length", "pen_radius", "tray_inner_half", "tray_wall_height", "margin")
     tray_wall_thickness = 0.008
     tray_base_thickness = 0.006
-    margin = 0.02
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -71,12 +67,12 @@ class PickPlacePenEnv(ManiLadderEnv):
         return (self.tray.pose.inv() * self.pen.pose).p
 
     def _get_obs_extra(self, info: dict):
-        obs = dict(tcp_pose=self.agent.tcp_pose.raw_pose, is_grasped=info["is_grasped"])
+        obs = dict(tcp_pose=self.ee.tcp().raw_pose, is_grasped=info["is_grasped"])
         if "state" in self.obs_mode:
             obs.update(
                 pen_pose=self.pen.pose.raw_pose,
                 tray_pose=self.tray.pose.raw_pose,
-                tcp_to_pen_pos=self.pen.pose.p - self.agent.tcp_pose.p,
+                tcp_to_pen_pos=self.pen.pose.p - self.ee.tcp().p,
                 pen_to_tray_pos=self.tray.pose.p - self.pen.pose.p,
             )
         return obs
@@ -86,7 +82,7 @@ class PickPlacePenEnv(ManiLadderEnv):
         limit = torch.tensor(self.tray_inner_half, device=self.device) - self.margin
         is_over_tray = (local[:, :2].abs() <= limit).all(dim=1)
         is_below_rim = local[:, 2] < self.tray_wall_height
-        is_grasped = self.agent.is_grasping(self.pen)
+        is_grasped = self.ee.holds(self.pen)
         is_placed = is_over_tray & is_below_rim
         return {
             "success": is_placed & ~is_grasped,
@@ -97,7 +93,7 @@ class PickPlacePenEnv(ManiLadderEnv):
         }
 
     def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
-        tcp_to_pen = torch.linalg.norm(self.pen.pose.p - self.agent.tcp_pose.p, dim=1)
+        tcp_to_pen = torch.linalg.norm(self.pen.pose.p - self.ee.tcp().p, dim=1)
         reward = 1 - torch.tanh(5 * tcp_to_pen)
         is_grasped = info["is_grasped"]
         reward += is_grasped

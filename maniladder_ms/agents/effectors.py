@@ -1,0 +1,221 @@
+"""One end-effector vocabulary for every ManiLadder agent: what a task's rule, reward and solver ask of
+the robot's hands, whatever the embodiment (robosuite's `_check_grasp(gripper, obj)`, for five agents).
+
+`EndEffectors(agent, scene)` (a task has it as `self.ee`) names the agent's end effectors, `sides`:
+("left", "right") for the two-arm agents, ("main",) for the single-arm ones. Per side:
+
+- `tcp(side)`: the TCP pose (batched `Pose`);
+- `holds(obj, side)`: the object is held: a gripper's two fingers press on it from opposite sides
+  (>= `GRIPPER_HOLD_FORCE`, ManiSkill's Panda check); a LEAP hand pinches it between a finger and the
+  thumb or palm, or between the index and middle fingers (the "scissor" pinch of ropes and cloth),
+  each link >= `LEAP_CONTACT_FORCE`;
+- `touches(obj, side)`: any link of the end effector (gripper hand and fingers; LEAP palm, fingers,
+  thumb) presses on it (>= `TOUCH_FORCE`);
+- `is_open(side)`: a gripper's fingers are apart by more than `GRIPPER_OPEN_FRACTION` of their range;
+  a LEAP hand is flat (every hand joint within `LEAP_OPEN_TOLERANCE` of 0, the "open" synergy).
+
+`obj` is anything with contacts: a rigid actor, an articulation link (a rope segment, a lid), a cloth
+particle, or a list of them (held / touched if any is). `side=None` asks "any end effector" for `holds`
+/ `touches` / `is_open` (all of them for `is_open`) and "the only one" for `tcp`. All answers are
+(num_envs,) bool tensors, batched over sub-scenes.
+"""
+
+from __future__ import annotations
+
+from typing import Optional, Sequence
+
+import torch
+
+from mani_skill.utils import common, sapien_utils
+
+SINGLE = "main"  # the side name of a single-arm agent's one end effector
+TOUCH_FORCE = 0.05  # N: a link presses on an object above this (LEAP's contact threshold)
+LEAP_CONTACT_FORCE = 0.05  # N: each side of a LEAP pinch presses at least this
+GRIPPER_HOLD_FORCE = 0.5  # N: each finger of a gripper hold (ManiSkill's Panda.is_grasping)
+GRIPPER_HOLD_ANGLE = 85.0  # deg: a finger's force at most this far from its closing direction (ManiSkill's)
+GRIPPER_OPEN_FRACTION = 0.8  # of the finger travel (0.04 m each)
+GRIPPER_MAX_OPENING = 0.04  # m per finger (the Panda's)
+LEAP_OPEN_TOLERANCE = 0.35  # rad
+
+LEAP_FINGERS = ("index", "middle", "ring")
+LEAP_FINGER_LINKS = tuple(f"leap_{f}_{s}" for f in LEAP_FINGERS for s in ("pip", "dip", "tip"))
+LEAP_THUMB_LINKS = ("leap_thumb_pip", "leap_thumb_dip", "leap_thumb_tip")
+LEAP_PALM_LINKS = ("leap_palm",)
+LEAP_SCISSOR_LINKS = {"index": ("leap_index_dip", "leap_index_tip"), "middle": ("leap_middle_dip", "leap_middle_tip")}
+GRIPPER_FINGER_LINKS = ("panda_leftfinger", "panda_rightfinger")
+GRIPPER_HAND_LINKS = ("panda_hand",)
+
+
+def contact_forces(scene, obj, links) -> torch.Tensor:
+    """(len(links), num_envs, 3) contact forces ON each of `links` FROM `obj` (what ManiSkill's
+    `scene.get_pairwise_contact_forces(link, obj)` gives). On the CPU that query lists every contact of the
+    scene for each pair (a LEAP hand's 13 links over 455 contacts with 60 grains in a glass: an evaluate took
+    as long as the step); here one pass over the contacts serves all links."""
+    if scene.gpu_sim_enabled:
+        return torch.stack([scene.get_pairwise_contact_forces(link, obj) for link in links])
+    entities = [link._bodies[0].entity for link in links]
+    by_link = sapien_utils.get_multiple_pairwise_contacts(scene.px.get_contacts(), obj._bodies[0].entity, entities)
+    # compute_total_impulse gives the impulse on the first entity of the query, `obj`: negate for the link's
+    impulses = [-common.to_tensor(sapien_utils.compute_total_impulse(by_link[e]))[None, :] for e in entities]
+    return torch.stack([impulse / scene.px.timestep for impulse in impulses]).float()
+
+
+def link_forces(scene, obj, links) -> torch.Tensor:
+    """(len(links), num_envs) magnitudes of `contact_forces`."""
+    return contact_forces(scene, obj, links).norm(dim=-1)
+
+
+def _as_list(obj) -> list:
+    return list(obj) if isinstance(obj, (list, tuple)) else [obj]
+
+
+class _Effector:
+    """One end effector (a gripper or a LEAP hand) of an agent; `prefix` "" / "left_" / "right_"."""
+
+    kind: str
+
+    def __init__(self, agent, prefix: str, tcp_link):
+        self.agent, self.prefix, self.tcp_link = agent, prefix, tcp_link
+
+    def link(self, name: str):
+        return self.agent.robot.links_map[self.prefix + name]
+
+    def holds(self, scene, obj) -> torch.Tensor:
+        return self._any(obj, lambda o: self._holds_one(scene, o))
+
+    def touches(self, scene, obj) -> torch.Tensor:
+        return self._any(obj, lambda o: (link_forces(scene, o, self.all_links) >= TOUCH_FORCE).any(dim=0))
+
+    @staticmethod
+    def _any(obj, fn) -> torch.Tensor:
+        out = None
+        for o in _as_list(obj):
+            flag = fn(o)
+            out = flag if out is None else out | flag
+        return out
+
+
+class Gripper(_Effector):
+    kind = "gripper"
+
+    def __init__(self, agent, prefix: str, tcp_link):
+        super().__init__(agent, prefix, tcp_link)
+        self.fingers = [self.link(n) for n in GRIPPER_FINGER_LINKS]
+        self.all_links = [self.link(n) for n in GRIPPER_HAND_LINKS] + self.fingers
+        joints = [j.name for j in agent.robot.get_active_joints()]
+        self.finger_joints = [joints.index(prefix + f"panda_finger_joint{i}") for i in (1, 2)]
+
+    def _holds_one(self, scene, obj) -> torch.Tensor:
+        forces = contact_forces(scene, obj, self.fingers)
+        flags = []
+        for finger, force, sign in zip(self.fingers, forces, (1, -1)):
+            opening = sign * finger.pose.to_transformation_matrix()[..., :3, 1]  # the direction it opens
+            angle = torch.rad2deg(common.compute_angle_between(opening, force))
+            flags.append((force.norm(dim=1) >= GRIPPER_HOLD_FORCE) & (angle <= GRIPPER_HOLD_ANGLE))
+        return flags[0] & flags[1]
+
+    def is_open(self) -> torch.Tensor:
+        q = self.agent.robot.get_qpos()[:, self.finger_joints]
+        return (q >= GRIPPER_OPEN_FRACTION * GRIPPER_MAX_OPENING).all(dim=1)
+
+
+class LeapHand(_Effector):
+    kind = "leap"
+
+    def __init__(self, agent, prefix: str, tcp_link):
+        super().__init__(agent, prefix, tcp_link)
+        self.fingers = [self.link(n) for n in LEAP_FINGER_LINKS]
+        self.thumb_palm = [self.link(n) for n in LEAP_THUMB_LINKS + LEAP_PALM_LINKS]
+        self.all_links = self.fingers + self.thumb_palm
+        index = [LEAP_FINGER_LINKS.index(n) for n in LEAP_SCISSOR_LINKS["index"]]
+        middle = [LEAP_FINGER_LINKS.index(n) for n in LEAP_SCISSOR_LINKS["middle"]]
+        self._scissor = (index, middle)
+        joints = [j.name for j in agent.robot.get_active_joints()]
+        self.hand_joints = [joints.index(prefix + f"leap_j{i}") for i in range(16)]
+
+    def _pressing(self, scene, obj) -> torch.Tensor:
+        """(13, num_envs) bool: fingers (9), then thumb (3) and palm, each pressing on `obj`."""
+        return link_forces(scene, obj, self.all_links) >= LEAP_CONTACT_FORCE
+
+    def _holds_one(self, scene, obj) -> torch.Tensor:
+        return self.grip_kinds(scene, obj).any(dim=0)
+
+    def grip_kinds(self, scene, obj) -> torch.Tensor:
+        """(2, num_envs) bool: [a finger against the thumb or palm (power / pinch grasps), the index against
+        the middle finger (scissor pinch)]."""
+        pressing = self._pressing(scene, obj)
+        n = len(self.fingers)
+        fingers, thumb_palm = pressing[:n], pressing[n:]
+        index, middle = self._scissor
+        grasp = fingers.any(dim=0) & thumb_palm.any(dim=0)
+        scissor = pressing[index].any(dim=0) & pressing[middle].any(dim=0)
+        return torch.stack([grasp, scissor])
+
+    def is_open(self) -> torch.Tensor:
+        q = self.agent.robot.get_qpos()[:, self.hand_joints]
+        return (q.abs() <= LEAP_OPEN_TOLERANCE).all(dim=1)
+
+
+class EndEffectors:
+    """The end effectors of `agent` by side (see the module docstring)."""
+
+    def __init__(self, agent, scene):
+        self.agent, self.scene = agent, scene
+        links = agent.robot.links_map
+        if "left_leap_tcp" in links or "left_panda_hand_tcp" in links:
+            prefixes = {"left": "left_", "right": "right_"}
+        else:
+            prefixes = {SINGLE: ""}
+        self._by_side = {}
+        for side, prefix in prefixes.items():
+            if prefix + "leap_tcp" in links:
+                self._by_side[side] = LeapHand(agent, prefix, links[prefix + "leap_tcp"])
+            elif prefix + "panda_hand_tcp" in links:
+                self._by_side[side] = Gripper(agent, prefix, links[prefix + "panda_hand_tcp"])
+            else:
+                raise ValueError(f"agent {agent.uid!r}: no known end effector (gripper or LEAP hand) for side {side!r}")
+        self.sides: tuple[str, ...] = tuple(self._by_side)
+
+    def __getitem__(self, side: str) -> _Effector:
+        if side not in self._by_side:
+            raise KeyError(f"{self.agent.uid} has no end effector {side!r}; its end effectors: {', '.join(self.sides)}")
+        return self._by_side[side]
+
+    @property
+    def kind(self) -> str:
+        """"gripper" or "leap" (every agent has one kind on all its sides)."""
+        return self[self.sides[0]].kind
+
+    def _side(self, side: Optional[str]) -> str:
+        if side is None:
+            if len(self.sides) > 1:
+                raise ValueError(f"{self.agent.uid} has end effectors {self.sides}: name one")
+            return self.sides[0]
+        return side
+
+    def tcp_link(self, side: Optional[str] = None):
+        return self[self._side(side)].tcp_link
+
+    def tcp(self, side: Optional[str] = None):
+        """Batched world pose of a TCP (`side` None: the only one)."""
+        return self.tcp_link(side).pose
+
+    def _each(self, side: Optional[str], fn, reduce=torch.Tensor.__or__) -> torch.Tensor:
+        sides: Sequence[str] = self.sides if side is None else (side,)
+        out = None
+        for s in sides:
+            flag = fn(self[s])
+            out = flag if out is None else reduce(out, flag)
+        return out
+
+    def holds(self, obj, side: Optional[str] = None) -> torch.Tensor:
+        """(num_envs,) bool: `obj` (or any of a list) is held by `side` (None: by any end effector)."""
+        return self._each(side, lambda e: e.holds(self.scene, obj))
+
+    def touches(self, obj, side: Optional[str] = None) -> torch.Tensor:
+        """(num_envs,) bool: `side` (None: any end effector) presses on `obj` (or any of a list)."""
+        return self._each(side, lambda e: e.touches(self.scene, obj))
+
+    def is_open(self, side: Optional[str] = None) -> torch.Tensor:
+        """(num_envs,) bool: `side` is open (None: every end effector is)."""
+        return self._each(side, lambda e: e.is_open(), reduce=torch.Tensor.__and__)
