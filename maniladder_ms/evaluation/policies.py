@@ -91,9 +91,9 @@ class SolverPolicy:
     obs_mode = "none"
 
     def supports(self, spec: TaskSpec):
-        from maniladder_ms.solvers import SOLVERS
+        from maniladder_ms.solvers import find_solver
 
-        return True if spec.id in SOLVERS else f"no scripted solver registered for {spec.id}"
+        return True if find_solver(spec.id) is not None else f"no scripted solver registered for {spec.id}"
 
     def env_kwargs(self, spec: TaskSpec) -> dict:
         from maniladder_ms.solvers import solver_for
@@ -283,10 +283,11 @@ def policy_label(spec: str) -> str:
 
 
 def _solver_control_mode(env_id: str) -> Optional[str]:
-    from maniladder_ms.solvers import SOLVERS
+    from maniladder_ms.solvers import find_solver
 
     spec = next((t for t in default_catalog() if t.env_id == env_id), None)
-    return SOLVERS[spec.id].control_mode if spec is not None and spec.id in SOLVERS else None
+    solver = find_solver(spec.id) if spec is not None else None
+    return solver.control_mode if solver is not None else None
 
 
 def policy_env_kwargs(policy, spec: TaskSpec, obs_mode: str) -> dict:

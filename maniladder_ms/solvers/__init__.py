@@ -50,10 +50,20 @@ def register_solver(*task_ids: str, control_modes: tuple[str, ...] = JOINT_TARGE
     return decorate
 
 
-def solver_for(task_id: str) -> Solver:
+def find_solver(task_id: str) -> Solver | None:
+    """The task's solver, importing the task's module first (solvers register there); None if it has none."""
     if task_id not in SOLVERS:
+        from maniladder_ms.tasks import load
+
+        load(task_id)
+    return SOLVERS.get(task_id)
+
+
+def solver_for(task_id: str) -> Solver:
+    solver = find_solver(task_id)
+    if solver is None:
         raise KeyError(f"no scripted solver registered for task {task_id}")
-    return SOLVERS[task_id]
+    return solver
 
 
 def solve(env, seed: int) -> dict:

@@ -1,0 +1,83 @@
+"""Lazy task registration: `import maniladder_ms` registers every task without importing its module; the
+module is imported on first use, and a broken one breaks only its own tasks."""
+
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import gymnasium as gym
+from mani_skill.utils.registration import REGISTERED_ENVS
+
+import maniladder_ms
+from maniladder_ms import tasks
+from maniladder_ms.envs.registration import UNSCANNED, LazyEnvSpec
+from maniladder_ms.solvers import SOLVERS
+
+PACKAGE = Path(maniladder_ms.__file__).resolve().parent
+
+
+def run_python(code: str, path: Path = PACKAGE.parent) -> str:
+    env = {**os.environ, "PYTHONPATH": str(path)}
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, env=env,
+                            cwd=path)
+    assert result.returncode == 0, result.stderr[-3000:]
+    return result.stdout
+
+
+def test_import_registers_every_task_without_importing_task_modules():
+    out = run_python(
+        "import sys, maniladder_ms\n"
+        "from mani_skill.utils.registration import REGISTERED_ENVS\n"
+        "print(sorted(m for m in sys.modules if m.startswith('maniladder_ms.tasks.')))\n"
+        "print(sum(t.env_id in REGISTERED_ENVS for t in maniladder_ms.default_catalog()))\n"
+    )
+    imported, registered = out.splitlines()
+    assert imported == "[]"
+    assert int(registered) == len(tasks.FILES)
+
+
+def test_registry_is_complete_and_every_module_registers_what_the_scan_found():
+    assert not tasks.CONFLICTS and not tasks.ERRORS
+    catalog = maniladder_ms.default_catalog()
+    implemented = {t.id for t in catalog.filter(implemented=True)}
+    assert implemented == set(tasks.FILES)
+    tasks.load_all()
+    assert not UNSCANNED, f"registered by import only (write @register_task('<Id>') at a line start): {UNSCANNED}"
+    for task_id, file_name in tasks.FILES.items():
+        spec = REGISTERED_ENVS[catalog.get(task_id).env_id]
+        assert isinstance(spec, LazyEnvSpec)
+        assert spec.cls.__module__ == f"maniladder_ms.tasks.{file_name[:-3]}"
+        assert gym.spec(spec.uid).kwargs == spec.default_kwargs
+        assert task_id in SOLVERS, f"{task_id} has no solver in {file_name}"
+
+
+def test_a_broken_task_module_breaks_only_its_task(tmp_path):
+    """A copy of the package with one more task module that raises: the package imports, the broken task
+    is listed, making it names the file, and the other tasks still load."""
+    copy = tmp_path / "maniladder_ms"
+    shutil.copytree(PACKAGE, copy, symlinks=True, ignore=shutil.ignore_patterns("__pycache__"))
+    (copy / "data" / "agents").unlink()
+    (copy / "data" / "agents").symlink_to((PACKAGE / "data" / "agents").resolve())
+    (copy / "tasks" / "flip_pancake.py").write_text(
+        'from maniladder_ms.envs import register_task\n\nraise RuntimeError("half-written")\n\n\n'
+        '@register_task("FlipPancake")\nclass FlipPancakeEnv:\n    pass\n'
+    )
+    out = run_python(
+        "import maniladder_ms\n"
+        "from maniladder_ms.envs.registration import TaskImportError\n"
+        "from mani_skill.utils.registration import REGISTERED_ENVS\n"
+        "print(maniladder_ms.default_catalog().get('FlipPancake').implemented)\n"
+        "try:\n"
+        "    maniladder_ms.make('FlipPancake')\n"
+        "except TaskImportError as e:\n"
+        "    print(e)\n"
+        "print(REGISTERED_ENVS['ManiLadder-PickPlacePen-v1'].cls.__name__)\n",
+        path=tmp_path,
+    )
+    listed, error, other = out.splitlines()
+    assert listed == "True"
+    assert error == ("task FlipPancake: importing maniladder_ms/tasks/flip_pancake.py failed: "
+                     "RuntimeError: half-written")
+    assert other == "PickPlacePenEnv"
