@@ -312,4 +312,7 @@ def load_catalog(path: Optional[str | Path] = None) -> Catalog:
 @lru_cache(maxsize=1)
 def default_catalog() -> Catalog:
     text = resources.files("maniladder_ms").joinpath("data/task_catalog.yaml").read_text()
-    return Catalog(yaml.safe_load(text), source="maniladder_ms/data/task_catalog.yaml")
+    # libyaml's parser where PyYAML has it: the same data, ~10x faster than the pure-Python one (0.06 s
+    # against 0.6 s at 112 rows), and `import maniladder_ms` loads the catalog to register the tasks
+    return Catalog(yaml.load(text, Loader=getattr(yaml, "CSafeLoader", yaml.SafeLoader)),
+                   source="maniladder_ms/data/task_catalog.yaml")
