@@ -7,7 +7,6 @@ grasp, lifts, releases. All targets are world-frame, batched over the env's sub-
 
 from __future__ import annotations
 
-from contextlib import contextmanager
 from typing import Callable
 
 import torch
@@ -16,7 +15,7 @@ from mani_skill.utils.geometry.rotation_conversions import quaternion_apply
 
 from maniladder_ms.agents.helpers import Driver, top_down_quat
 
-from . import EPISODE_RESET_OPTIONS
+from .base import SolverBase
 
 APPROACH_HEIGHT = 0.1  # metres above a grasp where the vertical descent starts
 # where a held rope capsule's centre sits in the tcp frame of a top-down LEAP hand in the "scissor" pinch
@@ -34,19 +33,8 @@ CORNER_OUTSET = 0.005
 SCISSOR_RAMP_STEPS = 20
 
 
-class DrivenSolver(Driver):
-    """`Driver` plus the phases task solvers share; `info` is the last step's info dict."""
-
-    @classmethod
-    @contextmanager
-    def episode(cls, env, seed: int):
-        """Reset `env` with `seed` and yield a solver for it."""
-        env.reset(seed=seed, options=dict(EPISODE_RESET_OPTIONS))
-        yield cls(env)
-
-    @property
-    def info(self) -> dict:
-        return {} if self.last is None else self.last[-1]
+class DrivenSolver(SolverBase, Driver):
+    """`Driver` plus the phases task solvers share (`SolverBase`: `episode`, `info`, `hold_until_success`)."""
 
     def is_leap(self, ee_part: str) -> bool:
         return ee_part.endswith("hand")
@@ -125,15 +113,5 @@ class DrivenSolver(Driver):
                 return
             self.step({arm: (tcp_at(now + lead), q)})
 
-    def hold_until_success(self, max_steps: int = 30, stable_steps: int = 3):
-        """Keep still until the task has reported success `stable_steps` steps in a row (or `max_steps`).
-
-        Ending a demo in a settled success makes it robust for tools that replay it from recorded states
-        (ManiSkill 3.0.1's replay_trajectory --use-env-states scores the last step one state behind).
-        """
-        streak = 0
-        for _ in range(max_steps):
-            streak = streak + 1 if bool(self.info.get("success", torch.zeros(1, dtype=torch.bool)).all()) else 0
-            if streak >= stable_steps:
-                return
-            self.step()
+    def hold_still(self):
+        self.step()

@@ -7,15 +7,14 @@ pick/place phases the task solvers compose. The planner commands joint-position 
 
 from __future__ import annotations
 
-from contextlib import contextmanager
-
 import numpy as np
 import sapien
 
 from mani_skill.examples.motionplanning.panda.motionplanner import PandaArmMotionPlanningSolver
 
-from . import EPISODE_RESET_OPTIONS, PlanningFailed
+from . import PlanningFailed
 from .adapters import JointTargetAdapter
+from .base import SolverBase
 
 # joint speed/acceleration limits for planned paths (rad/s, rad/s^2); the Panda's own are ~2.2 rad/s
 JOINT_VEL_LIMIT = 2.0
@@ -28,7 +27,7 @@ MAX_SETTLE_STEPS = 10
 APPROACH_HEIGHT = 0.08  # metres above a grasp or release pose where the straight descent starts
 
 
-class PandaSolver:
+class PandaSolver(SolverBase):
     """Pick/place primitives for the single-arm Panda; all poses are TCP poses in the world frame."""
 
     def __init__(self, env):
@@ -45,21 +44,9 @@ class PandaSolver:
             joint_acc_limits=JOINT_ACC_LIMIT,
         )
         self.planner.control_mode = "pd_joint_pos"  # what the adapter accepts, whatever the env's mode
-        self.info = {}
 
     def close(self):
         self.planner.close()
-
-    @classmethod
-    @contextmanager
-    def episode(cls, env, seed: int):
-        """Reset `env` with `seed` and yield a solver for it, closing the planner afterwards."""
-        env.reset(seed=seed, options=dict(EPISODE_RESET_OPTIONS))
-        solver = cls(env)
-        try:
-            yield solver
-        finally:
-            solver.close()
 
     def top_down_pose(self, center, yaw: float) -> sapien.Pose:
         """TCP pointing straight down at `center`, fingers closing along the horizontal direction `yaw`."""
@@ -83,7 +70,7 @@ class PandaSolver:
         for k in range(1, steps + 1):
             goal = start.copy()
             goal[6] += angle * k / steps
-            self.info = self.planner.follow_path({"position": goal[None]})[-1]
+            self.last = self.planner.follow_path({"position": goal[None]})
 
     def straight_line_yaw(self, center, yaws) -> float:
         """The first of the equivalent `yaws` whose top-down pose at `center` is reachable by a straight
@@ -111,31 +98,20 @@ class PandaSolver:
             plan = self.planner.move_to_pose_with_RRTConnect(pose, dry_run=True)
         if plan == -1:
             raise PlanningFailed(f"no path to {pose}")
-        self.info = self.planner.follow_path(plan)[-1]
+        self.last = self.planner.follow_path(plan)
         goal = plan["position"][-1]
         arm = self.env.unwrapped.agent.robot
         for step in range(MAX_SETTLE_STEPS):
             error = np.abs(arm.get_qpos()[0, : len(goal)].cpu().numpy() - goal).max()
             if step >= settle_steps and error < SETTLE_TOLERANCE:
                 break
-            self.info = self.planner.follow_path({"position": goal[None]})[-1]
+            self.last = self.planner.follow_path({"position": goal[None]})
 
     def grip(self, closed: bool, steps: int = 6):
-        result = self.planner.close_gripper(t=steps) if closed else self.planner.open_gripper(t=steps)
-        self.info = result[-1]
+        self.last = self.planner.close_gripper(t=steps) if closed else self.planner.open_gripper(t=steps)
 
-    def hold_until_success(self, max_steps: int = 30, stable_steps: int = 3):
-        """Keep still until the task has reported success `stable_steps` steps in a row (or `max_steps`).
-
-        Ending a demo in a settled success makes it robust for tools that replay it from recorded states
-        (ManiSkill 3.0.1's replay_trajectory --use-env-states scores the last step one state behind).
-        """
-        streak = 0
-        for _ in range(max_steps):
-            streak = streak + 1 if bool(self.info.get("success", False)) else 0
-            if streak >= stable_steps:
-                return
-            self.grip(closed=self.planner.gripper_state == self.planner.CLOSED, steps=1)
+    def hold_still(self):
+        self.grip(closed=self.planner.gripper_state == self.planner.CLOSED, steps=1)
 
     def pick(self, grasp: sapien.Pose, approach_height: float = APPROACH_HEIGHT, lift_height: float = 0.1,
              approach_from=None):
