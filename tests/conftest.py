@@ -1,8 +1,110 @@
+"""Shared fixtures, and the task sample CI runs the expensive per-task checks on (docs/building-a-task.md,
+"CI budget").
+
+Cheap contract checks (make, reset, step, metadata, no success at reset) run on every implemented task.
+Expensive ones (solver run, demo record + verify, rgb obs, state round trip, committed-sample replay) take
+their tasks from `sampled_tasks()`: the tasks whose files the branch changes, plus `SAMPLE_SIZE` tasks that
+change with the commit (ranked by a hash of `git rev-parse HEAD` and the task id, picked so the first few
+cover every embodiment and object class); the rest are marked `slow`, so `pytest -m slow` sweeps them all.
+`MANILADDER_TEST_TASKS=all` (or a comma-separated list of task ids) overrides the sample.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import subprocess
+from functools import lru_cache
+from pathlib import Path
+
 import pytest
 
 import maniladder_ms
+
+REPO = Path(__file__).resolve().parents[1]
+SAMPLE_SIZE = 8  # tasks a commit checks expensively, besides the ones it changes
+TASKS_ENV = "MANILADDER_TEST_TASKS"
 
 
 @pytest.fixture(scope="session")
 def catalog():
     return maniladder_ms.default_catalog()
+
+
+def _git(*args: str) -> str:
+    try:
+        out = subprocess.run(["git", *args], cwd=REPO, capture_output=True, text=True, timeout=30)
+    except (OSError, subprocess.TimeoutExpired):
+        return ""
+    return out.stdout.strip() if out.returncode == 0 else ""
+
+
+@lru_cache(maxsize=1)
+def commit() -> str:
+    """The commit the sample is drawn for ("" outside a git checkout: a fixed sample)."""
+    return _git("rev-parse", "HEAD")
+
+
+@lru_cache(maxsize=1)
+def changed_tasks() -> tuple[str, ...]:
+    """Implemented tasks whose module or committed demos differ from the merge base with main (committed,
+    uncommitted or untracked); none on main itself or outside a checkout."""
+    from maniladder_ms import tasks
+
+    base = next((b for ref in ("main", "origin/main") if (b := _git("merge-base", "HEAD", ref))), "")
+    if not base:
+        return ()
+    files = _git("diff", "--name-only", base).splitlines()
+    files += _git("ls-files", "--others", "--exclude-standard", "maniladder_ms/tasks", "demos").splitlines()
+    by_file = {f"maniladder_ms/tasks/{name}": task_id for task_id, name in tasks.FILES.items()}
+    implemented = {t.id for t in maniladder_ms.default_catalog().filter(implemented=True)}
+    found = {by_file.get(f) or (f.split("/")[1] if f.startswith("demos/") and f.count("/") >= 2 else None)
+             for f in files}
+    return tuple(sorted(found & implemented))
+
+
+def _rank(task_ids, key: str) -> list[str]:
+    """`task_ids` in the order of the commit's sample: by a hash of `key` and the id, each next task the
+    first in that order to add an embodiment or object class not yet covered (if any does)."""
+    cat = maniladder_ms.default_catalog()
+    order = sorted(task_ids, key=lambda t: hashlib.sha256(f"{key}:{t}".encode()).hexdigest())
+    ranked, embodiments, classes = [], set(), set()
+    while order:
+        def new(t):
+            spec = cat.get(t)
+            return (spec.embodiment not in embodiments) + (spec.object_class not in classes)
+
+        pick = max(order, key=new)  # max keeps the first of equals: the hash order breaks ties
+        order.remove(pick)
+        ranked.append(pick)
+        embodiments.add(cat.get(pick).embodiment)
+        classes.add(cat.get(pick).object_class)
+    return ranked
+
+
+def task_sample(tasks, k: int = SAMPLE_SIZE) -> list[str]:
+    """Which of `tasks` the expensive checks run on in this session (see the module docstring)."""
+    tasks = list(tasks)
+    chosen = os.environ.get(TASKS_ENV, "").strip()
+    if chosen == "all":
+        return tasks
+    if chosen:
+        wanted = {t.strip() for t in chosen.split(",")}
+        return [t for t in tasks if t in wanted]
+    picked = [t for t in changed_tasks() if t in tasks]
+    picked += [t for t in _rank(tasks, commit())[:k] if t not in picked]
+    return picked
+
+
+def sampled_tasks(tasks, k: int = SAMPLE_SIZE) -> list:
+    """`tasks` as pytest params: those in `task_sample(tasks, k)` plain, the others marked slow."""
+    sample = set(task_sample(tasks, k))
+    return [t if t in sample else pytest.param(t, marks=pytest.mark.slow) for t in tasks]
+
+
+def pytest_report_header(config):
+    tasks = [t.id for t in maniladder_ms.default_catalog().filter(implemented=True)]
+    how = (f"{TASKS_ENV}={os.environ[TASKS_ENV]}" if os.environ.get(TASKS_ENV, "").strip()
+           else f"commit {commit()[:12] or '(no git)'}, changed: {', '.join(changed_tasks()) or 'none'}")
+    return [f"maniladder task sample ({how}; {TASKS_ENV}=all for every task): "
+            f"{', '.join(task_sample(tasks))} (of {len(tasks)} tasks)"]

@@ -15,27 +15,14 @@ from maniladder_ms.demos.files import demo_path
 from maniladder_ms.demos.stats import plot_stats
 from maniladder_ms.solvers import solver_for
 
+from conftest import sampled_tasks, task_sample
+
 TASKS = [t.id for t in maniladder_ms.default_catalog().filter(implemented=True)]
-# Recording and verifying 3 demos costs 20-60 s a task: CI records one task per kind of solver, embodiment
-# and deformable (every task's solver still runs in test_l1_solvers and its committed samples replay below);
-# the slow run records all of them
-DEMO_SAMPLE = {
-    "PickPlacePen",  # mplib, single gripper, rigid
-    "LiftBottleHand",  # LEAP hand
-    "HandoverCube",  # two grippers
-    "LiftBasketHands",  # two LEAP hands
-    "DragRopeToGoal",  # rope
-    "FlattenTowelCorner",  # cloth
-    "PokeClayHand",  # clay
-    "PourBeansIntoBowl",  # particles in containers
-}
-# ManiSkill's rgbd conversion renders every step of a demo from all cameras (~30 s a task on CPU)
-RGBD_SAMPLE = {"PickPlacePen", "LiftBottleHand", "HandoverCube", "LiftBasketHands"}
-
-
-def sampled(tasks, sample):
-    """`tasks` as pytest params, those outside `sample` marked slow."""
-    return [t if t in sample else pytest.param(t, marks=pytest.mark.slow) for t in tasks]
+# Recording and verifying 3 demos costs 20-60 s a task, ManiSkill's rgbd conversion (every step of a demo
+# rendered from all cameras) ~30 s: CI records the commit's task sample (tests/conftest.py, which covers
+# every embodiment and object class) and converts the first two of it; the slow run does every task
+DEMO_SAMPLE = task_sample(TASKS)
+RGBD_SAMPLE = 2
 
 
 def own_demo_path(root, task_id):
@@ -62,7 +49,7 @@ def recorded(demo_root):
     return record
 
 
-@pytest.mark.parametrize("task_id", sampled(TASKS, DEMO_SAMPLE))
+@pytest.mark.parametrize("task_id", sampled_tasks(TASKS))
 def test_generated_demos_verify(recorded, task_id):
     path = recorded(task_id)
     meta = json.loads(path.with_suffix(".json").read_text())
@@ -84,7 +71,7 @@ def _replay(path: Path, *args) -> str:
     return result.stdout + result.stderr
 
 
-@pytest.mark.parametrize("task_id", sampled(TASKS, RGBD_SAMPLE))
+@pytest.mark.parametrize("task_id", sampled_tasks(TASKS, RGBD_SAMPLE))
 def test_replay_trajectory_converts_to_rgbd_keeping_success(recorded, task_id):
     path = recorded(task_id)
     out = _replay(path, "--use-env-states", "-o", "rgbd", "--save-traj", "--count", "1")
@@ -149,7 +136,7 @@ def test_stats_table_and_plot(recorded, demo_root, tmp_path):
     for task_id in DEMO_SAMPLE:
         recorded(task_id)
     rows = [r for r in dataset_stats(demo_root) if Path(r["file"]).name.startswith("trajectory.none.")]
-    assert DEMO_SAMPLE <= {r["task"] for r in rows} <= set(TASKS)
+    assert set(DEMO_SAMPLE) <= {r["task"] for r in rows} <= set(TASKS)
     assert all(r["demos"] == 3 and r["min_len"] <= r["mean_len"] <= r["max_len"] <= r["horizon"] for r in rows)
     png = plot_stats(rows, tmp_path / "stats.png")
     assert png.stat().st_size > 10_000
@@ -202,7 +189,7 @@ def test_every_task_has_committed_samples():
     assert {p.parent.name for p in samples} == set(TASKS)
 
 
-@pytest.mark.parametrize("task_id", TASKS)
+@pytest.mark.parametrize("task_id", sampled_tasks(TASKS))
 def test_committed_samples_replay_to_success(task_id):
     for path in sorted((COMMITTED_DEMOS / task_id).glob("trajectory.*.h5")):
         checks = verify(path, progress=False)
