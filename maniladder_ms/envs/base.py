@@ -210,7 +210,8 @@ class ManiLadderEnv(BaseEnv):
         idx = torch.arange(self.num_envs, device=self.device) if env_idx is None else env_idx
         for key, _, setter in self._extra_state_fields():
             if key in state:  # states recorded before a field existed leave it as it is
-                setter(state[key], idx)
+                # (numpy arrays where ManiSkill's replay_trajectory reads states from a demo file)
+                setter(torch.as_tensor(state[key], device=self.device), idx)
 
     def set_state(self, state: torch.Tensor, env_idx: torch.Tensor = None):
         """ManiSkill's flat `set_state` reads only actors and articulations: the extra fields are taken back
