@@ -19,8 +19,9 @@ from conftest import sampled_tasks, task_sample
 
 TASKS = [t.id for t in maniladder_ms.default_catalog().filter(implemented=True)]
 # Recording and verifying 3 demos costs 20-60 s a task, ManiSkill's rgbd conversion (every step of a demo
-# rendered from all cameras) ~30 s: CI records the commit's task sample (tests/conftest.py, which covers
-# every embodiment and object class) and converts the first two of it; the slow run does every task
+# rendered from all cameras) 40-150 s: CI records the commit's task sample (tests/conftest.py: the changed
+# tasks and 8 covering every embodiment and object class) and converts the changed tasks and the first two
+# of it; the slow run does every task
 DEMO_SAMPLE = task_sample(TASKS)
 RGBD_SAMPLE = 2
 
