@@ -67,12 +67,12 @@ def test_episode_memory_latches_counts_stores_and_resets():
     assert memory["handed_over"].tolist() == [True, False, True]  # latched: stays set
     for cond in ([1, 1, 0], [1, 0, 1], [1, 1, 1]):
         memory.count("static_steps", torch.tensor(cond), consecutive=True)
-    assert memory["static_steps"].tolist() == [3, 1, 1]
+    assert memory["static_steps"].tolist() == [3, 1, 2]
     memory.store("start", torch.tensor([[1.0, 2.0]]), env_idx=torch.tensor([1]))
     assert memory["start"][1].tolist() == [1.0, 2.0] and memory["start"][0].tolist() == [0.0, 0.0]
     memory.reset(torch.tensor([0, 1]))
     assert memory["handed_over"].tolist() == [False, False, True]
-    assert memory["static_steps"].tolist() == [0, 0, 1]
+    assert memory["static_steps"].tolist() == [0, 0, 2]
     with pytest.raises(KeyError, match="no episode memory field"):
         memory["nope"]
     with pytest.raises(TypeError, match="is a flag"):
