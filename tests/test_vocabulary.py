@@ -39,6 +39,25 @@ def test_vocabulary_names_the_end_effectors(task_id, sides, kind):
         env.close()
 
 
+@pytest.mark.parametrize("uid,sides,kind", [
+    ("ml_panda", (SINGLE,), "gripper"), ("ml_panda_leap", (SINGLE,), "leap"), ("ml_dual_panda", ("left", "right"), "gripper"),
+    ("ml_dual_panda_leap", ("left", "right"), "leap"), ("ml_tidybot", (SINGLE,), "gripper"),
+])
+def test_every_agent_has_the_vocabulary(uid, sides, kind):
+    import gymnasium as gym
+
+    env = gym.make("ManiLadder-AgentGallery-v1", robot_uids=uid, obs_mode="state")
+    try:
+        env.reset(seed=0)
+        ee = env.unwrapped.ee
+        assert ee.sides == sides and ee.kind == kind
+        assert ee.is_open().tolist() == [True]
+        for side in sides:
+            assert torch.isfinite(ee.tcp(side).p).all()
+    finally:
+        env.close()
+
+
 def test_gripper_holds_what_it_squeezes_and_not_what_it_only_touches():
     """PickPlacePen's solver grasps the pen: held while lifted, not before; touching is not holding."""
     from maniladder_ms.solvers.panda import PandaSolver
