@@ -68,6 +68,52 @@ def _print_summary(cat, tasks, as_json: bool) -> int:
     return 0
 
 
+def cmd_show(args) -> int:
+    """Where a task lives: its catalog row (family, params, rendered rule), its env class and solver files."""
+    from mani_skill.utils.registration import REGISTERED_ENVS
+
+    spec = _catalog().get(args.task)
+    rows = [("task", f"{spec.id} ({spec.suite}, horizon {spec.horizon})"), ("family", spec.family),
+            ("description", spec.description), ("success", spec.success)]
+    rows += [(f"param {k}", str(v)) for k, v in spec.params.items()]
+    if spec.implemented:
+        from maniladder_ms.solvers import solver_for
+
+        cls = REGISTERED_ENVS[spec.env_id].cls
+        rows.append(("env class", f"{cls.__module__}.{cls.__qualname__}  ({_source_line(cls)})"))
+        try:
+            solver = solver_for(spec.id)
+            rows.append(("solver", f"{solver.run.__qualname__} in {solver.control_mode}  ({_source_line(solver.run)})"))
+        except KeyError:
+            rows.append(("solver", "none registered"))
+    else:
+        rows.append(("env class", "not built yet"))
+    rows.append(("catalog row", _catalog_line(spec.id)))
+    width = max(len(k) for k, _ in rows)
+    for key, value in rows:
+        print(f"{key:<{width}}  {value}")
+    return 0
+
+
+def _catalog_line(task_id: str) -> str:
+    from importlib import resources
+
+    lines = resources.files("maniladder_ms").joinpath("data/task_catalog.yaml").read_text().splitlines()
+    number = next(i for i, line in enumerate(lines, 1) if line == f"- id: {task_id}")
+    return f"maniladder_ms/data/task_catalog.yaml:{number}"
+
+
+def _source_line(obj) -> str:
+    import inspect
+
+    path = Path(inspect.getsourcefile(obj))
+    try:
+        path = path.relative_to(Path.cwd())
+    except ValueError:
+        pass
+    return f"{path}:{inspect.getsourcelines(obj)[1]}"
+
+
 def _showcases() -> dict[str, str]:
     from maniladder_ms.deformables.showcase import SHOWCASE_ENV_IDS
 
@@ -150,6 +196,10 @@ def build_parser() -> argparse.ArgumentParser:
     ls.add_argument("--json", action="store_true", help="machine-readable output")
     ls.add_argument("--summary", action="store_true", help="implemented vs catalog counts per level and suite")
     ls.set_defaults(func=cmd_list)
+
+    sh = sub.add_parser("show", help="a task's catalog row (family, params, rule), env class and solver, with their files")
+    sh.add_argument("task")
+    sh.set_defaults(func=cmd_show)
 
     rd = sub.add_parser("render", help="one PNG of a task (or an agent, or a deformable showcase) from all its cameras")
     rd.add_argument("task", nargs="?", help="task id, e.g. PickPlacePen")

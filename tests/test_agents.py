@@ -11,7 +11,7 @@ from mani_skill.agents.registration import REGISTERED_AGENTS
 
 import maniladder_ms  # noqa: F401  (registers the agents)
 from maniladder_ms.agents import AGENT_UIDS
-from maniladder_ms.agents.hand_contact import link_forces
+from maniladder_ms.agents.effectors import contact_forces, link_forces
 from maniladder_ms.agents.helpers import Driver, drive_base_to, hold_action, leap_fingertip
 from maniladder_ms.solvers.driven import DrivenSolver
 from maniladder_ms.agents.gallery import CUBE_HALF, CYLINDER_HALF_LENGTH
@@ -242,15 +242,17 @@ def test_holds_300g_cylinder_still(uid, arm, ee, leap, xy):
         env.close()
 
 
-def test_leap_contact_forces_match_maniskill_query():
-    """`hand_contact.link_forces`' one pass over the CPU contacts gives what ManiSkill's per-pair query gives."""
+def test_one_pass_contact_forces_match_maniskill_query():
+    """`effectors.contact_forces`' one pass over the CPU contacts gives what ManiSkill's per-pair query
+    gives: the force on each link from the object, vectors included."""
     env = maniladder_ms.make("HandoverBallHands", obs_mode="state")
     env.reset(seed=0)
     base = env.unwrapped
     for _ in range(3):
         env.step(hold_action(base.agent))
-    bodies = [base.stand] + base.hands["left"].fingers + base.hands["right"].palm
-    expected = torch.stack([base.scene.get_pairwise_contact_forces(base.ball, b).norm(dim=1) for b in bodies])
-    assert torch.equal(link_forces(base.scene, base.ball, bodies), expected)
-    assert expected[0, 0] > 0.3  # the 58 g ball rests on its stand
+    bodies = [base.stand] + base.ee["left"].fingers + base.ee["right"].thumb_palm
+    expected = torch.stack([base.scene.get_pairwise_contact_forces(b, base.ball) for b in bodies]).float()
+    assert torch.allclose(contact_forces(base.scene, base.ball, bodies), expected, atol=1e-6)
+    assert torch.allclose(link_forces(base.scene, base.ball, bodies), expected.norm(dim=-1), atol=1e-6)
+    assert expected[0, 0].norm() > 0.3 and expected[0, 0, 2] < 0  # the 58 g ball presses down on its stand
     env.close()

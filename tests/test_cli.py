@@ -38,6 +38,18 @@ def test_list_filters_and_json(capsys):
     assert {"PickPlacePen", "Stack6Blocks", "HangMug", "HandoverCube"} <= listed
 
 
+def test_show_points_at_the_row_the_class_and_the_solver(capsys):
+    assert main(["show", "PickPlacePen"]) == 0
+    out = capsys.readouterr().out
+    assert "maniladder_ms/tasks/pick_place_pen.py:" in out and "solve_pick_place_pen" in out
+    assert "margin" in out and "(2 cm margin)" in out
+    line = int(out.split("task_catalog.yaml:")[1].split()[0])
+    catalog = (REPO / "maniladder_ms/data/task_catalog.yaml").read_text().splitlines()
+    assert catalog[line - 1] == "- id: PickPlacePen"
+    assert main(["show", "TieKnotHands"]) == 0 and "not built yet" in capsys.readouterr().out
+    assert main(["show", "PickPlacePencil"]) == 2
+
+
 def test_unknown_task_exits_2_with_message(capsys):
     assert main(["render", "PickPlacePencil"]) == 2
     assert "unknown ManiLadder task 'PickPlacePencil'" in capsys.readouterr().err

@@ -39,6 +39,25 @@ def test_vocabulary_names_the_end_effectors(task_id, sides, kind):
         env.close()
 
 
+@pytest.mark.parametrize("uid,sides,kind", [
+    ("ml_panda", (SINGLE,), "gripper"), ("ml_panda_leap", (SINGLE,), "leap"), ("ml_dual_panda", ("left", "right"), "gripper"),
+    ("ml_dual_panda_leap", ("left", "right"), "leap"), ("ml_tidybot", (SINGLE,), "gripper"),
+])
+def test_every_agent_has_the_vocabulary(uid, sides, kind):
+    import gymnasium as gym
+
+    env = gym.make("ManiLadder-AgentGallery-v1", robot_uids=uid, obs_mode="state")
+    try:
+        env.reset(seed=0)
+        ee = env.unwrapped.ee
+        assert ee.sides == sides and ee.kind == kind
+        assert ee.is_open().tolist() == [True]
+        for side in sides:
+            assert torch.isfinite(ee.tcp(side).p).all()
+    finally:
+        env.close()
+
+
 def test_gripper_holds_what_it_squeezes_and_not_what_it_only_touches():
     """PickPlacePen's solver grasps the pen: held while lifted, not before; touching is not holding."""
     from maniladder_ms.solvers.panda import PandaSolver
@@ -67,12 +86,12 @@ def test_episode_memory_latches_counts_stores_and_resets():
     assert memory["handed_over"].tolist() == [True, False, True]  # latched: stays set
     for cond in ([1, 1, 0], [1, 0, 1], [1, 1, 1]):
         memory.count("static_steps", torch.tensor(cond), consecutive=True)
-    assert memory["static_steps"].tolist() == [3, 1, 1]
+    assert memory["static_steps"].tolist() == [3, 1, 2]
     memory.store("start", torch.tensor([[1.0, 2.0]]), env_idx=torch.tensor([1]))
     assert memory["start"][1].tolist() == [1.0, 2.0] and memory["start"][0].tolist() == [0.0, 0.0]
     memory.reset(torch.tensor([0, 1]))
     assert memory["handed_over"].tolist() == [False, False, True]
-    assert memory["static_steps"].tolist() == [0, 0, 1]
+    assert memory["static_steps"].tolist() == [0, 0, 2]
     with pytest.raises(KeyError, match="no episode memory field"):
         memory["nope"]
     with pytest.raises(TypeError, match="is a flag"):

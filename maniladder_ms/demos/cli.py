@@ -1,8 +1,10 @@
-"""`maniladder demos generate | verify | stats`."""
+"""`maniladder demos generate | verify | resample | stats`."""
 
 from __future__ import annotations
 
+import json
 import sys
+from dataclasses import asdict
 from pathlib import Path
 
 from maniladder_ms.solvers import JOINT_TARGET_MODES
@@ -40,23 +42,54 @@ def cmd_generate(args) -> int:
     return 0
 
 
+def _summary_line(path, checks) -> str:
+    ok = sum(c.success_from_actions and c.success_from_states for c in checks)
+    drift = max((c.max_drift for c in checks), default=0.0)
+    lines = [f"{path}: {ok}/{len(checks)} episodes replay to success ({ok / max(len(checks), 1):.0%}); "
+             f"max state drift {drift:.2e}"]
+    lines += [f"  episode {c.episode_id} (seed {c.seed}): from actions {c.success_from_actions}, "
+              f"from states {c.success_from_states}, drift {c.max_drift:.2e}"
+              for c in checks if not (c.success_from_actions and c.success_from_states)]
+    return "\n".join(lines)
+
+
 def cmd_verify(args) -> int:
     from .verify import verify
 
     worst = 0
+    report = []
     for path in args.paths:
         checks = verify(Path(path))
+        print(_summary_line(path, checks))
+        report += [dict(file=str(path), **asdict(c)) for c in checks]
         ok = sum(c.success_from_actions and c.success_from_states for c in checks)
         drift = max((c.max_drift for c in checks), default=0.0)
-        rate = ok / max(len(checks), 1)
-        print(f"{path}: {ok}/{len(checks)} episodes replay to success ({rate:.0%}); max state drift {drift:.2e}")
-        for c in checks:
-            if not (c.success_from_actions and c.success_from_states):
-                print(f"  episode {c.episode_id} (seed {c.seed}): from actions {c.success_from_actions}, "
-                      f"from states {c.success_from_states}")
-        if rate < args.min_success or (args.max_drift is not None and drift > args.max_drift):
+        if ok / max(len(checks), 1) < args.min_success or (args.max_drift is not None and drift > args.max_drift):
             worst = 1
+    if args.json:
+        Path(args.json).write_text(json.dumps(report, indent=2))
     return worst
+
+
+def cmd_resample(args) -> int:
+    from maniladder_ms.paths import REPO_DIR
+
+    from .resample import resample, sample_files
+
+    root = args.root or (REPO_DIR / "demos")
+    files = sample_files(root, args.tasks or None)
+    if not args.yes:
+        print("re-recording replaces these files:\n  " + "\n  ".join(map(str, files)))
+        if not sys.stdin.isatty():
+            raise ValueError("not asking on a non-interactive input: pass --yes to replace the files")
+        if input(f"replace {len(files)} demo files? [y/N] ").strip().lower() not in ("y", "yes"):
+            print("nothing replaced")
+            return 1
+    results = resample(files, seed=args.seed, workers=args.workers)
+    for r in results:
+        print(("replaced " if r.ok else "KEPT the old file (new recording does not replay): ")
+              + _summary_line(r.path, r.checks))
+    return 0 if all(r.ok for r in results) else 1
 
 
 def cmd_stats(args) -> int:
@@ -78,7 +111,7 @@ def cmd_stats(args) -> int:
 
 
 def add_parser(sub):
-    demos = sub.add_parser("demos", help="scripted demonstrations: generate, verify, stats")
+    demos = sub.add_parser("demos", help="scripted demonstrations: generate, verify, resample, stats")
     dsub = demos.add_subparsers(dest="demos_command", required=True)
 
     gen = dsub.add_parser("generate", help="record successful solver episodes as ManiSkill h5 + json")
@@ -99,7 +132,17 @@ def add_parser(sub):
     ver.add_argument("paths", nargs="+", type=Path, help="demo .h5 files")
     ver.add_argument("--min-success", type=float, default=1.0, help="fraction of episodes that must replay to success")
     ver.add_argument("--max-drift", type=float, help="fail if the action replay drifts further from the states")
+    ver.add_argument("--json", type=Path, help="write every episode's result and state drift to this file")
     ver.set_defaults(func=cmd_verify)
+
+    rs = dsub.add_parser("resample", help="re-record committed demo files after a physics-affecting change "
+                                          "(same files, control modes and episode counts)")
+    rs.add_argument("tasks", nargs="*", help="task ids (default: every task folder under --root)")
+    rs.add_argument("--root", type=Path, help="demo folder (default: the checkout's demos/)")
+    rs.add_argument("--seed", type=int, default=0, help="first seed tried (default 0, as the samples were made)")
+    rs.add_argument("--workers", type=int, default=1, help="processes")
+    rs.add_argument("--yes", action="store_true", help="replace the files without asking")
+    rs.set_defaults(func=cmd_resample)
 
     st = dsub.add_parser("stats", help="per task demo counts, lengths and solver success; writes a PNG")
     st.add_argument("root", type=Path, nargs="?", default=Path("demos"))

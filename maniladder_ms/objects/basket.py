@@ -1,7 +1,7 @@
 """A carrying basket: an open rectangular tub with tapered walls and a bar handle on each long side.
 
 The tub is a closed mesh (outer walls, rim, inner walls, floor) whose collision is a CoACD convex
-decomposition cached on disk (`objects.convex_cache`); each handle is a round bar along the basket's
+decomposition shipped with the package (`objects.convex_cache`); each handle is a round bar along the basket's
 x axis, standing off the outer wall just below the rim on two posts, so a hand can close around it
 (fingers on one side of the bar, thumb in the gap between bar and wall). The actor's origin is the
 centre of the bottom face; the handles are at +-y.

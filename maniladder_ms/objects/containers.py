@@ -3,10 +3,10 @@ and for grasping.
 
 Each container is a solid of revolution about its local z axis (trimesh), origin at the centre of
 its bottom face, so it stands on the table at z = 0. Its collision is a convex decomposition by
-CoACD, computed once per shape and cached under `maniladder_ms.paths.cache_dir("containers")` (a
-few seconds to ~20 s per shape the first time, instant afterwards); a sealed bottle (`build_bottle`)
-collides as its convex hull instead. The pitcher's spout is a bulge of its rim towards +x; pitcher
-and scoop handles are boxes on the -x side.
+CoACD: the shapes the tasks use ship with the package (`objects.convex_cache`), any other is computed once
+and cached under `maniladder_ms.paths.cache_dir("containers")` (a few seconds to ~20 s per shape the first
+time, instant afterwards); a sealed bottle (`build_bottle`) collides as its convex hull instead. The
+pitcher's spout is a bulge of its rim towards +x; pitcher and scoop handles are boxes on the -x side.
 
 `ContainerShape.inside` tells which points lie in the container's inner volume (metrics such as the
 fraction of particles in a cup build on it; see `maniladder_ms.deformables.particles`).
