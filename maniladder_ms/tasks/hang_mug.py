@@ -27,23 +27,21 @@ class HangMugEnv(ManiLadderEnv):
     horizontal peg of a mug tree.
 
     **Randomisation:** the mug stands upright at x in [-0.15, -0.05], y in [0.05, 0.2] with a uniform
-    random yaw; the tree's post stands at x in [-0.1, 0.0], y in [-0.3, -0.26]; its peg (1.2 cm thick,
-    12 cm long) sticks out towards +y, 22 cm above the table.
+    random yaw; the tree's post stands at x in [-0.1, 0.0], y in [-0.3, -0.26]; its peg (2 x
+    `peg_radius` thick, `peg_length` long) sticks out towards +y, `peg_height` above the table.
 
     **Success:** the peg passes through the handle's opening (the point of the peg's axis nearest the
     opening's centre lies on the peg and inside the opening, in the mug's frame), the mug's bottom is at
-    least `clearance` = 5 cm above the table and the gripper does not hold it. The mug may still swing
-    (the catalog rule does not ask for rest); `is_static` reports whether it has stopped.
+    least `clearance` above the table and the gripper does not touch it (`ee.touches`: the peg alone
+    holds it). The mug may still swing (the catalog rule does not ask for rest); `is_static` reports
+    whether it has stopped.
     """
 
     max_dense_reward = 6
 
     TASK_REGION = (-0.2, 0.1, -0.35, 0.25)
+    PARAMS = ("peg_height", "peg_length", "peg_radius", "clearance")
     mug_shape = MugShape()
-    peg_height = 0.22
-    peg_length = 0.12
-    peg_radius = 0.006
-    clearance = 0.05
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -69,10 +67,10 @@ class HangMugEnv(ManiLadderEnv):
         return (self.mug.pose * Pose.create_from_pq(local.expand(self.num_envs, 3))).p
 
     def _get_obs_extra(self, info: dict):
-        obs = dict(tcp_pose=self.agent.tcp_pose.raw_pose, is_grasped=info["is_grasped"])
+        obs = dict(tcp_pose=self.ee.tcp().raw_pose, is_grasped=info["is_grasped"])
         if "state" in self.obs_mode:
             obs.update(mug_pose=self.mug.pose.raw_pose, peg_root=self.peg_root(),
-                       tcp_to_mug_pos=self.mug.pose.p - self.agent.tcp_pose.p)
+                       tcp_to_mug_pos=self.mug.pose.p - self.ee.tcp().p)
         return obs
 
     def evaluate(self):
@@ -88,25 +86,27 @@ class HangMugEnv(ManiLadderEnv):
         on_peg = (centre[:, 1] - root[:, 1] > 0) & (centre[:, 1] - root[:, 1] < self.peg_length)
         is_hooked = in_opening & on_peg
         is_off_table = self.mug.pose.p[:, 2] > self.clearance
-        is_grasped = self.agent.is_grasping(self.mug)
+        is_grasped = self.ee.holds(self.mug)
+        is_touched = self.ee.touches(self.mug)
         is_static = self.mug.is_static(lin_thresh=0.05, ang_thresh=0.5)
         return {
-            "success": is_hooked & is_off_table & ~is_grasped,
+            "success": is_hooked & is_off_table & ~is_touched,
             "is_hooked": is_hooked,
             "is_off_table": is_off_table,
             "is_grasped": is_grasped,
+            "is_touched": is_touched,
             "is_static": is_static,
         }
 
     def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
         # reach and grasp the mug, bring the handle's opening to the peg's middle, let go once hooked
-        tcp = self.agent.tcp_pose.p
+        tcp = self.ee.tcp().p
         reward = 1 - torch.tanh(5 * torch.linalg.norm(self.mug.pose.p - tcp, dim=1))
         reward += info["is_grasped"]
         peg_middle = self.peg_root() + torch.tensor([0.0, self.peg_length / 2, 0.0], device=self.device)
         to_peg = torch.linalg.norm(self.opening_centre() - peg_middle, dim=1)
         reward += (1 - torch.tanh(5 * to_peg)) * (info["is_grasped"] | info["is_hooked"])
-        reward += 2 * info["is_hooked"] + (info["is_hooked"] & ~info["is_grasped"]).float()
+        reward += 2 * info["is_hooked"] + (info["is_hooked"] & ~info["is_touched"]).float()
         reward[info["success"]] = self.max_dense_reward
         return reward
 

@@ -15,30 +15,25 @@ from maniladder_ms.objects import containers
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.driven import DrivenSolver
 
-FINGER_LINKS = [f"leap_{f}_{s}" for f in ("index", "middle", "ring") for s in ("mcp", "pip", "dip", "tip")]
-THUMB_LINKS = ["leap_thumb_pip", "leap_thumb_dip", "leap_thumb_tip"]
-CONTACT_FORCE = 0.5  # N: a hand link pressing at least this hard on the bottle touches it
-
 
 @register_task("LiftBottleHand")
 class LiftBottleHandEnv(ManiLadderEnv):
     """**Task:** power-grasp a standing bottle with the LEAP hand and lift it off the table.
 
     **Randomisation:** the bottle (6 cm body diameter, 14.5 cm tall: 10 cm body, 2 cm shoulder, 2.5 cm
-    neck; 0.3 kg) stands upright, its centre uniform in x in [-0.2, -0.1], y in [-0.1, 0.1], with a
+    neck; `bottle_mass`) stands upright, its centre uniform in x in [-0.2, -0.1], y in [-0.1, 0.1], with a
     uniform random yaw (visible only in its lighting; the bottle is round).
 
-    **Success:** the bottle's base is >= `lift_height` = 10 cm above its start height (the table top), the
-    thumb and at least one finger press on it (>= 0.5 N each), and it does not touch the table: held by the
-    hand alone.
+    **Success:** the bottle's base is >= `lift_height` above its start height (the table top), the hand
+    holds it (`ee.holds`: a finger pressing against the thumb or palm, or the index / middle scissor
+    pinch), and it does not touch the table: held by the hand alone.
     """
 
     SUPPORTED_ROBOTS = ["ml_panda_leap"]
     max_dense_reward = 5
     TASK_REGION = (-0.25, -0.05, -0.15, 0.15)
+    PARAMS = ("lift_height", "bottle_mass")
     bottle_shape = containers.bottle()
-    bottle_mass = 0.3
-    lift_height = 0.1
     # where the power grasp closes, above the bottle's base: on the body 3.5 cm below the shoulder (as the
     # 12 cm can is held 3.5 cm below its top), which leaves the neck under the palm
     grasp_height = bottle_shape.inner[1][0] - 0.035
@@ -47,8 +42,6 @@ class LiftBottleHandEnv(ManiLadderEnv):
         super()._load_scene(options)
         self.bottle = containers.build_bottle(self.scene, "bottle", self.bottle_shape, self.bottle_mass,
                                               color=(0.2, 0.55, 0.3, 1))
-        self.finger_links = [self.agent.link(name) for name in FINGER_LINKS]
-        self.thumb_links = [self.agent.link(name) for name in THUMB_LINKS]
 
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
         super()._initialize_episode(env_idx, options)
@@ -57,19 +50,15 @@ class LiftBottleHandEnv(ManiLadderEnv):
             xyz = torch.stack([torch.rand(b) * 0.1 - 0.2, torch.rand(b) * 0.2 - 0.1, torch.zeros(b)], dim=1)
             self.bottle.set_pose(Pose.create_from_pq(xyz, yaw_quat(torch.rand(b) * 2 * np.pi)))
 
-    def _touches(self, links) -> torch.Tensor:
-        forces = torch.stack([self.scene.get_pairwise_contact_forces(self.bottle, link).norm(dim=1) for link in links])
-        return (forces >= CONTACT_FORCE).any(dim=0)
-
     def _get_obs_extra(self, info: dict):
-        obs = dict(tcp_pose=self.agent.tcp.pose.raw_pose, is_grasped=info["is_grasped"])
+        obs = dict(tcp_pose=self.ee.tcp().raw_pose, is_grasped=info["is_grasped"])
         if "state" in self.obs_mode:
-            obs.update(bottle_pose=self.bottle.pose.raw_pose, tcp_to_bottle_pos=self.bottle.pose.p - self.agent.tcp.pose.p)
+            obs.update(bottle_pose=self.bottle.pose.raw_pose, tcp_to_bottle_pos=self.bottle.pose.p - self.ee.tcp().p)
         return obs
 
     def evaluate(self):
         height = self.bottle.pose.p[:, 2]  # of the base above the table, where it starts
-        is_grasped = self._touches(self.thumb_links) & self._touches(self.finger_links)
+        is_grasped = self.ee.holds(self.bottle)
         on_table = self.scene.get_pairwise_contact_forces(self.bottle, self.ladder_scene.table).norm(dim=1) > 1e-3
         is_lifted = height >= self.lift_height
         return {
@@ -83,7 +72,7 @@ class LiftBottleHandEnv(ManiLadderEnv):
     def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
         # reach the grasp point on the body, grasp, then lift
         grasp_point = self.bottle.pose.p + torch.tensor([0, 0, self.grasp_height], device=self.device)
-        reach = 1 - torch.tanh(5 * torch.linalg.norm(grasp_point - self.agent.tcp.pose.p, dim=1))
+        reach = 1 - torch.tanh(5 * torch.linalg.norm(grasp_point - self.ee.tcp().p, dim=1))
         is_grasped = info["is_grasped"].float()
         lift = (info["height"] / self.lift_height).clamp(0, 1)
         reward = reach + is_grasped + 2 * lift * is_grasped

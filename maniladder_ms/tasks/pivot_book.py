@@ -22,27 +22,28 @@ BOOK_DENSITY = 500.0
 
 @register_task("PivotBook")
 class PivotBookEnv(ManiLadderEnv):
-    """**Task:** a book (21 x 15 x 3 cm, 0.47 kg) lies flat on the table with its far end against a
-    wall; pivot it about that end until it stands upright against the wall. Non-prehensile: the book is
-    too flat to grasp from the table.
+    """**Task:** a book (2 x `book_half_size`, 21 x 15 x 3 cm, 0.47 kg) lies flat on the table with its
+    far end against a wall; pivot it about that end until it stands upright against the wall.
+    Non-prehensile: the book is too flat to grasp from the table.
 
     **Randomisation:** the book's centre y is uniform in [-0.1, 0.1], its yaw uniform in [-8, 8] deg,
     and its far end between 0 and 5 mm from the wall (a 2 cm thick wall 8 cm high whose face is at
     x = 0.05).
 
-    **Success:** the book's long axis is within `upright_tol` = 20 deg of vertical and the book is at
-    rest (linear speed < `rest_speed` = 1 cm/s, angular speed < `rest_ang` = 0.1 rad/s).
+    **Success:** the book's long axis is within `upright_tol` of vertical, its lower end's centre within
+    `wall_gap` of the wall's face (it stands against the wall it was pivoted on, not anywhere on the
+    table), the book is at rest (linear speed < `rest_speed`, angular speed < `rest_ang`) and stands
+    by itself: the gripper does not touch it (`ee.touches`) and never held it (the episode memory's
+    `held` latches on `ee.holds`: the pivot is non-prehensile).
     """
 
     max_dense_reward = 6
 
     TASK_REGION = (-0.2, 0.1, -0.25, 0.25)
-    book_half_size = (0.105, 0.075, 0.015)  # long axis along local x
+    # book_half_size: long axis along local x; upright_tol in degrees
+    PARAMS = ("book_half_size", "upright_tol", "wall_gap", "rest_speed", "rest_ang")
     wall_face_x = 0.05
     wall_half_size = (0.01, 0.3, 0.04)  # 8 cm: enough to stop the book's foot, low enough for the front camera to see over
-    upright_tol = np.deg2rad(20)
-    rest_speed = 0.01
-    rest_ang = 0.1
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -61,6 +62,7 @@ class PivotBookEnv(ManiLadderEnv):
                                material=sapien.render.RenderMaterial(base_color=[0.6, 0.15, 0.15, 1]))
         builder.initial_pose = sapien.Pose(p=[-0.05, 0, self.book_half_size[2]])
         self.book = builder.build(name="book")
+        self.memory.flag("held")  # the gripper held the book at some step
 
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
         super()._initialize_episode(env_idx, options)
@@ -77,22 +79,35 @@ class PivotBookEnv(ManiLadderEnv):
         """(b, 3) world direction of the book's long axis (local +x, towards the wall when lying)."""
         return quaternion_apply(self.book.pose.q, torch.tensor([1.0, 0, 0], device=self.device).expand(self.num_envs, 3))
 
+    def _update_memory(self):
+        super()._update_memory()
+        self.memory.latch("held", self.ee.holds(self.book))
+
     def _get_obs_extra(self, info: dict):
-        obs = dict(tcp_pose=self.agent.tcp_pose.raw_pose)
+        obs = dict(tcp_pose=self.ee.tcp().raw_pose)
         if "state" in self.obs_mode:
-            obs.update(book_pose=self.book.pose.raw_pose, tcp_to_book_pos=self.book.pose.p - self.agent.tcp_pose.p)
+            obs.update(book_pose=self.book.pose.raw_pose, tcp_to_book_pos=self.book.pose.p - self.ee.tcp().p)
         return obs
 
     def evaluate(self):
-        tilt_up = torch.asin(self.book_axis()[:, 2].abs().clamp(max=1))  # 0 lying, pi/2 upright
-        is_upright = tilt_up >= np.pi / 2 - self.upright_tol
+        axis = self.book_axis()
+        tilt_up = torch.asin(axis[:, 2].abs().clamp(max=1))  # 0 lying, pi/2 upright
+        is_upright = tilt_up >= np.pi / 2 - np.deg2rad(self.upright_tol)
+        # the centre of the lower end face (the foot it stands on when upright)
+        down = torch.where(axis[:, 2:3] > 0, -axis, axis)
+        foot = self.book.pose.p + down * self.book_half_size[0]
+        is_at_wall = self.wall_face_x - foot[:, 0] <= self.wall_gap
         is_static = self.book.is_static(lin_thresh=self.rest_speed, ang_thresh=self.rest_ang)
-        return {"success": is_upright & is_static, "tilt_up": tilt_up, "is_upright": is_upright, "is_static": is_static}
+        is_touched = self.ee.touches(self.book)
+        held = self.memory["held"]
+        return {"success": is_upright & is_at_wall & is_static & ~is_touched & ~held, "tilt_up": tilt_up,
+                "is_upright": is_upright, "is_at_wall": is_at_wall, "is_static": is_static, "is_touched": is_touched,
+                "held": held}
 
     def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
         # reach the book's near end, then raise it; full marks once it stands still
         near_end = self.book.pose.p - self.book_axis() * self.book_half_size[0]
-        reach = 1 - torch.tanh(5 * torch.linalg.norm(near_end - self.agent.tcp_pose.p, dim=1))
+        reach = 1 - torch.tanh(5 * torch.linalg.norm(near_end - self.ee.tcp().p, dim=1))
         reward = reach + 3 * info["tilt_up"] / (np.pi / 2) + info["is_upright"].float()
         reward[info["success"]] = self.max_dense_reward
         return reward

@@ -9,12 +9,18 @@ import torch
 
 from mani_skill.utils.structs.pose import Pose
 
+from maniladder_ms.agents.effectors import TOUCH_FORCE, link_forces
 from maniladder_ms.agents.helpers import leap_fingertip, top_down_quat
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.geometry import yaw_quat
 from maniladder_ms.objects.controls import ButtonShape, build_push_button, button_travel
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver
+
+
+# the index finger's links: the catalog asks for the press to be made with the index finger (not the
+# palm, another finger or the arm); the vocabulary's `ee.touches` has no per-finger form yet
+INDEX_LINKS = ("leap_index_pip", "leap_index_dip", "leap_index_tip")
 
 
 @register_task("PressButtonHand")
@@ -25,19 +31,22 @@ class PressButtonHandEnv(ManiLadderEnv):
     **Randomisation:** the button's centre uniform in x in [-0.2, -0.05], y in [-0.15, 0.15]; its
     housing's yaw uniform in [0, pi/2).
 
-    **Success:** the cap is pressed down by >= `press_fraction` = 80% of its travel (>= 9.6 mm).
+    **Success:** the cap is pressed down by at least `press_fraction` of its travel, and the index finger
+    presses on it (one of its links above the vocabulary's touch force): the spring pushes a cap back up
+    at once, so the finger touching it now is what holds it down.
     """
 
     SUPPORTED_ROBOTS = ["ml_panda_leap"]
     max_dense_reward = 4
     TASK_REGION = (-0.27, 0.02, -0.22, 0.22)  # button centres plus the housing's half diagonal
+    PARAMS = ("press_fraction",)
     button_shape = ButtonShape()
-    press_fraction = 0.8
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
         self.button = build_push_button(self.scene, "button", self.button_shape, housing_color=(0.3, 0.3, 0.32, 1),
                                         cap_color=(0.85, 0.1, 0.1, 1))
+        self.cap = self.button.links_map["button_cap"]
 
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
         super()._initialize_episode(env_idx, options)
@@ -53,16 +62,23 @@ class PressButtonHandEnv(ManiLadderEnv):
         return self.button.pose.p + torch.tensor([0, 0, self.button_shape.cap_top], device=self.device)
 
     def _get_obs_extra(self, info: dict):
-        obs = dict(tcp_pose=self.agent.tcp.pose.raw_pose)
+        obs = dict(tcp_pose=self.ee.tcp().raw_pose)
         if "state" in self.obs_mode:
             obs.update(button_pose=self.button.pose.raw_pose, travel=info["travel"],
                        fingertip_to_cap=self._cap_top() - leap_fingertip(self.agent))
         return obs
 
+    def index_touches_cap(self) -> torch.Tensor:
+        """(num_envs,) bool: a link of the index finger presses on the cap."""
+        links = [self.ee["main"].link(name) for name in INDEX_LINKS]
+        return (link_forces(self.scene, self.cap, links) >= TOUCH_FORCE).any(dim=0)
+
     def evaluate(self):
         travel = button_travel(self.button)
-        pressed = travel >= self.press_fraction * self.button_shape.travel
-        return {"success": pressed, "travel": travel}
+        is_pressed = travel >= self.press_fraction * self.button_shape.travel
+        is_index_on_cap = self.index_touches_cap()
+        return {"success": is_pressed & is_index_on_cap, "travel": travel, "is_pressed": is_pressed,
+                "is_index_on_cap": is_index_on_cap}
 
     def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
         reach = 1 - torch.tanh(5 * torch.linalg.norm(self._cap_top() - leap_fingertip(self.agent), dim=1))
@@ -83,7 +99,7 @@ def solve_press_button_hand(env, seed: int) -> dict:
         above = task._cap_top() + torch.tensor([0, 0, APPROACH_HEIGHT], device=task.device)
         s.move({"arm": (above, q)}, max_steps=40)
         # the fingertip's offset from the tcp, the finger pointing (world frame; the hand keeps its orientation)
-        tip_offset = leap_fingertip(task.agent) - task.agent.tcp.pose.p
+        tip_offset = leap_fingertip(task.agent) - task.ee.tcp().p
         s.move({"arm": (above - tip_offset, q)}, max_steps=30)
         # aim past the bottom stop: the arm yields a few mm to the spring before the cap gets there
         pressed = task._cap_top() - torch.tensor([0, 0, task.button_shape.travel + PRESS_PAST_STOP], device=task.device)

@@ -15,46 +15,44 @@ from maniladder_ms.geometry import actor_yaw, yaw_quat
 from maniladder_ms.solvers import register_solver
 from maniladder_ms.solvers.panda import PandaSolver
 
-GRASP_RADIUS = 0.08  # metres from the TCP; the Panda's open fingers span 8 cm
+# metres from the TCP: a block the gripper (hand or fingers) touches has its centre within this; the
+# Panda hand is about 20 cm wide and its fingers 5 cm long
+TOUCH_RADIUS = 0.15
 BLOCK_COLORS = [
     (0.85, 0.15, 0.15, 1), (0.15, 0.6, 0.2, 1), (0.15, 0.35, 0.85, 1),
     (0.9, 0.75, 0.1, 1), (0.6, 0.2, 0.7, 1), (0.1, 0.7, 0.75, 1),
 ]
 
 
-@register_task("Stack6Blocks", num_blocks=6)
+@register_task("Stack6Blocks")
 class StackBlocksEnv(ManiLadderEnv):
-    """**Task:** stack `num_blocks` 4 cm cubes into a single tower (any order).
+    """**Task:** stack `num_blocks` cubes (2 x `half_size`) into a single tower (any order).
 
     **Randomisation:** block centres are sampled uniformly in x in [-0.15, 0.15], y in [-0.25, 0.25]
     with at least 8 cm between any two, each with a uniform random yaw.
 
-    **Success:** with the blocks sorted by height, the lowest rests on the table (centre within
-    `z_tol` = 5 mm of one half-size) and each next block's centre is within `xy_tol` = 2 cm of the one
-    below horizontally and one block size (+- `z_tol`) above it; every block is at rest (linear speed
-    < `static_lin` = 10 cm/s, angular < `static_ang` = 1 rad/s) and none is grasped.
+    **Success:** all `num_blocks` blocks form one tower: with the blocks sorted by height, the lowest rests on the table (centre within
+    `z_tol` of one half-size) and each next block's centre is within `xy_tol` of the one below
+    horizontally and one block size (+- `z_tol`) above it; every block is at rest (linear speed
+    < `static_lin`, angular < `static_ang`) and the gripper touches none of them (`ee.touches`): the
+    tower stands by itself, neither held nor propped up by the hand.
 
-    The rest thresholds sit above the contact-solver vibration of a settled tower that has just been
+    **Rest thresholds:** they sit above the contact-solver vibration of a settled tower that has just been
     restored from a saved state (measured: up to 5.5 cm/s and 0.5 rad/s for several steps, until PhysX
     puts the blocks back to sleep), so a demo replayed from its recorded states keeps its success.
     """
 
     TASK_REGION = (-0.2, 0.2, -0.3, 0.3)
-    half_size = 0.02
-    xy_tol = 0.02
-    z_tol = 0.005
+    PARAMS = ("num_blocks", "half_size", "xy_tol", "z_tol", "static_lin", "static_ang")
     min_spacing = 0.08
-    static_lin = 0.1
-    static_ang = 1.0
 
-    def __init__(self, *args, num_blocks: int = 6, **kwargs):
-        if not 2 <= num_blocks <= len(BLOCK_COLORS):
-            raise ValueError(f"num_blocks must be in [2, {len(BLOCK_COLORS)}], got {num_blocks}")
-        self.num_blocks = num_blocks
-        self.max_dense_reward = 2 * num_blocks + 2
-        super().__init__(*args, **kwargs)
+    @property
+    def max_dense_reward(self) -> float:
+        return 2 * self.num_blocks + 2
 
     def _load_scene(self, options: dict):
+        if not 2 <= self.num_blocks <= len(BLOCK_COLORS):
+            raise ValueError(f"num_blocks must be in [2, {len(BLOCK_COLORS)}], got {self.num_blocks}")
         super()._load_scene(options)
         self.blocks = [
             actors.build_cube(self.scene, half_size=self.half_size, color=BLOCK_COLORS[i], name=f"block_{i}",
@@ -88,17 +86,17 @@ class StackBlocksEnv(ManiLadderEnv):
     def _block_positions(self) -> torch.Tensor:
         return torch.stack([blk.pose.p for blk in self.blocks], dim=1)  # (b, n, 3)
 
-    def _any_block_grasped(self, pos: torch.Tensor) -> torch.Tensor:
-        """Whether the gripper holds any block. The contact query is costly on CPU, so it only runs for
-        blocks near the TCP: a block held between the fingers has its centre well within GRASP_RADIUS."""
-        near = torch.linalg.norm(pos - self.agent.tcp_pose.p[:, None], dim=2) < GRASP_RADIUS
-        grasped = torch.zeros(len(pos), dtype=torch.bool, device=self.device)
+    def _any_block_touched(self, pos: torch.Tensor) -> torch.Tensor:
+        """Whether the gripper touches any block. The contact query is costly on CPU, so it only runs for
+        blocks near the TCP: a block the hand or fingers touch has its centre within TOUCH_RADIUS."""
+        near = torch.linalg.norm(pos - self.ee.tcp().p[:, None], dim=2) < TOUCH_RADIUS
+        touched = torch.zeros(len(pos), dtype=torch.bool, device=self.device)
         for i in near.any(dim=0).nonzero(as_tuple=True)[0].tolist():
-            grasped |= near[:, i] & self.agent.is_grasping(self.blocks[i])
-        return grasped
+            touched |= near[:, i] & self.ee.touches(self.blocks[i])
+        return touched
 
     def _get_obs_extra(self, info: dict):
-        obs = dict(tcp_pose=self.agent.tcp_pose.raw_pose)
+        obs = dict(tcp_pose=self.ee.tcp().raw_pose)
         if "state" in self.obs_mode:
             obs.update(block_poses=torch.cat([blk.pose.raw_pose for blk in self.blocks], dim=1))
         return obs
@@ -117,14 +115,14 @@ class StackBlocksEnv(ManiLadderEnv):
         near = torch.cdist(pos[..., :2], pos[..., :2]) <= 2 * self.xy_tol
         column_size = torch.where(resting, near.sum(dim=2), torch.zeros_like(resting, dtype=torch.long)).max(dim=1).values
         is_static = torch.stack([blk.is_static(lin_thresh=self.static_lin, ang_thresh=self.static_ang) for blk in self.blocks], dim=1).all(1)
-        any_grasped = self._any_block_grasped(pos)
+        any_touched = self._any_block_touched(pos)
         is_stacked = on_table & stacked_pairs.all(dim=1)
         return {
-            "success": is_stacked & is_static & ~any_grasped,
+            "success": is_stacked & is_static & ~any_touched,
             "is_stacked": is_stacked,
             "column_size": column_size,
             "is_static": is_static,
-            "any_grasped": any_grasped,
+            "any_touched": any_touched,
         }
 
     def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
@@ -133,7 +131,7 @@ class StackBlocksEnv(ManiLadderEnv):
         progress = info["column_size"].float()
         pos = self._block_positions()
         loose = (pos[..., 2] - self.half_size).abs() <= self.z_tol
-        dist = torch.linalg.norm(pos - self.agent.tcp_pose.p[:, None], dim=2)
+        dist = torch.linalg.norm(pos - self.ee.tcp().p[:, None], dim=2)
         reach = 1 - torch.tanh(5 * torch.where(loose, dist, torch.full_like(dist, 10)).min(dim=1).values)
         reward = 2 * progress + reach
         reward[info["success"]] = self.max_dense_reward

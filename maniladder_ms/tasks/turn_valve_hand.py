@@ -29,20 +29,28 @@ class TurnValveHandEnv(ManiLadderEnv):
     the spokes point) uniform in [0, 2 pi); the direction (clockwise / counter-clockwise seen from above)
     uniform, and the arrow's place around the valve uniform in [0, 2 pi). The wheel starts at joint angle 0.
 
-    **Success:** the wheel has turned >= `turn_angle` = 90 degrees from its start in the arrow's direction.
+    **Success:** the hand has turned the wheel by at least `turn_angle` in the arrow's direction: the
+    episode memory sums the wheel's turn (in the arrow's direction, turning back counts against it) over
+    the control steps in which the hand touches the wheel (`ee.touches`, at the step's start or end);
+    a turn made by the arm's links or by a spin the hand did not drive does not count. (The wheel
+    stops as soon as nothing pushes it: its joint's damping.)
     """
 
     SUPPORTED_ROBOTS = ["ml_panda_leap"]
     max_dense_reward = 5
     TASK_REGION = (-0.36, 0.06, -0.26, 0.26)  # valve region plus the arrow around it (16 cm)
+    PARAMS = ("turn_angle",)  # degrees
     valve_shape = ValveShape()
-    turn_angle = np.pi / 2
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
         self.valve = build_wheel_valve(self.scene, "valve", self.valve_shape, stand_color=(0.45, 0.45, 0.48, 1),
                                        wheel_color=(0.75, 0.1, 0.1, 1), marker_color=(0.95, 0.95, 0.95, 1))
         self.arrow = build_turn_arrow(self.scene, "turn_arrow", ARROW_RADIUS, color=(0.95, 0.8, 0.1, 1))
+        self.wheel = self.valve.links_map["valve_wheel"]
+        self.memory.value("last_angle")  # the wheel's angle after the last step
+        self.memory.value("last_touch")  # 1 where the hand touched the wheel after the last step
+        self.memory.value("hand_turn")  # rad turned in the arrow's direction in steps the hand touched it
 
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
         super()._initialize_episode(env_idx, options)
@@ -57,26 +65,38 @@ class TurnValveHandEnv(ManiLadderEnv):
             flip = torch.where(clockwise[:, None], torch.tensor([0.0, 1.0, 0.0, 0.0]), torch.tensor([1.0, 0.0, 0.0, 0.0]))
             place = Pose.create_from_pq(xyz + torch.tensor([0, 0, 0.001]), yaw_quat(torch.rand(b) * 2 * np.pi))
             self.arrow.set_pose(place * Pose.create_from_pq(q=flip))
+            self.memory.store("last_angle", torch.zeros(b, 1), env_idx)
+
+    def _update_memory(self):
+        super()._update_memory()
+        angle = valve_angle(self.valve)
+        touch = self.ee.touches(self.wheel)
+        by_hand = touch | (self.memory["last_touch"][:, 0] > 0.5)
+        delta = turn_direction(self.arrow) * (angle - self.memory["last_angle"][:, 0])
+        self.memory.store("hand_turn", self.memory["hand_turn"] + torch.where(by_hand, delta, 0.0)[:, None])
+        self.memory.store("last_angle", angle[:, None])
+        self.memory.store("last_touch", touch.float()[:, None])
 
     def turned(self) -> torch.Tensor:
         """(num_envs,) how far (rad) the wheel has turned from its start in the arrow's direction."""
         return turn_direction(self.arrow) * valve_angle(self.valve)
 
     def _get_obs_extra(self, info: dict):
-        obs = dict(tcp_pose=self.agent.tcp.pose.raw_pose)
+        obs = dict(tcp_pose=self.ee.tcp().raw_pose)
         if "state" in self.obs_mode:
             obs.update(valve_pose=self.valve.pose.raw_pose, valve_angle=valve_angle(self.valve),
                        direction=turn_direction(self.arrow), fingertip=leap_fingertip(self.agent))
         return obs
 
     def evaluate(self):
-        turned = self.turned()
-        return {"success": turned >= self.turn_angle, "turned": turned}
+        hand_turned = self.memory["hand_turn"][:, 0]
+        return {"success": hand_turned >= np.deg2rad(self.turn_angle), "turned": self.turned(),
+                "hand_turned": hand_turned}
 
     def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
         hub = self.valve.pose.p + torch.tensor([0, 0, self.valve_shape.height], device=self.device)
         reach = 1 - torch.tanh(5 * torch.linalg.norm(hub - leap_fingertip(self.agent), dim=1))
-        progress = (info["turned"] / self.turn_angle).clamp(0, 1)
+        progress = (info["hand_turned"] / np.deg2rad(self.turn_angle)).clamp(0, 1)
         reward = reach + 3 * progress
         reward[info["success"]] = self.max_dense_reward
         return reward
@@ -107,7 +127,7 @@ def solve_turn_valve_hand(env, seed: int) -> dict:
         q0 = top_down_quat(yaw0, task.num_envs, dev)
         s.move({"arm": (axis + torch.tensor([0.0, 0.0, 0.15], device=dev), q0)}, max_steps=25, pos_tol=0.01)
         # the pointing fingertip's offset from the tcp in the tcp frame, then in the world at hand yaw yaw0
-        tcp_pose = task.agent.tcp.pose
+        tcp_pose = task.ee.tcp()
         tip_in_tcp = quaternion_apply(quaternion_invert(tcp_pose.q), leap_fingertip(task.agent) - tcp_pose.p)
         tip_offset = quaternion_apply(q0, tip_in_tcp)
         # of the spokes' gaps, the one that puts the tcp nearest the axis
