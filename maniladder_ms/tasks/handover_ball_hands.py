@@ -1,4 +1,4 @@
-"""HandoverBallHands (L1 rigid DX): pass a tennis ball from the left LEAP hand to the right one."""
+"""HandoverBallHands (L1 rigid DX, family Handover): pass a tennis ball from the left LEAP hand to the right one."""
 
 from __future__ import annotations
 
@@ -13,12 +13,13 @@ import torch
 from mani_skill.utils.geometry.rotation_conversions import axis_angle_to_matrix, matrix_to_quaternion, quaternion_to_matrix
 from mani_skill.utils.structs.pose import Pose
 
-from maniladder_ms.agents.hand_contact import LeapContacts
 from maniladder_ms.agents.helpers import LEAP_SYNERGIES, top_down_quat
-from maniladder_ms.envs import ManiLadderEnv, register_task
+from maniladder_ms.envs import register_task
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.bimanual import glide
 from maniladder_ms.solvers.driven import DrivenSolver
+
+from .handover import HandoverTask
 
 BALL_RADIUS = 0.0335  # a tennis ball: 6.7 cm across, 58 g
 BALL_MASS = 0.058
@@ -64,27 +65,30 @@ def ball_rest_height() -> float:
 
 
 @register_task("HandoverBallHands")
-class HandoverBallHandsEnv(ManiLadderEnv):
+class HandoverBallHandsEnv(HandoverTask):
     """**Task:** the left LEAP hand picks up a tennis ball from a ring stand on the left of the table and
     passes it to the right LEAP hand in mid-air.
 
     **Randomisation:** the ball (6.7 cm, 58 g) sits in its ring stand (4 cm ring, 1.5 cm tall, fixed to
     the table), the stand's centre uniform in x in [-0.15, -0.05], y in [0.12, 0.22].
 
-    **Success:** the right hand holds the ball (a finger and the thumb or palm touch it), the left hand
-    does not touch it, and the ball's centre is at least `lift_height` = 10 cm above the table.
+    **Success:** (the Handover family rule, `HandoverTask`) the ball was handed over: the right hand held it
+    (`ee.holds`: a finger against the thumb or palm, or the index/middle pinch) while the left hand neither
+    held nor touched it and its centre was at least `lift_height` above the table, after the left hand had
+    held it (episode memory `handed_over`); and now the right hand holds it, the left hand does not touch
+    it (`ee.touches`) and its centre is at least `lift_height` above the table.
     """
 
     SUPPORTED_ROBOTS = ["ml_dual_panda_leap"]
     max_dense_reward = 8
     TASK_REGION = (-0.25, 0.05, -0.3, 0.3)
-    lift_height = 0.1
+    PARAMS = HandoverTask.PARAMS
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
         self.ball = build_ball(self.scene, "ball")
         self.stand = build_ring_stand(self.scene, "stand")
-        self.hands = {side: LeapContacts(self.agent, f"{side}_") for side in ("left", "right")}
+        self.item = self.ball
 
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
         super()._initialize_episode(env_idx, options)
@@ -98,31 +102,18 @@ class HandoverBallHandsEnv(ManiLadderEnv):
             self.ball.set_angular_velocity(torch.zeros(b, 3))
 
     def _get_obs_extra(self, info: dict):
-        obs = dict(left_tcp_pose=self.agent.tcps["left"].pose.raw_pose, right_tcp_pose=self.agent.tcps["right"].pose.raw_pose,
+        obs = dict(left_tcp_pose=self.ee.tcp("left").raw_pose, right_tcp_pose=self.ee.tcp("right").raw_pose,
                    left_grasped=info["left_grasped"], right_grasped=info["right_grasped"])
         if "state" in self.obs_mode:
             obs.update(ball_pose=self.ball.pose.raw_pose,
-                       left_tcp_to_ball=self.ball.pose.p - self.agent.tcps["left"].pose.p,
-                       right_tcp_to_ball=self.ball.pose.p - self.agent.tcps["right"].pose.p)
+                       left_tcp_to_ball=self.ball.pose.p - self.ee.tcp("left").p,
+                       right_tcp_to_ball=self.ball.pose.p - self.ee.tcp("right").p)
         return obs
-
-    def evaluate(self):
-        left_grasped = self.hands["left"].is_grasping(self.scene, self.ball)
-        left_touch = self.hands["left"].touches(self.scene, self.ball)
-        right_grasped = self.hands["right"].is_grasping(self.scene, self.ball)
-        is_lifted = self.ball.pose.p[:, 2] >= self.lift_height
-        return {
-            "success": right_grasped & ~left_touch & is_lifted,
-            "is_lifted": is_lifted,
-            "left_grasped": left_grasped,
-            "left_touch": left_touch,
-            "right_grasped": right_grasped,
-        }
 
     def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
         ball = self.ball.pose.p
-        left_reach = torch.linalg.norm(ball - self.agent.tcps["left"].pose.p, dim=1)
-        right_reach = torch.linalg.norm(ball - self.agent.tcps["right"].pose.p, dim=1)
+        left_reach = torch.linalg.norm(ball - self.ee.tcp("left").p, dim=1)
+        right_reach = torch.linalg.norm(ball - self.ee.tcp("right").p, dim=1)
         left, right = info["left_grasped"].float(), info["right_grasped"].float()
         height = (ball[:, 2] / self.lift_height).clamp(max=1)
         # stages: the left reaches and grasps and lifts; the right reaches the held ball and grasps it;

@@ -1,5 +1,5 @@
-"""HandoverCube (L1 rigid DG): the left arm picks a cube and hands it to the right arm, which places it
-in a target zone on the right."""
+"""HandoverCube (L1 rigid DG, family Handover): the left arm picks a cube and hands it to the right arm,
+which places it in a target zone on the right."""
 
 from __future__ import annotations
 
@@ -12,40 +12,47 @@ from mani_skill.utils.building import actors
 from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.agents.helpers import top_down_quat
-from maniladder_ms.envs import ManiLadderEnv, register_task
+from maniladder_ms.envs import register_task
 from maniladder_ms.geometry import yaw_of, yaw_quat
 from maniladder_ms.objects.markers import MARKER_THICKNESS, build_zone_marker
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.bimanual import Grasp, hand_over, line_up, tcp_quat
 from maniladder_ms.solvers.driven import DrivenSolver
 
+from .handover import HandoverTask
+
 @register_task("HandoverCube")
-class HandoverCubeEnv(ManiLadderEnv):
+class HandoverCubeEnv(HandoverTask):
     """**Task:** the left arm picks up a cube on the left of the table and hands it over to the right arm
     in mid-air; the right arm puts it down in a square target zone on the right.
 
     **Randomisation:**
-    - the cube (6 cm) lies with a uniform random yaw, its centre uniform in x in [-0.15, 0.0],
+    - the cube (side 2 x `cube_half`) lies with a uniform random yaw, its centre uniform in x in [-0.15, 0.0],
       y in [0.15, 0.3] (in front of the left arm);
-    - the target zone (visual-only square tile, 12 cm side, axis-aligned) has its centre uniform in
+    - the target zone (visual-only square tile, side 2 x `zone_half`, axis-aligned) has its centre uniform in
       x in [-0.15, 0.0], y in [-0.32, -0.22] (in front of the right arm).
 
-    **Success:** the cube centre lies inside the zone's square (|dx|, |dy| <= 6 cm), the cube rests on the
-    table (centre less than `on_table_tol` = 1 cm above one half-size) and neither gripper grasps it.
+    **Success:** (the Handover family rule, `HandoverTask`) the cube was handed over: the right gripper held
+    it (`ee.holds`) while the left gripper neither held nor touched it and its centre was at least
+    `lift_height` above the table, after the left gripper had held it (episode memory `handed_over`); and
+    now the cube centre lies inside the zone's square (|dx|, |dy| <= `zone_half`), the cube rests on the
+    table (centre less than `on_table_tol` above `cube_half`) and neither gripper touches it (`ee.touches`).
     """
 
     SUPPORTED_ROBOTS = ["ml_dual_panda"]
     max_dense_reward = 9
     TASK_REGION = (-0.25, 0.1, -0.4, 0.4)
-    cube_half = 0.03
-    zone_half = 0.06
-    on_table_tol = 0.01
+    PARAMS = HandoverTask.PARAMS + ("cube_half", "zone_half", "on_table_tol")
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
         self.cube = actors.build_cube(self.scene, half_size=self.cube_half, color=(0.85, 0.2, 0.15, 1), name="cube",
                                       initial_pose=Pose.create_from_pq([0, 0.2, self.cube_half]).sp)
         self.zone = build_zone_marker(self.scene, "target_zone", self.zone_half, (0.2, 0.7, 0.3, 1))
+        self.item, self.target = self.cube, self.zone
+
+    def item_rest_height(self) -> float:
+        return self.cube_half
 
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
         super()._initialize_episode(env_idx, options)
@@ -59,32 +66,17 @@ class HandoverCubeEnv(ManiLadderEnv):
             self.zone.set_pose(Pose.create_from_pq(zone_xyz))
 
     def _get_obs_extra(self, info: dict):
-        obs = dict(left_tcp_pose=self.agent.tcps["left"].pose.raw_pose, right_tcp_pose=self.agent.tcps["right"].pose.raw_pose,
+        obs = dict(left_tcp_pose=self.ee.tcp("left").raw_pose, right_tcp_pose=self.ee.tcp("right").raw_pose,
                    left_grasped=info["left_grasped"], right_grasped=info["right_grasped"])
         if "state" in self.obs_mode:
             obs.update(cube_pose=self.cube.pose.raw_pose, zone_pos=self.zone.pose.p,
                        cube_to_zone_pos=self.zone.pose.p - self.cube.pose.p)
         return obs
 
-    def evaluate(self):
-        offset = self.cube.pose.p - self.zone.pose.p
-        in_zone = (offset[:, :2].abs() <= self.zone_half).all(dim=1)
-        on_table = self.cube.pose.p[:, 2] < self.cube_half + self.on_table_tol
-        left_grasped = self.agent.is_grasping("left", self.cube)
-        right_grasped = self.agent.is_grasping("right", self.cube)
-        placed = in_zone & on_table
-        return {
-            "success": placed & ~left_grasped & ~right_grasped,
-            "placed": placed,
-            "in_zone": in_zone,
-            "left_grasped": left_grasped,
-            "right_grasped": right_grasped,
-        }
-
     def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
         cube_p = self.cube.pose.p
-        left_reach = torch.linalg.norm(cube_p - self.agent.tcps["left"].pose.p, dim=1)
-        right_reach = torch.linalg.norm(cube_p - self.agent.tcps["right"].pose.p, dim=1)
+        left_reach = torch.linalg.norm(cube_p - self.ee.tcp("left").p, dim=1)
+        right_reach = torch.linalg.norm(cube_p - self.ee.tcp("right").p, dim=1)
         to_zone = torch.linalg.norm(self.zone.pose.p[:, :2] - cube_p[:, :2], dim=1)
         left_grasped, right_grasped = info["left_grasped"].float(), info["right_grasped"].float()
         # stages: left reaches and grasps; the right reaches the held cube and takes it; the right carries

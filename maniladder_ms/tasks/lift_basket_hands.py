@@ -1,4 +1,4 @@
-"""LiftBasketHands (L1 rigid DX): lift a basket by its two side handles with both LEAP hands."""
+"""LiftBasketHands (L1 rigid DX, family LiftTwoHanded): lift a basket by its two side handles with both LEAP hands."""
 
 from __future__ import annotations
 
@@ -9,42 +9,42 @@ import torch
 
 from mani_skill.utils.structs.pose import Pose
 
-from maniladder_ms.agents.hand_contact import LeapContacts
 from maniladder_ms.agents.helpers import top_down_quat
-from maniladder_ms.envs import ManiLadderEnv, register_task
+from maniladder_ms.envs import register_task
 from maniladder_ms.geometry import yaw_quat
-from maniladder_ms.objects.basket import BasketShape, build_basket, tilt
+from maniladder_ms.objects.basket import BasketShape, build_basket
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.bimanual import Grasp, lift_together
 from maniladder_ms.solvers.driven import DrivenSolver
+
+from .lift_two_handed import LiftTwoHandedTask
 
 SIDES = {"left": 1, "right": -1}  # the left hand takes the +y handle
 
 
 @register_task("LiftBasketHands")
-class LiftBasketHandsEnv(ManiLadderEnv):
+class LiftBasketHandsEnv(LiftTwoHandedTask):
     """**Task:** lift a basket off the table by its two side handles, one LEAP hand on each, keeping it level.
 
     **Randomisation:** the basket (inner 16 x 22 cm at the floor, 16 x 22 -> 18 x 24 cm tapered, 10 cm
-    deep, 300 g; bar handles on the +-y sides) stands with its centre uniform in x in [-0.13, -0.07],
+    deep, `basket_mass`; bar handles on the +-y sides) stands with its centre uniform in x in [-0.13, -0.07],
     y in [-0.03, 0.03] and its yaw uniform in [-15, 15] degrees.
 
-    **Success:** the basket's bottom is at least `lift_height` = 10 cm above the table, it is tilted by
-    less than `max_tilt` = 15 degrees, and each hand is holding it (a finger and the thumb or palm touch it).
+    **Success:** (the LiftTwoHanded family rule, `LiftTwoHandedTask`) the basket's bottom is at least
+    `lift_height` above the table, it is tilted by less than `max_tilt`, and each hand holds it (`ee.holds`
+    for the left and the right: a finger against the thumb or palm, or the index/middle pinch).
     """
 
     SUPPORTED_ROBOTS = ["ml_dual_panda_leap"]
     max_dense_reward = 5
     TASK_REGION = (-0.25, 0.05, -0.3, 0.3)
+    PARAMS = LiftTwoHandedTask.PARAMS + ("basket_mass",)
     basket_shape = BasketShape()
-    basket_mass = 0.3
-    lift_height = 0.1
-    max_tilt = np.deg2rad(15)
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
         self.basket = build_basket(self.scene, "basket", self.basket_shape, self.basket_mass, color=(0.75, 0.5, 0.25, 1))
-        self.hands = {side: LeapContacts(self.agent, f"{side}_") for side in SIDES}
+        self.item = self.basket
 
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
         super()._initialize_episode(env_idx, options)
@@ -61,33 +61,20 @@ class LiftBasketHandsEnv(ManiLadderEnv):
             for side, sign in SIDES.items()}
 
     def _get_obs_extra(self, info: dict):
-        obs = dict(left_tcp_pose=self.agent.tcps["left"].pose.raw_pose, right_tcp_pose=self.agent.tcps["right"].pose.raw_pose,
+        obs = dict(left_tcp_pose=self.ee.tcp("left").raw_pose, right_tcp_pose=self.ee.tcp("right").raw_pose,
                    left_grasped=info["left_grasped"], right_grasped=info["right_grasped"])
         if "state" in self.obs_mode:
             handles = self.handle_centres()
             obs.update(basket_pose=self.basket.pose.raw_pose,
-                       left_tcp_to_handle=handles["left"] - self.agent.tcps["left"].pose.p,
-                       right_tcp_to_handle=handles["right"] - self.agent.tcps["right"].pose.p)
+                       left_tcp_to_handle=handles["left"] - self.ee.tcp("left").p,
+                       right_tcp_to_handle=handles["right"] - self.ee.tcp("right").p)
         return obs
-
-    def evaluate(self):
-        left = self.hands["left"].is_grasping(self.scene, self.basket)
-        right = self.hands["right"].is_grasping(self.scene, self.basket)
-        is_lifted = self.basket.pose.p[:, 2] >= self.lift_height
-        is_level = tilt(self.basket) < self.max_tilt
-        return {
-            "success": is_lifted & is_level & left & right,
-            "is_lifted": is_lifted,
-            "is_level": is_level,
-            "left_grasped": left,
-            "right_grasped": right,
-        }
 
     def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
         handles = self.handle_centres()
         reward = torch.zeros(self.num_envs, device=self.device)
         for side in SIDES:
-            reach = torch.linalg.norm(handles[side] - self.agent.tcps[side].pose.p, dim=1)
+            reach = torch.linalg.norm(handles[side] - self.ee.tcp(side).p, dim=1)
             reward += 0.5 * (1 - torch.tanh(5 * reach)) + 0.5 * info[f"{side}_grasped"]
         both = (info["left_grasped"] & info["right_grasped"]).float()
         height = (self.basket.pose.p[:, 2] / self.lift_height).clamp(max=1)

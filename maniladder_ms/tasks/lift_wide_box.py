@@ -1,4 +1,4 @@
-"""LiftWideBox (L1 rigid DG): lift an open box too wide for one gripper with both arms."""
+"""LiftWideBox (L1 rigid DG, family LiftTwoHanded): lift an open box too wide for one gripper with both arms."""
 
 from __future__ import annotations
 
@@ -10,41 +10,42 @@ import torch
 from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.agents.helpers import top_down_quat
-from maniladder_ms.envs import ManiLadderEnv, register_task
+from maniladder_ms.envs import register_task
 from maniladder_ms.geometry import yaw_of, yaw_quat
 from maniladder_ms.objects import build_tray
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.bimanual import Grasp, lift_together
 from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver
 
+from .lift_two_handed import LiftTwoHandedTask
+
 
 @register_task("LiftWideBox")
-class LiftWideBoxEnv(ManiLadderEnv):
+class LiftWideBoxEnv(LiftTwoHandedTask):
     """**Task:** lift an open box (a tote) 40 cm long, too long for one gripper, with both arms: each
-    gripper takes one of its short end walls (the graspable lips, 1.2 cm thick) and they lift together.
+    gripper takes one of its short end walls (the graspable lips) and they lift together.
 
-    **Randomisation:** the box (outer 40.4 x 20.4 x 8 cm, open top, about 1.1 kg) lies with its long side
-    across the table (along y), its centre uniform in x in [-0.15, -0.05], y in [-0.03, 0.03], its yaw
-    uniform in [-15, 15] degrees about that.
+    **Randomisation:** the box (inner 2 x `inner_half`, walls `wall_height` high and `wall_thickness` thick,
+    open top, about 1.1 kg) lies with its long side across the table (along y), its centre uniform in
+    x in [-0.15, -0.05], y in [-0.03, 0.03], its yaw uniform in [-15, 15] degrees about that.
 
-    **Success:** the box bottom is at least `lift_height` = 10 cm above the table and the box is tilted
-    by less than `max_tilt` = 15 degrees (angle between its up axis and the world's).
+    **Success:** (the LiftTwoHanded family rule, `LiftTwoHandedTask`) the box bottom is at least
+    `lift_height` above the table, the box is tilted by less than `max_tilt` (angle between its up axis and
+    the world's), and each gripper holds it (`ee.holds` for the left and the right).
     """
 
     SUPPORTED_ROBOTS = ["ml_dual_panda"]
     max_dense_reward = 6
     TASK_REGION = (-0.3, 0.1, -0.3, 0.3)
-    inner_half = (0.19, 0.09)  # long side along the box's local x
-    wall_height = 0.08
-    wall_thickness = 0.012
+    PARAMS = LiftTwoHandedTask.PARAMS + ("inner_half", "wall_height", "wall_thickness")
     base_thickness = 0.008
-    lift_height = 0.1
-    max_tilt = np.deg2rad(15)
+    # inner_half: long side along the box's local x
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
         self.box = build_tray(self.scene, "box", self.inner_half, self.wall_height, self.wall_thickness,
                               self.base_thickness, color=(0.3, 0.45, 0.75, 1))
+        self.item = self.box
 
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
         super()._initialize_episode(env_idx, options)
@@ -64,39 +65,19 @@ class LiftWideBoxEnv(ManiLadderEnv):
             points[side] = (self.box.pose * local).p
         return points
 
-    def _tilt(self) -> torch.Tensor:
-        q = self.box.pose.q  # angle of the box's z axis from world z
-        up_z = 1 - 2 * (q[:, 1] ** 2 + q[:, 2] ** 2)
-        return torch.arccos(up_z.clamp(-1, 1))
-
     def _get_obs_extra(self, info: dict):
-        obs = dict(left_tcp_pose=self.agent.tcps["left"].pose.raw_pose, right_tcp_pose=self.agent.tcps["right"].pose.raw_pose,
+        obs = dict(left_tcp_pose=self.ee.tcp("left").raw_pose, right_tcp_pose=self.ee.tcp("right").raw_pose,
                    left_grasped=info["left_grasped"], right_grasped=info["right_grasped"])
         if "state" in self.obs_mode:
             lips = self.lip_points()
             obs.update(box_pose=self.box.pose.raw_pose,
-                       left_tcp_to_lip=lips["left"] - self.agent.tcps["left"].pose.p,
-                       right_tcp_to_lip=lips["right"] - self.agent.tcps["right"].pose.p)
+                       left_tcp_to_lip=lips["left"] - self.ee.tcp("left").p,
+                       right_tcp_to_lip=lips["right"] - self.ee.tcp("right").p)
         return obs
-
-    def evaluate(self):
-        height = self.box.pose.p[:, 2]
-        tilt = self._tilt()
-        lifted = height >= self.lift_height
-        level = tilt < self.max_tilt
-        return {
-            "success": lifted & level,
-            "lifted": lifted,
-            "level": level,
-            "height": height,
-            "tilt": tilt,
-            "left_grasped": self.agent.is_grasping("left", self.box),
-            "right_grasped": self.agent.is_grasping("right", self.box),
-        }
 
     def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
         lips = self.lip_points()
-        reach = sum(1 - torch.tanh(5 * torch.linalg.norm(lips[s] - self.agent.tcps[s].pose.p, dim=1))
+        reach = sum(1 - torch.tanh(5 * torch.linalg.norm(lips[s] - self.ee.tcp(s).p, dim=1))
                     for s in ("left", "right"))
         both = info["left_grasped"] & info["right_grasped"]
         reward = reach + info["left_grasped"].float() + info["right_grasped"].float()
@@ -108,7 +89,7 @@ class LiftWideBoxEnv(ManiLadderEnv):
 
 
 
-LIFT = 0.15  # metres the grasp points rise: the box bottom ends 15 cm up, clear of the 10 cm rule
+LIFT = 0.15  # metres the grasp points rise: the box bottom ends 15 cm up, clear of the `lift_height` rule
 
 
 @register_solver("LiftWideBox", control_modes=TCP_DELTA_MODES)

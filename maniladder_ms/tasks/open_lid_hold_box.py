@@ -29,30 +29,34 @@ class OpenLidHoldBoxEnv(ManiLadderEnv):
     """**Task:** a light, narrow box with a hinged lid lies lengthwise across the table; the left arm
     holds the box still by its left end while the right arm lifts the lid open by its lip.
 
-    **Randomisation:** the box (outer 16 cm long along y, 6 cm wide, walls 9 cm high, about 0.25 kg with
-    the lid; the lid is hinged across the top of the left (+y) end and overhangs the right end wall by a
-    3 cm lip) has its centre uniform in x in [-0.12, -0.06], y in [-0.04, 0.04] and its long axis turned
-    from y by a yaw uniform in [-15, 15] degrees; the lid is closed.
+    **Randomisation:** the box (inner 2 x `box_inner_half`, i.e. 16 cm long along y and 6 cm wide outside,
+    walls `box_wall_height` high, `box_density`: about 0.25 kg with the lid; the lid is hinged across the
+    top of the left (+y) end and overhangs the right end wall by a 3 cm lip) has its centre uniform in
+    x in [-0.12, -0.06], y in [-0.04, 0.04] and its long axis turned from y by a yaw uniform in
+    [-15, 15] degrees; the lid is closed.
 
-    **Success:** the lid is open by at least `open_angle` = 70 deg and the box body has moved less than
-    `max_displacement` = 3 cm (horizontally) from where it stood at the start of the episode.
+    **Success:** the lid is open by at least `open_angle`; the box body has moved less than
+    `max_displacement` (horizontally) from where it stood at the start of the episode (episode memory
+    `box_start`); the left gripper holds the box body (`ee.holds`), and held it at every step the lid was
+    open by more than `closed_angle` (episode memory `opened_unheld` never latched).
     """
 
     SUPPORTED_ROBOTS = ["ml_dual_panda"]
     max_dense_reward = 6
     TASK_REGION = (-0.25, 0.15, -0.2, 0.2)
-    # 6 cm wide across the hinge axis (the box's y), so that one gripper closes across the box at its
-    # hinge end below the lid; 9 cm walls leave room for the fingers under the lid
-    box_shape = LiddedBoxShape(inner_half_size=(0.07, 0.02), wall_height=0.09)
-    box_density = 400.0  # 0.18 kg body: opening the lid drags it ~10 cm unless it is held
-    open_angle = np.deg2rad(70)
-    max_displacement = 0.03
+    # box_inner_half: 6 cm wide outside across the hinge axis (the box's y), so that one gripper closes across
+    # the box at its hinge end below the lid; box_wall_height: 9 cm walls leave room for the fingers under the
+    # lid; box_density: a 0.18 kg body, which opening the lid drags ~10 cm unless it is held
+    PARAMS = ("open_angle", "max_displacement", "closed_angle", "box_inner_half", "box_wall_height", "box_density")
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
+        self.box_shape = LiddedBoxShape(inner_half_size=self.box_inner_half, wall_height=self.box_wall_height)
         self.box = build_lidded_box(self.scene, "box", self.box_shape, self.box_density,
                                     color=(0.35, 0.55, 0.4, 1), lid_color=(0.5, 0.7, 0.5, 1))
-        self.box_start = torch.zeros(self.num_envs, 3, device=self.device)
+        self.box_body = self.box.links_map["box_body"]
+        self.memory.value("box_start", 3)  # the box's position at the start of the episode
+        self.memory.flag("opened_unheld")  # the lid was open past `closed_angle` while the left did not hold the box
 
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
         super()._initialize_episode(env_idx, options)
@@ -63,7 +67,14 @@ class OpenLidHoldBoxEnv(ManiLadderEnv):
             self.box.set_pose(Pose.create_from_pq(xyz, yaw_quat(yaw)))
             self.box.set_qpos(torch.zeros(b, 1))
             self.box.set_qvel(torch.zeros(b, 1))
-            self.box_start[env_idx] = xyz
+            self.memory.store("box_start", xyz, env_idx)
+
+    def _box_held(self) -> torch.Tensor:
+        return self.ee.holds(self.box_body, "left")
+
+    def _update_memory(self):
+        lid_open = lid_angle(self.box) > np.deg2rad(self.closed_angle)
+        self.memory.latch("opened_unheld", lid_open & ~self._box_held())
 
     def holding_grasp(self) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
         """World TCP pose (p, q) of the holding grasp and the box's +x axis (hinge side, the robot's left):
@@ -75,36 +86,39 @@ class OpenLidHoldBoxEnv(ManiLadderEnv):
         return (self.box.pose * Pose.create_from_pq(local)).p, tcp_quat(-box_x, -box_y), box_x
 
     def _displacement(self) -> torch.Tensor:
-        return torch.linalg.norm((self.box.pose.p - self.box_start)[:, :2], dim=1)
+        return torch.linalg.norm((self.box.pose.p - self.memory["box_start"])[:, :2], dim=1)
 
     def _get_obs_extra(self, info: dict):
-        obs = dict(left_tcp_pose=self.agent.tcps["left"].pose.raw_pose, right_tcp_pose=self.agent.tcps["right"].pose.raw_pose,
+        obs = dict(left_tcp_pose=self.ee.tcp("left").raw_pose, right_tcp_pose=self.ee.tcp("right").raw_pose,
                    lid_angle=info["lid_angle"], box_held=info["box_held"])
         if "state" in self.obs_mode:
-            obs.update(box_pose=self.box.pose.raw_pose, box_start=self.box_start)
+            obs.update(box_pose=self.box.pose.raw_pose, box_start=self.memory["box_start"])
         return obs
 
     def evaluate(self):
         angle = lid_angle(self.box)
         displacement = self._displacement()
-        is_open = angle >= self.open_angle
+        is_open = angle >= np.deg2rad(self.open_angle)
         is_still = displacement < self.max_displacement
+        held = self._box_held()
+        opened_unheld = self.memory["opened_unheld"]
         return {
-            "success": is_open & is_still,
+            "success": is_open & is_still & held & ~opened_unheld,
             "lid_angle": angle,
             "displacement": displacement,
             "is_lid_open": is_open,
             "is_box_still": is_still,
-            "box_held": self.agent.is_grasping("left", self.box.links_map["box_body"]),
+            "box_held": held,
+            "opened_unheld": opened_unheld,
         }
 
     def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
         hold_p = self.holding_grasp()[0]
-        reach_hold = 1 - torch.tanh(5 * torch.linalg.norm(hold_p - self.agent.tcps["left"].pose.p, dim=1))
+        reach_hold = 1 - torch.tanh(5 * torch.linalg.norm(hold_p - self.ee.tcp("left").p, dim=1))
         lip = self.box.links_map["box_lid"].pose * Pose.create_from_pq(
             torch.as_tensor(self.box_shape.lip_in_lid(), dtype=torch.float32, device=self.device))
-        reach_lip = 1 - torch.tanh(5 * torch.linalg.norm(lip.p - self.agent.tcps["right"].pose.p, dim=1))
-        opened = (info["lid_angle"] / self.open_angle).clamp(0, 1)
+        reach_lip = 1 - torch.tanh(5 * torch.linalg.norm(lip.p - self.ee.tcp("right").p, dim=1))
+        opened = (info["lid_angle"] / np.deg2rad(self.open_angle)).clamp(0, 1)
         still = 1 - (info["displacement"] / self.max_displacement).clamp(max=1)
         reward = reach_hold + info["box_held"].float() + reach_lip * ~info["is_lid_open"] + 3 * opened * still
         reward[info["success"]] = self.max_dense_reward

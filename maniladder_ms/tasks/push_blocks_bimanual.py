@@ -35,18 +35,17 @@ class PushBlocksBimanualEnv(ManiLadderEnv):
     - its zone (12 cm square tile, axis-aligned) is centred 10-15 cm (uniform) away from the block, in a
       direction within +-30 degrees (uniform) of straight ahead (+x), turned away from the centre line.
 
-    **Success:** each block's centre lies inside its own zone shrunk by `margin` = 2 cm on every side
-    (|dx|, |dy| <= 4 cm from the zone centre) and the block is on the table (centre less than 1 cm above
-    one half-size).
+    **Success:** each block's centre lies inside its own zone shrunk by `margin` on every side (|dx|, |dy|
+    <= `zone_half` - `margin` from the zone centre) and the block is on the table (centre less than
+    `on_table_tol` above `block_half`); and each block was pushed by its own arm: its gripper touched it
+    (`ee.touches`), the other arm's never did, and no gripper ever held a block (`ee.holds`) (episode
+    memory `{side}_pushed`, `{side}_crossed`, `grasped`).
     """
 
     SUPPORTED_ROBOTS = ["ml_dual_panda"]
     max_dense_reward = 8
     TASK_REGION = (-0.25, 0.1, -0.4, 0.4)
-    block_half = 0.025
-    zone_half = 0.06
-    margin = 0.02
-    on_table_tol = 0.01
+    PARAMS = ("block_half", "zone_half", "margin", "on_table_tol")
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -56,6 +55,9 @@ class PushBlocksBimanualEnv(ManiLadderEnv):
                 self.scene, half_size=self.block_half, color=BLOCK_COLORS[side], name=f"{side}_block",
                 initial_pose=Pose.create_from_pq([-0.15, sign * 0.2, self.block_half]).sp)
             self.zones[side] = build_zone_marker(self.scene, f"{side}_zone", self.zone_half, ZONE_COLORS[side])
+            self.memory.flag(f"{side}_pushed")  # this side's gripper has touched its block
+            self.memory.flag(f"{side}_crossed")  # the other side's gripper has touched it
+        self.memory.flag("grasped")  # a gripper has held a block (pushing is non-prehensile)
 
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
         super()._initialize_episode(env_idx, options)
@@ -72,7 +74,7 @@ class PushBlocksBimanualEnv(ManiLadderEnv):
                 self.zones[side].set_pose(Pose.create_from_pq(zone))
 
     def _get_obs_extra(self, info: dict):
-        obs = {f"{side}_tcp_pose": self.agent.tcps[side].pose.raw_pose for side in SIDES}
+        obs = {f"{side}_tcp_pose": self.ee.tcp(side).raw_pose for side in SIDES}
         if "state" in self.obs_mode:
             for side in SIDES:
                 obs[f"{side}_block_pose"] = self.blocks[side].pose.raw_pose
@@ -80,14 +82,26 @@ class PushBlocksBimanualEnv(ManiLadderEnv):
                 obs[f"{side}_block_to_zone"] = self.zones[side].pose.p - self.blocks[side].pose.p
         return obs
 
+    def _update_memory(self):
+        blocks = list(self.blocks.values())
+        self.memory.latch("grasped", self.ee.holds(blocks))
+        for side, other in (("left", "right"), ("right", "left")):
+            self.memory.latch(f"{side}_pushed", self.ee.touches(self.blocks[side], side))
+            self.memory.latch(f"{side}_crossed", self.ee.touches(self.blocks[side], other))
+
     def evaluate(self):
         info = {}
+        grasped = self.memory["grasped"]
         for side in SIDES:
             offset = self.blocks[side].pose.p - self.zones[side].pose.p
             in_zone = (offset[:, :2].abs() <= self.zone_half - self.margin).all(dim=1)
             on_table = self.blocks[side].pose.p[:, 2] < self.block_half + self.on_table_tol
             info[f"{side}_in_zone"] = in_zone & on_table
-        info["success"] = info["left_in_zone"] & info["right_in_zone"]
+            info[f"{side}_pushed"] = self.memory[f"{side}_pushed"]
+            info[f"{side}_crossed"] = self.memory[f"{side}_crossed"]
+        own_pushes = info["left_pushed"] & info["right_pushed"] & ~info["left_crossed"] & ~info["right_crossed"]
+        info["grasped"] = grasped
+        info["success"] = info["left_in_zone"] & info["right_in_zone"] & own_pushes & ~grasped
         return info
 
     def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
@@ -97,7 +111,7 @@ class PushBlocksBimanualEnv(ManiLadderEnv):
             heading = torch.nn.functional.normalize((zone_p - block_p)[:, :2], dim=1)
             # the TCP belongs behind the block, on the far side from the zone
             behind = block_p[:, :2] - heading * (self.block_half + 0.02)
-            reach = torch.linalg.norm(behind - self.agent.tcps[side].pose.p[:, :2], dim=1)
+            reach = torch.linalg.norm(behind - self.ee.tcp(side).p[:, :2], dim=1)
             to_zone = torch.linalg.norm((zone_p - block_p)[:, :2], dim=1)
             reward += (1 - torch.tanh(5 * reach)) + 2 * (1 - torch.tanh(5 * to_zone)) + info[f"{side}_in_zone"]
         reward[info["success"]] = self.max_dense_reward
