@@ -63,7 +63,8 @@ class DragRopeToGoalEnv(rope.RopeTask, ManiLadderEnv):
             zone = torch.stack([torch.rand(b) * 0.12 - 0.1, -side * (0.08 + torch.rand(b) * 0.04),
                                 torch.full((b,), MARKER_THICKNESS / 2)], dim=1)
             self.zone.set_pose(Pose.create_from_pq(zone))
-            self.memory.store("start_distance", self._centroid_distance()[env_idx, None], env_idx)
+            # lay_flat puts the mean of the capsule centres on `middle`
+            self.memory.store("start_distance", torch.linalg.norm(middle - zone[:, :2], dim=1)[:, None], env_idx)
 
     def _segments(self) -> torch.Tensor:
         """Capsule centres, [B, segments, 3]."""
