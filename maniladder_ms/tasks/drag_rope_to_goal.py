@@ -28,22 +28,27 @@ class DragRopeToGoalEnv(rope.RopeTask, ManiLadderEnv):
       uniform in [0, 0.2] rad, phase uniform; the mean of its capsule centres is at x uniform in
       [-0.12, 0.0], |y| uniform in [0.12, 0.18] on a random side; its first capsule heads within
       +-0.35 rad (uniform) of +x or of -x;
-    - the goal zone (22 cm square tile, axis-aligned) is centred at x uniform in [-0.1, 0.02],
-      |y| uniform in [0.08, 0.12] on the other side.
+    - the goal zone (a square tile of half side `zone_half`, axis-aligned) is centred at x uniform in
+      [-0.1, 0.02], |y| uniform in [0.08, 0.12] on the other side.
 
-    **Success:** at least `min_inside` = 90% of the rope's segments (capsule centres) lie inside the
-    zone's square footprint and on the table (centre at most `on_table_height` = 3 cm up).
+    **Success:** at least `min_inside` of the rope's segments (capsule centres) lie inside the zone's
+    square footprint and on the table (centre at most `on_table_height` up); and the rope was dragged:
+    at some step the gripper held (`ee.holds`) one of the `grip_segments` capsules around the rope's
+    middle while the rope's centroid (mean of the capsule centres, in the table plane) had come at least
+    `drag_share` of its start distance towards the zone centre (episode memory `dragged`).
     """
 
     max_dense_reward = 5
     TASK_REGION = (-0.35, 0.25, -0.35, 0.35)
-    zone_half = 0.11
-    min_inside = 0.9
-    on_table_height = 0.03
+    PARAMS = ("zone_half", "min_inside", "on_table_height", "grip_segments", "drag_share")
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)  # the rope (rope.RopeTask)
         self.zone = build_zone_marker(self.scene, "goal_zone", self.zone_half, (0.55, 0.85, 0.55, 1))
+        half = self.grip_segments // 2
+        self.middle_links = self.rope.links[self.grasp_segment - half:self.grasp_segment + half + 1]
+        self.memory.value("start_distance")
+        self.memory.flag("dragged")
 
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
         super()._initialize_episode(env_idx, options)
@@ -58,13 +63,24 @@ class DragRopeToGoalEnv(rope.RopeTask, ManiLadderEnv):
             zone = torch.stack([torch.rand(b) * 0.12 - 0.1, -side * (0.08 + torch.rand(b) * 0.04),
                                 torch.full((b,), MARKER_THICKNESS / 2)], dim=1)
             self.zone.set_pose(Pose.create_from_pq(zone))
+            # lay_flat puts the mean of the capsule centres on `middle`
+            self.memory.store("start_distance", torch.linalg.norm(middle - zone[:, :2], dim=1)[:, None], env_idx)
 
     def _segments(self) -> torch.Tensor:
         """Capsule centres, [B, segments, 3]."""
         return self.rope.points()[:, 1:-1]
 
+    def _centroid_distance(self) -> torch.Tensor:
+        """Distance in the table plane from the rope's centroid to the zone centre, [B]."""
+        return torch.linalg.norm(self._segments()[..., :2].mean(dim=1) - self.zone.pose.p[:, :2], dim=1)
+
+    def _update_memory(self):
+        start = self.memory["start_distance"][:, 0]
+        came = self._centroid_distance() <= (1 - self.drag_share) * start
+        self.memory.latch("dragged", came & self.ee.holds(self.middle_links))
+
     def _get_obs_extra(self, info: dict):
-        obs = dict(tcp_pose=self.agent.tcp_pose.raw_pose, is_grasped=info["is_grasped"])
+        obs = dict(tcp_pose=self.ee.tcp().raw_pose, is_grasped=info["is_grasped"])
         if "state" in self.obs_mode:
             obs.update(rope_points=self.rope.points().flatten(1), zone_pos=self.zone.pose.p)
         return obs
@@ -74,15 +90,17 @@ class DragRopeToGoalEnv(rope.RopeTask, ManiLadderEnv):
         rel = seg[..., :2] - self.zone.pose.p[:, None, :2]
         inside = (rel.abs() <= self.zone_half).all(dim=-1) & (seg[..., 2] <= self.on_table_height)
         fraction = inside.float().mean(dim=1)
+        dragged = self.memory["dragged"]
         return {
-            "success": fraction >= self.min_inside,
+            "success": (fraction >= self.min_inside) & dragged,
             "fraction_inside": fraction,
-            "is_grasped": self.agent.is_grasping(self.rope.links[self.grasp_segment]),
+            "dragged": dragged,
+            "is_grasped": self.ee.holds(self.rope.links[self.grasp_segment]),
         }
 
     def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
         grip_at = self.rope.links[self.grasp_segment].pose.p
-        reward = 1 - torch.tanh(5 * torch.linalg.norm(grip_at - self.agent.tcp_pose.p, dim=1))
+        reward = 1 - torch.tanh(5 * torch.linalg.norm(grip_at - self.ee.tcp().p, dim=1))
         reward += info["is_grasped"]
         centroid = self._segments()[..., :2].mean(dim=1)
         reward += 1 - torch.tanh(5 * torch.linalg.norm(centroid - self.zone.pose.p[:, :2], dim=1))

@@ -9,7 +9,6 @@ import torch
 
 from mani_skill.utils.structs.pose import Pose
 
-from maniladder_ms.agents.hand_contact import LeapContacts
 from maniladder_ms.deformables import cloth
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.geometry import yaw_quat
@@ -33,18 +32,20 @@ class DragTowelHandEnv(ManiLadderEnv):
       uniform in [-3 pi / 4, 3 pi / 4) from +x (never towards the robot's base, where a top-down hand
       runs out of reach).
 
-    **Success:** the towel's centroid (mean of its particle centres) is within `goal_radius` = 4 cm of
-    the target's centre in the table plane.
+    **Success:** the towel's centroid (mean of its particle centres) is within `goal_radius` of the
+    target's centre in the table plane; and the towel was dragged there by a corner: at some step the hand
+    held (`ee.holds`) a corner particle while the centroid had come at least `drag_share` of its start
+    distance towards the target (episode memory `dragged`).
 
-    `is_grasped` (reward and observation only): the index and the middle finger both touch a corner
-    particle (the "scissor" pinch the solver uses).
+    `is_grasped` (reward and observation only): the hand holds a corner particle (`ee.holds`; the
+    solver's "scissor" pinch).
     """
 
     SUPPORTED_ROBOTS = ["ml_panda_leap"]
     max_dense_reward = 5
     TASK_REGION = (-0.34, 0.2, -0.3, 0.3)  # towel and target centres plus the towel's half diagonal
     cloth_config = cloth.ClothConfig(radius=0.010)
-    goal_radius = 0.04
+    PARAMS = ("goal_radius", "drag_share")
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -52,7 +53,9 @@ class DragTowelHandEnv(ManiLadderEnv):
                                        self.cloth_config)
         self.corner_ids = self.towel.layout.named["corners"]
         self.target = build_zone_marker(self.scene, "target", self.goal_radius, (0.55, 0.85, 0.55, 1))
-        self.hand = LeapContacts(self.agent)
+        self.corners = [self.towel.spheres[i] for i in self.corner_ids]
+        self.memory.value("start_distance")
+        self.memory.flag("dragged")
 
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
         super()._initialize_episode(env_idx, options)
@@ -67,27 +70,35 @@ class DragTowelHandEnv(ManiLadderEnv):
             target = centre + torch.stack([drag * torch.cos(heading), drag * torch.sin(heading), torch.zeros(b)], dim=1)
             target[:, 2] = MARKER_THICKNESS / 2
             self.target.set_pose(Pose.create_from_pq(target))
+            self.memory.store("start_distance", self._distance()[env_idx, None], env_idx)
 
     def centroid(self) -> torch.Tensor:
         """Mean of the towel's particle centres, [B, 3]."""
         return self.towel.positions().mean(dim=1)
 
+    def _distance(self) -> torch.Tensor:
+        """From the towel's centroid to the target's centre in the table plane, [B]."""
+        return torch.linalg.norm((self.target.pose.p - self.centroid())[:, :2], dim=1)
+
+    def _update_memory(self):
+        came = self._distance() <= (1 - self.drag_share) * self.memory["start_distance"][:, 0]
+        self.memory.latch("dragged", came & self.ee.holds(self.corners))
+
     def _get_obs_extra(self, info: dict):
-        obs = dict(tcp_pose=self.agent.tcp.pose.raw_pose, target_pos=self.target.pose.p, is_grasped=info["is_grasped"])
+        obs = dict(tcp_pose=self.ee.tcp().raw_pose, target_pos=self.target.pose.p, is_grasped=info["is_grasped"])
         if "state" in self.obs_mode:
             obs.update(towel_points=self.towel.positions().flatten(1),
                        centroid_to_target=self.target.pose.p - self.centroid())
         return obs
 
     def evaluate(self):
-        distance = torch.linalg.norm((self.target.pose.p - self.centroid())[:, :2], dim=1)
-        is_grasped = torch.stack([self.hand.is_scissoring(self.scene, self.towel.spheres[i])
-                                  for i in self.corner_ids]).any(dim=0)
-        return {"success": distance <= self.goal_radius, "distance": distance, "is_grasped": is_grasped}
+        distance, dragged = self._distance(), self.memory["dragged"]
+        return {"success": (distance <= self.goal_radius) & dragged, "distance": distance, "dragged": dragged,
+                "is_grasped": self.ee.holds(self.corners)}
 
     def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
         corners = self.towel.positions()[:, self.corner_ids]
-        reach = torch.linalg.norm(corners - self.agent.tcp.pose.p[:, None], dim=-1).amin(dim=1)
+        reach = torch.linalg.norm(corners - self.ee.tcp().p[:, None], dim=-1).amin(dim=1)
         reward = 1 - torch.tanh(5 * reach) + info["is_grasped"].float()
         reward += 3 * (1 - torch.tanh(5 * info["distance"]))
         reward[info["success"]] = self.max_dense_reward

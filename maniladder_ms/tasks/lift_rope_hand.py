@@ -7,7 +7,6 @@ from typing import Any
 import numpy as np
 import torch
 
-from maniladder_ms.agents.hand_contact import LeapContacts
 from maniladder_ms.deformables import rope
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
@@ -24,22 +23,18 @@ class LiftRopeHandEnv(rope.RopeTask, ManiLadderEnv):
     uniform in [0, 0.15] rad, phase uniform; the mean of its capsule centres is at x uniform in
     [-0.15, -0.05], y uniform in [-0.1, 0.1]; its first capsule's heading is uniform in [0, 2 pi).
 
-    **Success:** at least `min_lifted` = 50% of the rope's segments (capsule centres) are at least
-    `lift_height` = 10 cm above the table.
+    **Success:** at least `min_lifted` of the rope's segments (capsule centres) are at least
+    `lift_height` above the table, and the hand holds the rope (`ee.holds` on any of its capsules: a
+    finger against the thumb or palm, or the index / middle scissor pinch).
 
-    `is_grasped` (reward and observation only): the index and the middle finger both touch one of the five
-    capsules around the middle (the "scissor" pinch the solver uses).
+    `is_grasped` (reward and observation only): the hand holds one of the five capsules around the middle
+    (`ee.holds`; the solver's "scissor" pinch).
     """
 
     SUPPORTED_ROBOTS = ["ml_panda_leap"]
     max_dense_reward = 4
     TASK_REGION = (-0.35, 0.15, -0.3, 0.3)
-    lift_height = 0.1
-    min_lifted = 0.5
-
-    def _load_scene(self, options: dict):
-        super()._load_scene(options)  # the rope (rope.RopeTask)
-        self.hand = LeapContacts(self.agent)
+    PARAMS = ("lift_height", "min_lifted")
 
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
         super()._initialize_episode(env_idx, options)
@@ -55,26 +50,27 @@ class LiftRopeHandEnv(rope.RopeTask, ManiLadderEnv):
         return self.rope.points()[:, 1:-1]
 
     def _get_obs_extra(self, info: dict):
-        obs = dict(tcp_pose=self.agent.tcp.pose.raw_pose, is_grasped=info["is_grasped"])
+        obs = dict(tcp_pose=self.ee.tcp().raw_pose, is_grasped=info["is_grasped"])
         if "state" in self.obs_mode:
             obs.update(rope_points=self.rope.points().flatten(1),
-                       tcp_to_grasp_segment=self.rope.links[self.grasp_segment].pose.p - self.agent.tcp.pose.p)
+                       tcp_to_grasp_segment=self.rope.links[self.grasp_segment].pose.p - self.ee.tcp().p)
         return obs
 
     def evaluate(self):
         lifted_fraction = (self._segments()[..., 2] >= self.lift_height).float().mean(dim=1)
         middle = self.grasp_segment
-        is_grasped = torch.stack([self.hand.is_scissoring(self.scene, link)
-                                  for link in self.rope.links[middle - 2:middle + 3]]).any(dim=0)
+        is_grasped = self.ee.holds(self.rope.links[middle - 2:middle + 3])
+        is_held = self.ee.holds(self.rope.links)
         return {
-            "success": lifted_fraction >= self.min_lifted,
+            "success": (lifted_fraction >= self.min_lifted) & is_held,
             "lifted_fraction": lifted_fraction,
+            "is_held": is_held,
             "is_grasped": is_grasped,
         }
 
     def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
         target = self.rope.links[self.grasp_segment].pose.p
-        reach = 1 - torch.tanh(5 * torch.linalg.norm(target - self.agent.tcp.pose.p, dim=1))
+        reach = 1 - torch.tanh(5 * torch.linalg.norm(target - self.ee.tcp().p, dim=1))
         lift = (info["lifted_fraction"] / self.min_lifted).clamp(0, 1)
         reward = reach + info["is_grasped"].float() + 2 * lift
         reward[info["success"]] = self.max_dense_reward

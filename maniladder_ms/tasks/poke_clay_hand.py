@@ -7,6 +7,7 @@ from typing import Any
 import numpy as np
 import torch
 
+from maniladder_ms.agents.effectors import TOUCH_FORCE, link_forces
 from maniladder_ms.agents.helpers import leap_fingertip, top_down_quat
 from maniladder_ms.deformables import clay
 from maniladder_ms.envs import ManiLadderEnv, register_task
@@ -19,26 +20,29 @@ class PokeClayHandEnv(clay.ClayEnvMixin, ManiLadderEnv):
     """**Task:** a block of clay (plastic: it keeps the shape it is pressed into) lies on the table; poke
     a dent at least 1 cm deep into the middle of its top with the LEAP hand's index finger.
 
-    **Randomisation:** the block (5 x 5 x 3 particles on a 1.2 cm lattice, 6 x 6 x 3.6 cm) is scaled by a
+    **Randomisation:** the block (particle centres within +-`block_half`: 5 x 5 x 3 particles on a 1.2 cm
+    lattice, 6 x 6 x 3.6 cm) is scaled by a
     uniform factor in [1, 1.15] (`Clay.reset`), turned by a uniform yaw in [0, pi/2), its centre uniform in
     x in [-0.2, -0.05], y in [-0.15, 0.15].
 
     **Success:** the dent at the block's top centre (the start's, a fixed table point) is >= `min_depth`
-    = 1 cm deep: `clay.dent_depth`, the start's top there minus the current top of the clay within
-    `dent_radius` = 1 cm of that point (the highest particle top there: every particle near the point
-    must have been pushed down).
+    deep: `clay.dent_depth`, the start's top there minus the current top of the clay within
+    `dent_radius` of that point (the highest particle top there: every particle near the point must have
+    been pushed down); and the index finger made it: at some step the dent was that deep while the index
+    finger's tip or middle link touched the clay (episode memory `poked`).
     """
 
     SUPPORTED_ROBOTS = ["ml_panda_leap"]
     max_dense_reward = 4
     TASK_REGION = (-0.25, 0.0, -0.2, 0.2)
-    block_half = (0.024, 0.024, 0.012)  # particle centres: 5 x 5 x 3
-    min_depth = 0.01
-    dent_radius = 0.01
+    PARAMS = ("block_half", "min_depth", "dent_radius")
+    INDEX_LINKS = ("leap_index_dip", "leap_index_tip")
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
         self.load_clay(clay.clay_block(self.block_half, self.clay_config.spacing))
+        self.index_links = [self.ee["main"].link(name) for name in self.INDEX_LINKS]
+        self.memory.flag("poked")
 
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
         super()._initialize_episode(env_idx, options)
@@ -56,16 +60,28 @@ class PokeClayHandEnv(clay.ClayEnvMixin, ManiLadderEnv):
         point, r = self.dent_point(), self.clay_config.radius
         return clay.dent_depth(self.clay.positions(), point[:, :2], point[:, 2], self.dent_radius, r)
 
+    def index_touches(self) -> torch.Tensor:
+        """The index finger (`INDEX_LINKS`) presses on a clay particle, [B]. (Local: the vocabulary's
+        `touches` asks about the whole hand.)"""
+        touching = [(link_forces(self.scene, particle, self.index_links) >= TOUCH_FORCE).any(dim=0)
+                    for particle in self.clay.spheres]
+        return torch.stack(touching).any(dim=0)
+
+    def _update_memory(self):
+        deep = self._depth() >= self.min_depth
+        if bool(deep.any()):  # the contact query (one pass per particle on the CPU) only when it can matter
+            self.memory.latch("poked", deep & self.index_touches())
+
     def _get_obs_extra(self, info: dict):
-        obs = dict(tcp_pose=self.agent.tcp.pose.raw_pose)
+        obs = dict(tcp_pose=self.ee.tcp().raw_pose)
         if "state" in self.obs_mode:
             obs.update(clay_points=self.clay.positions().flatten(1), dent_depth=info["dent_depth"],
                        fingertip_to_dent=self.dent_point() - leap_fingertip(self.agent))
         return obs
 
     def evaluate(self):
-        depth = self._depth()
-        return {"success": depth >= self.min_depth, "dent_depth": depth}
+        depth, poked = self._depth(), self.memory["poked"]
+        return {"success": (depth >= self.min_depth) & poked, "dent_depth": depth, "poked": poked}
 
     def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
         reach = 1 - torch.tanh(5 * torch.linalg.norm(self.dent_point() - leap_fingertip(self.agent), dim=1))
@@ -91,7 +107,7 @@ def solve_poke_clay_hand(env, seed: int) -> dict:
         dent = task.dent_point()
         s.move({"arm": (s.above(dent, APPROACH_HEIGHT), q)}, max_steps=40)
         # the fingertip's offset from the tcp, the finger pointing (world frame; the hand keeps its orientation)
-        tip_offset = leap_fingertip(task.agent) - task.agent.tcp.pose.p
+        tip_offset = leap_fingertip(task.agent) - task.ee.tcp().p
         s.move({"arm": (s.above(dent, 0.02) - tip_offset, q)}, max_steps=30)
         for _ in range(POKE_STEPS):
             s.step({"arm": (s.above(dent, -POKE_DEPTH) - tip_offset, q)})

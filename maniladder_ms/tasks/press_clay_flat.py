@@ -19,25 +19,27 @@ class PressClayFlatEnv(clay.ClayEnvMixin, ManiLadderEnv):
     """**Task:** a ball of clay (plastic: it keeps the shape it is pressed into) lies on the table; press
     it into a flat disk with the closed gripper's fingertips.
 
-    **Randomisation:** the ball (81 particles on a 1.2 cm lattice, 6 cm across) is scaled by a uniform
+    **Randomisation:** the ball (particles on a 1.2 cm lattice within `ball_radius`: 81 of them, 6 cm
+    across) is scaled by a uniform
     factor in [1, 1.15] (6 to 6.8 cm across; `Clay.reset`), turned by a uniform yaw in [0, pi/2) (the
     lattice's axes), its centre uniform in x in [-0.1, 0.05], y in [-0.15, 0.15].
 
     **Success:** the clay's height (`clay.height`: top of the highest particle above the bottom of the
-    lowest) is <= `max_height_ratio` = 50% of its height at the start, and its top-down footprint
-    (`metrics.footprint_area`, one lattice-spacing tile per particle) is >= `min_area_ratio` = 1.5x its
-    footprint at the start.
+    lowest) is <= `max_height_ratio` of its height at the start, and its top-down footprint
+    (`metrics.footprint_area`, one lattice-spacing tile per particle) is >= `min_area_ratio` times its
+    footprint at the start; and the gripper pressed it flat: at some step the clay was that flat while
+    the closed gripper (each finger open at most `closed_opening`) touched it (`ee.touches`; episode
+    memory `pressed_flat`).
     """
 
     max_dense_reward = 5
     TASK_REGION = (-0.17, 0.12, -0.22, 0.22)  # ball centres plus a flattened disk's radius
-    ball_radius = 0.03
-    max_height_ratio = 0.5
-    min_area_ratio = 1.5
+    PARAMS = ("ball_radius", "max_height_ratio", "min_area_ratio", "closed_opening")
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
         self.load_clay(clay.clay_ball(self.ball_radius, self.clay_config.spacing))
+        self.memory.flag("pressed_flat")
 
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
         super()._initialize_episode(env_idx, options)
@@ -57,8 +59,21 @@ class PressClayFlatEnv(clay.ClayEnvMixin, ManiLadderEnv):
     def _shape(self, points: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         return clay.height(points, self.clay_config.radius), metrics.footprint_area(points, self.clay_config.spacing)
 
+    def _height_ratio(self) -> torch.Tensor:
+        return clay.height(self.clay.positions(), self.clay_config.radius) / clay.height(self.clay.start, self.clay_config.radius)
+
+    def gripper_closed(self) -> torch.Tensor:
+        """Both fingers open at most `closed_opening`, [B]. (Local: the vocabulary has `is_open` only.)"""
+        q = self.agent.robot.get_qpos()[:, self.ee["main"].finger_joints]
+        return (q <= self.closed_opening).all(dim=1)
+
+    def _update_memory(self):
+        candidate = (self._height_ratio() <= self.max_height_ratio) & self.gripper_closed()
+        if bool(candidate.any()):  # the contact query (one pass per particle on the CPU) only when it can matter
+            self.memory.latch("pressed_flat", candidate & self.ee.touches(self.clay.spheres))
+
     def _get_obs_extra(self, info: dict):
-        obs = dict(tcp_pose=self.agent.tcp_pose.raw_pose)
+        obs = dict(tcp_pose=self.ee.tcp().raw_pose)
         if "state" in self.obs_mode:
             obs.update(clay_points=self.clay.positions().flatten(1), height_ratio=info["height_ratio"],
                        area_ratio=info["area_ratio"])
@@ -70,8 +85,10 @@ class PressClayFlatEnv(clay.ClayEnvMixin, ManiLadderEnv):
         height_ratio, area_ratio = height / start_height, area / start_area
         is_flat = height_ratio <= self.max_height_ratio
         is_spread = area_ratio >= self.min_area_ratio
+        pressed_flat = self.memory["pressed_flat"]
         return {
-            "success": is_flat & is_spread,
+            "success": is_flat & is_spread & pressed_flat,
+            "pressed_flat": pressed_flat,
             "is_flat": is_flat,
             "is_spread": is_spread,
             "height_ratio": height_ratio,
@@ -81,7 +98,7 @@ class PressClayFlatEnv(clay.ClayEnvMixin, ManiLadderEnv):
     def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
         top = self.clay_center()
         top[:, 2] = self.clay.positions()[..., 2].amax(dim=1)
-        reach = 1 - torch.tanh(5 * torch.linalg.norm(top - self.agent.tcp_pose.p, dim=1))
+        reach = 1 - torch.tanh(5 * torch.linalg.norm(top - self.ee.tcp().p, dim=1))
         flatten = ((1 - info["height_ratio"]) / (1 - self.max_height_ratio)).clamp(0, 1)
         spread = ((info["area_ratio"] - 1) / (self.min_area_ratio - 1)).clamp(0, 1)
         reward = reach + 2 * flatten + spread
