@@ -1,6 +1,8 @@
 """LadderFlow, the reference policy's network: it learns its demos, checkpoints round-trip, encoders run."""
 
 
+import dataclasses
+
 import numpy as np
 import pytest
 import torch
@@ -100,3 +102,44 @@ def test_efficientnet_lite0_features_are_offline_and_spatial():
     assert not torch.allclose(feats[:, 0], feats[:, 1])  # the tokens keep where things are
     with pytest.raises(ValueError, match="expected uint8 images"):
         enc.encode(images.astype(np.float32))
+
+
+def test_demo_frames_render_the_recorded_states_and_train_an_evaluable_policy(tmp_path):
+    """The committed PickPlacePen samples -> per-step images of the declared cameras (the first frame is
+    what a fresh seeded reset shows) -> cached features -> a tiny policy -> one `maniladder eval` episode."""
+    from pathlib import Path
+
+    import maniladder_ms
+    from maniladder_ms.evaluation.runner import EpisodeRunner
+    from maniladder_ms.policy.evaluate import LadderFlowEvalPolicy
+    from maniladder_ms.policy.features import cache_features, demo_frames, load_features
+
+    demo = Path(__file__).resolve().parents[1] / "demos/PickPlacePen/trajectory.none.pd_ee_delta_pose.physx_cpu.h5"
+    cams = ("front_camera", "top_camera")
+    images, actions, ep = next(demo_frames(demo, cams, size=64))
+    assert images.shape == (len(actions), 2, 64, 64, 3) and images.dtype == np.uint8
+    env = maniladder_ms.make("PickPlacePen", obs_mode="rgb", cameras=cams, control_mode="pd_ee_delta_pose",
+                             sensor_configs=dict(width=64, height=64))
+    obs, _ = env.reset(**dict(ep.get("reset_kwargs") or {}, seed=ep["episode_seed"]))
+    env.close()
+    assert np.abs(obs["sensor_data"]["top_camera"]["rgb"][0].numpy().astype(int) - images[0, 1]).mean() < 1.0
+    assert images[-1].std() > 0 and not np.array_equal(images[0], images[-1])  # the scene moved
+
+    encoder = make_encoder("random-projection")
+    path = cache_features(demo, encoder, cams, tmp_path / "features.npz", size=64)
+    episodes = load_features(path)
+    assert len(episodes) == 2 and episodes[0][0].shape == (len(actions), 2 * encoder.tokens, encoder.dim)
+    config = dataclasses.replace(TINY, cameras=cams, encoder="random-projection", image_size=64, chunk=4, execute=4)
+    trainer = LadderFlowTrainer(config, episodes)
+    trainer.train(3)
+    ckpt = trainer.save(tmp_path / "policy.pt", meta=dict(task="PickPlacePen", control_mode="pd_ee_delta_pose"))
+    policy = LadderFlowEvalPolicy(ckpt, encoder=encoder)
+    assert policy.cameras == cams and policy.control_mode == "pd_ee_delta_pose"
+    spec = maniladder_ms.default_catalog().get("PickPlacePen")
+    runner = EpisodeRunner(policy, "rgb")
+    try:
+        rec = runner.run(spec, episode=0, seed=1_000_000,
+                         env_kwargs=dict(obs_mode="rgb", control_mode="pd_ee_delta_pose", cameras=cams))
+    finally:
+        runner.close()
+    assert rec["steps"] == spec.horizon and rec["success"] is False  # 3 training steps solve nothing

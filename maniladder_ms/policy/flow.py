@@ -195,11 +195,12 @@ class LadderFlowTrainer:
     def policy(self) -> "LadderFlowPolicy":
         return LadderFlowPolicy(self.config, copy.deepcopy(self.ema).cpu(), self.normalizer)
 
-    def save(self, path) -> Path:
+    def save(self, path, meta: Optional[dict] = None) -> Path:
+        """A checkpoint; `meta`: what the policy acts in (task, control_mode, ...)."""
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
         torch.save({
-            "protocol": PROTOCOL_VERSION, "config": self.config.as_dict(), "step": self.step_count,
+            "protocol": PROTOCOL_VERSION, "config": self.config.as_dict(), "step": self.step_count, "meta": meta or {},
             "feature_dim": self.features.shape[-1], "action_dim": self.targets.shape[-1],
             "normalizer": self.normalizer.state_dict(), "net": self.net.state_dict(), "ema": self.ema.state_dict(),
         }, path)
@@ -209,8 +210,10 @@ class LadderFlowTrainer:
 class LadderFlowPolicy:
     """A trained policy: obs features (n_obs, D) -> an action chunk (execute, A) in the env's units."""
 
-    def __init__(self, config: LadderFlowConfig, net: LadderFlowNet, normalizer: ActionNormalizer):
+    def __init__(self, config: LadderFlowConfig, net: LadderFlowNet, normalizer: ActionNormalizer,
+                 meta: Optional[dict] = None):
         self.config, self.net, self.normalizer = config, net.eval(), normalizer
+        self.meta = meta or {}
 
     @classmethod
     def load(cls, path) -> "LadderFlowPolicy":
@@ -220,7 +223,7 @@ class LadderFlowPolicy:
         config = LadderFlowConfig.from_dict(ckpt["config"])
         net = LadderFlowNet(config, ckpt["feature_dim"], ckpt["action_dim"])
         net.load_state_dict(ckpt["ema"])
-        return cls(config, net, ActionNormalizer(**ckpt["normalizer"]))
+        return cls(config, net, ActionNormalizer(**ckpt["normalizer"]), ckpt.get("meta"))
 
     @torch.no_grad()
     def act(self, features: torch.Tensor, generator: Optional[torch.Generator] = None) -> torch.Tensor:
