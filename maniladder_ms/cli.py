@@ -175,8 +175,9 @@ def cmd_bench(args) -> int:
     targets += [env_target("ManiLadder-AgentGallery-v1", robot_uids=uid) for uid in _expand("robot", args.robot, _robots())]
     showcases = _showcases()
     targets += [env_target(showcases[k]) for k in _expand("scene", args.scene, sorted(showcases))]
-    rows = bench(targets, steps=args.steps, obs_mode=args.obs_mode,
-                 progress=lambda e: print(f"  measuring {e} ...", file=sys.stderr))
+    cameras = [c for c in (args.cameras or "").split(",") if c]
+    rows = bench(targets, steps=args.steps, obs_mode=args.obs_mode, cameras=cameras or None,
+                 render_every=args.render_every, progress=lambda e: print(f"  measuring {e} ...", file=sys.stderr))
     print_table(("env", "steps/s", "ratio to PickCube-v1"),
                 [(r["env_id"], f"{r['steps_per_s']:.0f}", f"{r['ratio']:.2f}") for r in rows])
     return 0
@@ -216,7 +217,11 @@ def build_parser() -> argparse.ArgumentParser:
     bn.add_argument("--robot", action="append", default=[], help="an agent's empty-scene rate (repeatable; 'all')")
     bn.add_argument("--scene", action="append", default=[], help="a deformable showcase (repeatable; 'all')")
     bn.add_argument("--steps", type=int, default=300)
-    bn.add_argument("--obs-mode", default="state")
+    bn.add_argument("--obs-mode", default="state", help="state (default), or rgb for visual rollouts")
+    bn.add_argument("--cameras", help="with a visual obs mode: the cameras the tasks capture, comma-separated "
+                                      "(e.g. front_camera,left_camera,top_camera: the reference policy's view)")
+    bn.add_argument("--render-every", type=int, default=1,
+                    help="render the cameras on every k-th step only (an action chunk of k run open loop)")
     bn.set_defaults(func=cmd_bench)
 
     add_demos_parser(sub)

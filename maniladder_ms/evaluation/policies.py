@@ -15,9 +15,11 @@ A policy is any callable `policy(obs, spec) -> action`:
 
 Optional members (duck-typed, all may be absent):
 
+- `cameras`: the camera uids the policy looks at (e.g. front, left, top): only those are rendered, and only
+  on the steps where the policy is asked for actions (the steps of a chunk before its last render nothing).
 - `obs_mode` / `control_mode` attributes: what the policy needs; `obs_mode` overrides `--obs-mode`
   (the built-ins, which ignore observations, use `"none"` to skip rendering); `control_mode` defaults to
-  the env's default (`pd_joint_delta_pos`). `env_kwargs(spec) -> dict` may give both per task.
+  the env's default (`pd_joint_delta_pos`). `env_kwargs(spec) -> dict` may give these per task.
 - `reset(ctx)`: called before every episode with an `EpisodeContext` (spec, seed, episode index,
   single-env action space, obs/control mode, horizon).
 - `supports(spec) -> bool | str`: False or a reason string skips the task (listed as skipped).
@@ -292,16 +294,18 @@ def _solver_control_mode(env_id: str) -> Optional[str]:
 
 def policy_env_kwargs(policy, spec: TaskSpec, obs_mode: str) -> dict:
     """The obs and control mode an episode of `spec` runs under with `policy` (see the module doc)."""
-    kw: dict = {"obs_mode": obs_mode, "control_mode": None}
+    kw: dict = {"obs_mode": obs_mode, "control_mode": None, "cameras": None}
+    if getattr(policy, "cameras", None):
+        kw["cameras"] = tuple(policy.cameras)
     if getattr(policy, "obs_mode", None):
         kw["obs_mode"] = policy.obs_mode
     if getattr(policy, "control_mode", None):
         kw["control_mode"] = policy.control_mode
     if hasattr(policy, "env_kwargs"):
         extra = policy.env_kwargs(spec) or {}
-        unknown = set(extra) - {"obs_mode", "control_mode"}
+        unknown = set(extra) - {"obs_mode", "control_mode", "cameras"}
         if unknown:
-            raise PolicyError(f"policy env_kwargs may set only obs_mode and control_mode, not {sorted(unknown)}")
+            raise PolicyError(f"policy env_kwargs may set only obs_mode, control_mode and cameras, not {sorted(unknown)}")
         kw.update({k: v for k, v in extra.items() if v})
     return kw
 

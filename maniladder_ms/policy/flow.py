@@ -1,0 +1,231 @@
+"""LadderFlow: the reference policy's network and its training (protocol v1).
+
+A small transformer encoder-decoder that denoises action chunks with flow matching (rectified flow):
+- observation: frozen encoder tokens of the front, left and top cameras (no proprioception, no privileged
+  state), projected to `d_model`, plus learned per-token position embeddings;
+- action chunk: `chunk` (16) normalised actions; training draws t ~ U(0, 1) and noise x0 ~ N(0, I),
+  forms x_t = (1 - t) x0 + t x1 and regresses the velocity x1 - x0; inference integrates the predicted
+  velocity from noise with `integration_steps` Euler steps; the policy executes the first `execute` (8);
+- AdamW, cosine learning rate, an exponential moving average of the weights (the EMA is what acts).
+
+Everything that defines protocol v1 is `LadderFlowConfig()`'s defaults; a checkpoint carries its config,
+the action normaliser and both weight sets, so it acts the same on any machine.
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import math
+from pathlib import Path
+from typing import Optional
+
+import torch
+from torch import nn
+
+PROTOCOL_VERSION = "v1"
+
+
+@dataclasses.dataclass(frozen=True)
+class LadderFlowConfig:
+    encoder: str = "efficientnet-lite0"
+    cameras: tuple[str, ...] = ("front_camera", "left_camera", "top_camera")
+    image_size: int = 128
+    grid: int = 2  # encoder tokens per camera: grid x grid
+    chunk: int = 16  # actions predicted per call
+    execute: int = 8  # of which the first ones are executed open loop
+    integration_steps: int = 10
+    d_model: int = 256
+    heads: int = 4
+    encoder_layers: int = 4
+    decoder_layers: int = 4
+    dropout: float = 0.1
+    lr: float = 3e-4
+    weight_decay: float = 1e-4
+    batch_size: int = 64
+    train_steps: int = 20000
+    ema_decay: float = 0.999
+    seed: int = 0
+
+    def as_dict(self) -> dict:
+        d = dataclasses.asdict(self)
+        d["cameras"] = list(self.cameras)
+        return d
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "LadderFlowConfig":
+        d = dict(d)
+        d["cameras"] = tuple(d["cameras"])
+        return cls(**d)
+
+
+class ActionNormalizer:
+    """Per-dimension affine map of actions to about [-1, 1] (min/max over the demos, constant dims kept)."""
+
+    def __init__(self, low: torch.Tensor, high: torch.Tensor):
+        self.low, self.high = low.float(), high.float()
+        self.scale = ((self.high - self.low) / 2).clamp(min=1e-6)
+        self.centre = (self.high + self.low) / 2
+
+    @classmethod
+    def fit(cls, actions: torch.Tensor) -> "ActionNormalizer":
+        flat = actions.reshape(-1, actions.shape[-1])
+        return cls(flat.min(dim=0).values, flat.max(dim=0).values)
+
+    def normalize(self, a: torch.Tensor) -> torch.Tensor:
+        return (a - self.centre.to(a.device)) / self.scale.to(a.device)
+
+    def denormalize(self, a: torch.Tensor) -> torch.Tensor:
+        return a * self.scale.to(a.device) + self.centre.to(a.device)
+
+    def state_dict(self) -> dict:
+        return {"low": self.low, "high": self.high}
+
+
+def _time_embedding(t: torch.Tensor, dim: int) -> torch.Tensor:
+    """Sinusoidal embedding of flow times t in [0, 1], (B,) -> (B, dim)."""
+    half = dim // 2
+    freqs = torch.exp(-math.log(1000.0) * torch.arange(half, device=t.device) / half)
+    angles = t[:, None] * 1000.0 * freqs[None]
+    return torch.cat([angles.sin(), angles.cos()], dim=1)
+
+
+class LadderFlowNet(nn.Module):
+    """Transformer encoder over observation tokens; transformer decoder over the noisy chunk."""
+
+    def __init__(self, config: LadderFlowConfig, feature_dim: int, action_dim: int):
+        super().__init__()
+        c = config
+        self.config, self.action_dim = c, action_dim
+        n_obs = len(c.cameras) * c.grid * c.grid
+        self.obs_proj = nn.Sequential(nn.LayerNorm(feature_dim), nn.Linear(feature_dim, c.d_model))
+        self.obs_pos = nn.Parameter(torch.randn(1, n_obs, c.d_model) * 0.02)
+        self.action_in = nn.Linear(action_dim, c.d_model)
+        self.action_pos = nn.Parameter(torch.randn(1, c.chunk, c.d_model) * 0.02)
+        self.time_mlp = nn.Sequential(nn.Linear(c.d_model, c.d_model), nn.SiLU(), nn.Linear(c.d_model, c.d_model))
+        layer = dict(d_model=c.d_model, nhead=c.heads, dim_feedforward=4 * c.d_model, dropout=c.dropout,
+                     batch_first=True, norm_first=True)
+        self.encoder = nn.TransformerEncoder(nn.TransformerEncoderLayer(**layer), c.encoder_layers)
+        self.decoder = nn.TransformerDecoder(nn.TransformerDecoderLayer(**layer), c.decoder_layers)
+        self.head = nn.Sequential(nn.LayerNorm(c.d_model), nn.Linear(c.d_model, action_dim))
+
+    def encode_obs(self, features: torch.Tensor) -> torch.Tensor:
+        """(B, cameras * tokens, feature_dim) -> memory (B, n_obs, d_model)."""
+        return self.encoder(self.obs_proj(features) + self.obs_pos)
+
+    def velocity(self, memory: torch.Tensor, x_t: torch.Tensor, t: torch.Tensor) -> torch.Tensor:
+        """Predicted flow velocity (B, chunk, A) at noisy chunk x_t and time t (B,)."""
+        time = self.time_mlp(_time_embedding(t, self.config.d_model))[:, None]
+        h = self.action_in(x_t) + self.action_pos + time
+        return self.head(self.decoder(h, memory + time))
+
+    def loss(self, features: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
+        """Flow-matching loss of normalised action chunks (B, chunk, A) given obs features."""
+        b = actions.shape[0]
+        t = torch.rand(b, device=actions.device)
+        x0 = torch.randn_like(actions)
+        x_t = (1 - t[:, None, None]) * x0 + t[:, None, None] * actions
+        return ((self.velocity(self.encode_obs(features), x_t, t) - (actions - x0)) ** 2).mean()
+
+    @torch.no_grad()
+    def sample(self, features: torch.Tensor, generator: Optional[torch.Generator] = None) -> torch.Tensor:
+        """Normalised action chunks (B, chunk, A) by Euler integration from noise."""
+        b, steps = features.shape[0], self.config.integration_steps
+        memory = self.encode_obs(features)
+        x = torch.randn(b, self.config.chunk, self.action_dim, generator=generator, device=features.device)
+        for k in range(steps):
+            t = torch.full((b,), k / steps, device=features.device)
+            x = x + self.velocity(memory, x, t) / steps
+        return x
+
+
+def chunk_targets(actions: torch.Tensor, chunk: int) -> torch.Tensor:
+    """(T, A) actions of one episode -> (T, chunk, A): from each step the next `chunk` actions, the last
+    one repeated past the episode's end (the demo holds its final command)."""
+    T = actions.shape[0]
+    idx = torch.arange(T)[:, None] + torch.arange(chunk)[None]
+    return actions[idx.clamp(max=T - 1)]
+
+
+class LadderFlowTrainer:
+    """Train one policy on one task's demos: `episodes` is a list of (features (T, n_obs, D), actions (T, A))."""
+
+    def __init__(self, config: LadderFlowConfig, episodes: list, device: str = "cpu"):
+        if not episodes:
+            raise ValueError("no demonstration episodes to train on")
+        torch.manual_seed(config.seed)
+        self.config, self.device = config, device
+        feats = torch.cat([f for f, _ in episodes]).float()
+        actions = [torch.as_tensor(a).float() for _, a in episodes]
+        self.normalizer = ActionNormalizer.fit(torch.cat(actions))
+        targets = torch.cat([chunk_targets(self.normalizer.normalize(a), config.chunk) for a in actions])
+        if feats.shape[0] != targets.shape[0]:
+            raise ValueError(f"{feats.shape[0]} feature frames but {targets.shape[0]} action steps")
+        self.features, self.targets = feats.to(device), targets.to(device)
+        self.net = LadderFlowNet(config, feats.shape[-1], targets.shape[-1]).to(device)
+        self.ema = copy.deepcopy(self.net).eval()
+        for p in self.ema.parameters():
+            p.requires_grad_(False)
+        self.opt = torch.optim.AdamW(self.net.parameters(), lr=config.lr, weight_decay=config.weight_decay)
+        self.sched = torch.optim.lr_scheduler.CosineAnnealingLR(self.opt, T_max=max(config.train_steps, 1))
+        self.step_count = 0
+
+    def train(self, steps: int, progress: bool = False) -> list[float]:
+        """`steps` optimiser steps on random minibatches; returns the loss of each."""
+        from tqdm import tqdm
+
+        losses = []
+        n = self.features.shape[0]
+        self.net.train()
+        for _ in tqdm(range(steps), desc="train", disable=not progress):
+            idx = torch.randint(0, n, (min(self.config.batch_size, n),), device=self.device)
+            loss = self.net.loss(self.features[idx], self.targets[idx])
+            self.opt.zero_grad(set_to_none=True)
+            loss.backward()
+            nn.utils.clip_grad_norm_(self.net.parameters(), 1.0)
+            self.opt.step()
+            self.sched.step()
+            with torch.no_grad():
+                for pe, p in zip(self.ema.parameters(), self.net.parameters()):
+                    pe.lerp_(p, 1 - self.config.ema_decay)
+            self.step_count += 1
+            losses.append(loss.item())
+        return losses
+
+    def policy(self) -> "LadderFlowPolicy":
+        return LadderFlowPolicy(self.config, copy.deepcopy(self.ema).cpu(), self.normalizer)
+
+    def save(self, path, meta: Optional[dict] = None) -> Path:
+        """A checkpoint; `meta`: what the policy acts in (task, control_mode, ...)."""
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        torch.save({
+            "protocol": PROTOCOL_VERSION, "config": self.config.as_dict(), "step": self.step_count, "meta": meta or {},
+            "feature_dim": self.features.shape[-1], "action_dim": self.targets.shape[-1],
+            "normalizer": self.normalizer.state_dict(), "net": self.net.state_dict(), "ema": self.ema.state_dict(),
+        }, path)
+        return path
+
+
+class LadderFlowPolicy:
+    """A trained policy: obs features (n_obs, D) -> an action chunk (execute, A) in the env's units."""
+
+    def __init__(self, config: LadderFlowConfig, net: LadderFlowNet, normalizer: ActionNormalizer,
+                 meta: Optional[dict] = None):
+        self.config, self.net, self.normalizer = config, net.eval(), normalizer
+        self.meta = meta or {}
+
+    @classmethod
+    def load(cls, path) -> "LadderFlowPolicy":
+        ckpt = torch.load(Path(path), map_location="cpu", weights_only=False)
+        if ckpt.get("protocol") != PROTOCOL_VERSION:
+            raise ValueError(f"{path}: a protocol {ckpt.get('protocol')!r} checkpoint; this code runs {PROTOCOL_VERSION}")
+        config = LadderFlowConfig.from_dict(ckpt["config"])
+        net = LadderFlowNet(config, ckpt["feature_dim"], ckpt["action_dim"])
+        net.load_state_dict(ckpt["ema"])
+        return cls(config, net, ActionNormalizer(**ckpt["normalizer"]), ckpt.get("meta"))
+
+    @torch.no_grad()
+    def act(self, features: torch.Tensor, generator: Optional[torch.Generator] = None) -> torch.Tensor:
+        chunk = self.net.sample(features.float()[None], generator=generator)[0]
+        return self.normalizer.denormalize(chunk)[: self.config.execute]

