@@ -28,18 +28,21 @@ class SqueezeClayBimanualEnv(clay.ClayEnvMixin, ManiLadderEnv):
     [-10, 10] degrees, its centre uniform in x in [-0.15, -0.05], y in [-0.05, 0.05].
 
     **Success:** the clay's width along the squeeze axis (world y; `clay.width_along`, the particles'
-    extent with their radius) is <= `max_width_ratio` = 70% of its width at the start.
+    extent with their radius) is at most `max_width_ratio` of its width at the start, and at some step
+    of the episode both grippers pressed on the clay at once (`ee.touches`, episode memory
+    `squeezed_both`: squeezed from both sides, not pushed narrower by one arm).
     """
 
     SUPPORTED_ROBOTS = ["ml_dual_panda"]
     max_dense_reward = 5
     TASK_REGION = (-0.22, 0.02, -0.15, 0.15)
-    block_half = (0.012, 0.024, 0.012)  # particle centres: 3 x 5 x 3, the long side along y
-    max_width_ratio = 0.7
+    # block_half: the particle centres' half extents (3 x 5 x 3 particles, the long side along y)
+    PARAMS = ("block_half", "max_width_ratio")
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
         self.load_clay(clay.clay_block(self.block_half, self.clay_config.spacing))
+        self.memory.flag("squeezed_both")  # both grippers pressed on the clay at the same step
 
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
         super()._initialize_episode(env_idx, options)
@@ -62,20 +65,26 @@ class SqueezeClayBimanualEnv(clay.ClayEnvMixin, ManiLadderEnv):
             faces[side] = face
         return faces
 
+    def _update_memory(self):
+        spheres = self.clay.spheres
+        self.memory.latch("squeezed_both", self.ee.touches(spheres, "left") & self.ee.touches(spheres, "right"))
+
     def _get_obs_extra(self, info: dict):
-        obs = {f"{side}_tcp_pose": self.agent.tcps[side].pose.raw_pose for side in SIDES}
+        obs = {f"{side}_tcp_pose": self.ee.tcp(side).raw_pose for side in SIDES}
         if "state" in self.obs_mode:
             obs.update(clay_points=self.clay.positions().flatten(1), width_ratio=info["width_ratio"])
         return obs
 
     def evaluate(self):
         width_ratio = self.width(self.clay.positions()) / self.width(self.clay.start)
-        return {"success": width_ratio <= self.max_width_ratio, "width_ratio": width_ratio}
+        squeezed_both = self.memory["squeezed_both"]
+        return {"success": (width_ratio <= self.max_width_ratio) & squeezed_both, "width_ratio": width_ratio,
+                "squeezed_both": squeezed_both}
 
     def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
         reward = torch.zeros(self.num_envs, device=self.device)
         for side, face in self.side_faces().items():
-            reward += 1 - torch.tanh(5 * torch.linalg.norm(face - self.agent.tcps[side].pose.p, dim=1))
+            reward += 1 - torch.tanh(5 * torch.linalg.norm(face - self.ee.tcp(side).p, dim=1))
         squeeze = ((1 - info["width_ratio"]) / (1 - self.max_width_ratio)).clamp(0, 1)
         reward += 2 * squeeze
         reward[info["success"]] = self.max_dense_reward
