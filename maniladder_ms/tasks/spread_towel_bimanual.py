@@ -88,6 +88,8 @@ class SpreadTowelBimanualEnv(ManiLadderEnv):
         return {side: self.towel.spheres[self.towel.layout.named["corners"][k]] for side, k in CORNER.items()}
 
     def _update_memory(self):
+        if self.memory["corners_held"].all():
+            return  # latched for good
         corners = [self.towel.spheres[i] for i in self.towel.layout.named["corners"]]
         self.memory.latch("corners_held", self.ee.holds(corners, "left") & self.ee.holds(corners, "right"))
 

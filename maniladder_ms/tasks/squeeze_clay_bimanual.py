@@ -66,6 +66,8 @@ class SqueezeClayBimanualEnv(clay.ClayEnvMixin, ManiLadderEnv):
         return faces
 
     def _update_memory(self):
+        if self.memory["squeezed_both"].all():
+            return  # latched for good: spare the contact queries (45 particles a side)
         spheres = self.clay.spheres
         self.memory.latch("squeezed_both", self.ee.touches(spheres, "left") & self.ee.touches(spheres, "right"))
 
