@@ -173,7 +173,12 @@ class RopeBetweenArmsTask(RopeTask):
         left_first = self.first_is_left()
         held = {}
         for side, own_first in zip(self.SIDES, (left_first, ~left_first)):
-            held[side] = torch.where(own_first, self.ee.holds(first, side), self.ee.holds(last, side))
+            if own_first.all():  # every sub-scene's end on this side is the same one: ask about it alone
+                held[side] = self.ee.holds(first, side)
+            elif not own_first.any():
+                held[side] = self.ee.holds(last, side)
+            else:
+                held[side] = torch.where(own_first, self.ee.holds(first, side), self.ee.holds(last, side))
         return held
 
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):

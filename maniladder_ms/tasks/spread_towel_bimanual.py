@@ -91,7 +91,9 @@ class SpreadTowelBimanualEnv(ManiLadderEnv):
         if self.memory["corners_held"].all():
             return  # latched for good
         corners = [self.towel.spheres[i] for i in self.towel.layout.named["corners"]]
-        self.memory.latch("corners_held", self.ee.holds(corners, "left") & self.ee.holds(corners, "right"))
+        left = self.ee.holds(corners, "left")
+        if left.any():  # the right arm's contact queries only where the left holds a corner
+            self.memory.latch("corners_held", left & self.ee.holds(corners, "right"))
 
     def _get_obs_extra(self, info: dict):
         obs = {f"{side}_tcp_pose": self.ee.tcp(side).raw_pose for side in SIDES}
