@@ -3,6 +3,12 @@
 `CupToBowl` is a mixin for `ManiLadderEnv` tasks (before it in the bases): it builds the cup, the bowl
 and the particles, places them, and measures where the particles are (`pour_metrics`, on which the
 tasks' success rules stand).
+
+The PourParticles family's rule, `held_pour_metrics`: at least `success_fraction` of the particles lie in
+the receiving container, and every container named in `held_containers` was held (`ee.holds`) by its end
+effector on every step since the first particle landed in the receiver (episode memory
+`<container name>_let_go`, latched on a step with particles in the receiver and the container not held),
+at success included. A pour that tips a container over, or lets go of the held bowl, does not count.
 """
 
 from __future__ import annotations
@@ -45,6 +51,9 @@ class CupToBowl:
     cup_friction: ClassVar[float] = 2.0  # grippy: a level side grasp holds it through a pour
     bowl_density: ClassVar[float] = containers.CERAMIC_DENSITY
     bowl_color: ClassVar[tuple] = (0.35, 0.55, 0.75, 1)
+    # "cup" / "bowl" (the roles) -> the side (`ee.sides`) that must hold that container while particles land
+    # in the bowl (`held_pour_metrics`); empty: nothing need be held
+    held_containers: ClassVar[dict[str, str]] = {}
 
     def _load_cup_and_bowl(self):
         self.cup = containers.build_container(self.scene, self.cup_name, self.cup_shape, color=(0.9, 0.9, 0.92, 1),
@@ -52,6 +61,23 @@ class CupToBowl:
         self.bowl = containers.build_container(self.scene, self.bowl_name, self.bowl_shape, color=self.bowl_color,
                                                density=self.bowl_density)
         self.particles = particles.build_particles(self.scene, self.particle_name, self.particle_config)
+        for role in self.held_containers:
+            self.memory.flag(self._let_go_field(role))
+
+    def _let_go_field(self, role: str) -> str:
+        return f"{getattr(self, role + '_name')}_let_go"
+
+    def container_holds(self) -> dict[str, torch.Tensor]:
+        """{role: (B,) bool}: each of `held_containers` is held by its side now."""
+        return {role: self.ee.holds(getattr(self, role), side) for role, side in self.held_containers.items()}
+
+    def _update_memory(self):
+        super()._update_memory()
+        if not self.held_containers:
+            return
+        pouring = particles.fraction_inside(self.particles.positions(), self.bowl.pose, self.bowl_shape) > 0
+        for role, held in self.container_holds().items():
+            self.memory.latch(self._let_go_field(role), pouring & ~held)
 
     def _place_cup_and_bowl(self, b: int):
         """Stand the cup and the bowl upright at random `placement`s in `b` sub-scenes being reset (call
@@ -79,6 +105,20 @@ class CupToBowl:
         in_cup = particles.fraction_inside(p, self.cup.pose, self.cup_shape)
         return {"success": in_bowl >= self.success_fraction, "fraction_in_bowl": in_bowl, "fraction_in_cup": in_cup,
                 "fraction_spilled": 1 - in_bowl - in_cup}
+
+    def held_pour_metrics(self) -> dict:
+        """`pour_metrics` with the family's rule (module docstring): success also needs each of
+        `held_containers` held now and never let go of since the first particle landed in the bowl. Adds
+        `<container name>_held` (now) and `<container name>_let_go` (memory), [B] each."""
+        metrics = self.pour_metrics()
+        success = metrics["success"]
+        for role, held in self.container_holds().items():
+            let_go = self.memory[self._let_go_field(role)]
+            success = success & held & ~let_go
+            metrics[f"{getattr(self, role + '_name')}_held"] = held
+            metrics[self._let_go_field(role)] = let_go
+        metrics["success"] = success
+        return metrics
 
     def pour_reward(self, info: dict) -> torch.Tensor:
         """The particles' part of the dense reward: the share in the bowl, less what was spilled, [0, 1]."""

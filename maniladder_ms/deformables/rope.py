@@ -151,7 +151,35 @@ class RopeBetweenArmsTask(RopeTask):
     (`rope_config`) lies flat along y in a gentle S (`wavy_turns`, amp up to 0.15 rad), the mean of its
     capsule centres at x uniform in [-0.15, -0.05], y uniform in [-0.03, 0.03], its first capsule heading
     within +-15 degrees (uniform) of +y or of -y. The task defines `end_points()` ({"left", "right"} -> [B, 3],
-    where each arm takes the rope) and reports `left_grasped` / `right_grasped` in its info."""
+    where each arm takes the rope) and the param `end_capsules`; `end_holds()` says whether each end effector
+    holds (`ee.holds`) one of the `end_capsules` outermost capsules at the end on its side, which the task
+    reports as `left_grasped` / `right_grasped` in its info."""
+
+    SIDES = ("left", "right")
+
+    def first_is_left(self) -> torch.Tensor:
+        """(B,) bool: the rope's first capsule lies on the left (+y) arm's side."""
+        return self.rope.links[0].pose.p[:, 1] >= self.rope.links[-1].pose.p[:, 1]
+
+    def end_links(self, count: int) -> tuple[list, list]:
+        """The `count` capsules at each end of the rope, outermost first: (first end, last end)."""
+        links = self.rope.links
+        return links[:count], links[::-1][:count]
+
+    def end_holds(self) -> dict[str, torch.Tensor]:
+        """{"left", "right"} -> (B,) bool: that end effector holds one of the `end_capsules` outermost
+        capsules at the rope's end on its side."""
+        first, last = self.end_links(self.end_capsules)
+        left_first = self.first_is_left()
+        held = {}
+        for side, own_first in zip(self.SIDES, (left_first, ~left_first)):
+            if own_first.all():  # every sub-scene's end on this side is the same one: ask about it alone
+                held[side] = self.ee.holds(first, side)
+            elif not own_first.any():
+                held[side] = self.ee.holds(last, side)
+            else:
+                held[side] = torch.where(own_first, self.ee.holds(first, side), self.ee.holds(last, side))
+        return held
 
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
         super()._initialize_episode(env_idx, options)
@@ -164,20 +192,19 @@ class RopeBetweenArmsTask(RopeTask):
             self.rope.lay_flat(middle, heading, turns)
 
     def _get_obs_extra(self, info: dict):
-        sides = ("left", "right")
-        obs = {f"{side}_tcp_pose": self.agent.tcps[side].pose.raw_pose for side in sides}
+        obs = {f"{side}_tcp_pose": self.ee.tcp(side).raw_pose for side in self.SIDES}
         obs.update(left_grasped=info["left_grasped"], right_grasped=info["right_grasped"])
         if "state" in self.obs_mode:
             obs["rope_points"] = self.rope.points().flatten(1)
             for side, p in self.end_points().items():
-                obs[f"{side}_tcp_to_end"] = p - self.agent.tcps[side].pose.p
+                obs[f"{side}_tcp_to_end"] = p - self.ee.tcp(side).p
         return obs
 
     def _two_arm_reward(self, info: dict, *progress: torch.Tensor) -> torch.Tensor:
         """Dense reward: each arm's reach to its end point (1 each), each arm's grasp (1 each), then with both
         grasped each of `progress` (fractions of the goal, clamped to [0, 1]); `max_dense_reward` on success."""
         ends = self.end_points()
-        reward = sum(1 - torch.tanh(5 * torch.linalg.norm(p - self.agent.tcps[side].pose.p, dim=1))
+        reward = sum(1 - torch.tanh(5 * torch.linalg.norm(p - self.ee.tcp(side).p, dim=1))
                      for side, p in ends.items())
         reward = reward + info["left_grasped"].float() + info["right_grasped"].float()
         both = info["left_grasped"] & info["right_grasped"]

@@ -28,15 +28,16 @@ class LiftRopeBimanualEnv(rope.RopeBetweenArmsTask, ManiLadderEnv):
     capsule centres is at x uniform in [-0.15, -0.05], y uniform in [-0.03, 0.03]; its first capsule
     heads within +-15 degrees (uniform) of +y or of -y.
 
-    **Success:** both rope ends (the outer tips of the end capsules) are at least `lift_height` = 15 cm
-    above the table and the distance between them is at least `min_spread` = 80% of the rope's length.
+    **Success:** both rope ends (the outer tips of the end capsules) are at least `lift_height` above the
+    table, the distance between them is at least `min_spread` of the rope's length, and each gripper holds
+    (`ee.holds`) one of the `end_capsules` outermost capsules at the end on its side (`left_grasped`,
+    `right_grasped`: the rope is lifted by both arms, by its ends).
     """
 
     SUPPORTED_ROBOTS = ["ml_dual_panda"]
     max_dense_reward = 6
     TASK_REGION = (-0.3, 0.1, -0.32, 0.32)
-    lift_height = 0.15
-    min_spread = 0.8
+    PARAMS = ("lift_height", "min_spread", "end_capsules")
 
     def end_points(self) -> dict[str, torch.Tensor]:
         """Centres of the two end capsules, keyed by the arm on whose side each lies, [B, 3] each."""
@@ -50,10 +51,9 @@ class LiftRopeBimanualEnv(rope.RopeBetweenArmsTask, ManiLadderEnv):
         spread = rope.end_to_end_distance(points) / self.rope_config.length
         lifted = ends_height >= self.lift_height
         taut = spread >= self.min_spread
-        first, last = self.rope.links[0], self.rope.links[-1]
-        grasped = {side: self.agent.is_grasping(side, first) | self.agent.is_grasping(side, last) for side in SIDES}
+        grasped = self.end_holds()
         return {
-            "success": lifted & taut,
+            "success": lifted & taut & grasped["left"] & grasped["right"],
             "lifted": lifted,
             "taut": taut,
             "ends_height": ends_height,
@@ -67,7 +67,7 @@ class LiftRopeBimanualEnv(rope.RopeBetweenArmsTask, ManiLadderEnv):
 
 
 GRASP_CLEARANCE = 0.004  # TCP this far above the capsule centre: finger tips off the table, free to close
-HOLD_HEIGHT = 0.2  # the grasped end capsules end this high: the tips clear the 15 cm rule
+HOLD_HEIGHT = 0.2  # the grasped end capsules end this high: the tips clear `lift_height` (15 cm)
 HOLD_SPREAD = 0.33  # metres between the grasped capsule centres at the end (0.34 between them along the rope)
 
 

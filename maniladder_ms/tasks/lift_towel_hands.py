@@ -9,7 +9,6 @@ import torch
 
 from mani_skill.utils.structs.pose import Pose
 
-from maniladder_ms.agents.hand_contact import LeapContacts
 from maniladder_ms.deformables import cloth
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.geometry import yaw_quat
@@ -46,22 +45,21 @@ class LiftTowelHandsEnv(ManiLadderEnv):
     [-0.14, -0.06], y uniform in [-0.03, 0.03], its edges turned by a yaw uniform in
     [pi/4 - pi/36, pi/4 + pi/12] (the diagonal between the two hands' corners 85-105 degrees from the x axis).
 
-    **Success:** every towel particle is at least `clearance` = 1 cm above the table (its lowest point,
-    centre minus radius), and each hand holds the corner on its side (`left_grasped`, `right_grasped`: the
-    hand's index and middle finger both touch that corner particle, the "scissor" pinch the solver uses).
+    **Success:** every towel particle is at least `clearance` above the table (its lowest point, centre
+    minus radius), and each hand holds the corner particle on its side (`left_grasped`, `right_grasped`:
+    `ee.holds`, the "scissor" pinch the solver uses or a finger against the thumb or palm).
     """
 
     SUPPORTED_ROBOTS = ["ml_dual_panda_leap"]
     max_dense_reward = 6
     TASK_REGION = (-0.28, 0.08, -0.2, 0.2)  # towel centres plus the towel's half diagonal
     cloth_config = cloth.ClothConfig(radius=0.010)
-    clearance = 0.01
+    PARAMS = ("clearance",)
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
         self.towel = cloth.build_cloth(self.scene, "towel", cloth.towel(ROWS, COLS, self.cloth_config.spacing),
                                        self.cloth_config)
-        self.hands = {side: LeapContacts(self.agent, f"{side}_") for side in SIDES}
         self.hand_corners = side_corners(self.towel.layout)
 
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
@@ -74,19 +72,18 @@ class LiftTowelHandsEnv(ManiLadderEnv):
             self.towel.set_rest_shape(Pose.create_from_pq(centre, yaw_quat(yaw)))
 
     def _get_obs_extra(self, info: dict):
-        obs = {f"{side}_tcp_pose": self.agent.tcps[side].pose.raw_pose for side in SIDES}
+        obs = {f"{side}_tcp_pose": self.ee.tcp(side).raw_pose for side in SIDES}
         obs.update(left_grasped=info["left_grasped"], right_grasped=info["right_grasped"])
         if "state" in self.obs_mode:
             points = self.towel.positions()
             obs["towel_points"] = points.flatten(1)
             for side, i in self.hand_corners.items():
-                obs[f"{side}_tcp_to_corner"] = points[:, i] - self.agent.tcps[side].pose.p
+                obs[f"{side}_tcp_to_corner"] = points[:, i] - self.ee.tcp(side).p
         return obs
 
     def evaluate(self):
         lowest = self.towel.positions()[..., 2].amin(dim=1) - self.cloth_config.radius
-        grasped = {side: self.hands[side].is_scissoring(self.scene, self.towel.spheres[i])
-                   for side, i in self.hand_corners.items()}
+        grasped = {side: self.ee.holds(self.towel.spheres[i], side) for side, i in self.hand_corners.items()}
         return {
             "success": (lowest >= self.clearance) & grasped["left"] & grasped["right"],
             "lowest": lowest,
@@ -96,7 +93,7 @@ class LiftTowelHandsEnv(ManiLadderEnv):
 
     def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
         points = self.towel.positions()
-        reward = sum(1 - torch.tanh(5 * torch.linalg.norm(points[:, i] - self.agent.tcps[side].pose.p, dim=1))
+        reward = sum(1 - torch.tanh(5 * torch.linalg.norm(points[:, i] - self.ee.tcp(side).p, dim=1))
                      for side, i in self.hand_corners.items())
         both = info["left_grasped"] & info["right_grasped"]
         reward += info["left_grasped"].float() + info["right_grasped"].float()

@@ -10,7 +10,6 @@ import torch
 
 from mani_skill.utils.geometry.rotation_conversions import axis_angle_to_quaternion, quaternion_apply, quaternion_multiply
 
-from maniladder_ms.agents.hand_contact import LeapContacts
 from maniladder_ms.deformables import particles
 from maniladder_ms.deformables.pouring import CupToBowl
 from maniladder_ms.envs import ManiLadderEnv, register_task
@@ -47,9 +46,12 @@ class PourGrainsHandToCupEnv(CupToBowl, ManiLadderEnv):
     - the arms start in a ready pose (`READY_JOINTS`, plus the usual joint noise): each hand raised above its
       container, palm turned in for a side grasp.
 
-    **Success:** at least `success_fraction` = 70 % of the grains lie inside the cup's inner volume (below
-    its rim, `particles.fraction_inside`) and the right hand holds the cup (`cup_held`: a finger link and a
-    thumb or palm link each press on it).
+    **Success:** (`CupToBowl.held_pour_metrics`, the PourParticles rule) at least `success_fraction` of the
+    `particle_count` grains lie inside the cup's inner volume (below its rim, `particles.fraction_inside`); the right hand
+    holds the cup (`cup_held`, `ee.holds`: a finger against the thumb or palm, or the scissor pinch) and
+    the left hand the glass (`glass_grasped`), now and on every step since the first grain landed in the
+    cup (episode memory `cup_let_go`, `glass_let_go`): the grains go into the held cup, poured from the
+    held glass.
 
     (In `CupToBowl`'s terms the glass is the pouring `self.cup` and the held cup the receiving `self.bowl`.)
     """
@@ -64,17 +66,21 @@ class PourGrainsHandToCupEnv(CupToBowl, ManiLadderEnv):
     bowl_shape = containers.cup(radius=0.035, height=0.11, wall=0.004)
     cup_name = "glass"
     bowl_name = "cup"
-    particle_config = dataclasses.replace(particles.GRANULAR, count=60, radius=0.004)
+    PARAMS = ("success_fraction", "particle_count")
     particle_name = "grains"
-    success_fraction = 0.7
+    # the receiving cup (`self.bowl`) by the holder, the pouring glass (`self.cup`) by the pourer
+    held_containers = {"bowl": HOLDER, "cup": POURER}
     bowl_density = CupToBowl.cup_density  # a light plastic cup, as the glass
     bowl_color = (0.8, 0.35, 0.3, 1)
     placement = {"bowl": ((-0.06, 0.0), (-0.06, 0.0)), "cup": ((-0.16, -0.1), (0.14, 0.2))}
 
+    @property
+    def particle_config(self) -> particles.ParticleConfig:
+        return dataclasses.replace(particles.GRANULAR, count=self.particle_count, radius=0.004)
+
     def _load_scene(self, options: dict):
         super()._load_scene(options)
         self._load_cup_and_bowl()
-        self.hands = {side: LeapContacts(self.agent, f"{side}_") for side in (POURER, HOLDER)}
 
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
         super()._initialize_episode(env_idx, options)
@@ -82,22 +88,19 @@ class PourGrainsHandToCupEnv(CupToBowl, ManiLadderEnv):
             self._place_cup_and_bowl(len(env_idx))
 
     def _get_obs_extra(self, info: dict):
-        obs = dict(left_tcp_pose=self.agent.tcps["left"].pose.raw_pose, right_tcp_pose=self.agent.tcps["right"].pose.raw_pose,
+        obs = dict(left_tcp_pose=self.ee.tcp("left").raw_pose, right_tcp_pose=self.ee.tcp("right").raw_pose,
                    cup_held=info["cup_held"], glass_grasped=info["glass_grasped"])
         if "state" in self.obs_mode:
             obs.update(self._cup_and_bowl_obs())
         return obs
 
     def evaluate(self):
-        metrics = self.pour_metrics()
-        cup_held = self.hands[HOLDER].is_grasping(self.scene, self.bowl)
+        metrics = self.held_pour_metrics()  # cup_held, glass_held, cup_let_go, glass_let_go
         return {
             **metrics,
-            "success": metrics["success"] & cup_held,
             "fraction_in_held_cup": metrics["fraction_in_bowl"],
             "fraction_in_glass": metrics["fraction_in_cup"],
-            "cup_held": cup_held,
-            "glass_grasped": self.hands[POURER].is_grasping(self.scene, self.cup),
+            "glass_grasped": metrics["glass_held"],
             "glass_lifted": self.cup.pose.p[:, 2] > 0.05,
         }
 
@@ -105,8 +108,8 @@ class PourGrainsHandToCupEnv(CupToBowl, ManiLadderEnv):
         # holder: reach and hold the cup; pourer: reach the glass, grasp, lift, carry beside the cup; then the
         # grains in the cup
         mid = torch.tensor([0, 0, 0.04], device=self.device)
-        reach_cup = 1 - torch.tanh(5 * torch.linalg.norm(self.bowl.pose.p + mid - self.agent.tcps[HOLDER].pose.p, dim=1))
-        reach_glass = 1 - torch.tanh(5 * torch.linalg.norm(self.cup.pose.p + mid - self.agent.tcps[POURER].pose.p, dim=1))
+        reach_cup = 1 - torch.tanh(5 * torch.linalg.norm(self.bowl.pose.p + mid - self.ee.tcp(HOLDER).p, dim=1))
+        reach_glass = 1 - torch.tanh(5 * torch.linalg.norm(self.cup.pose.p + mid - self.ee.tcp(POURER).p, dim=1))
         grasped = info["glass_grasped"].float()
         carry = 1 - torch.tanh(5 * torch.linalg.norm((self.bowl.pose.p - self.cup.pose.p)[:, :2], dim=1))
         reward = 0.5 * (reach_cup + info["cup_held"].float()) + 0.5 * reach_glass + grasped

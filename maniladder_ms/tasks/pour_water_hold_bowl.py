@@ -31,18 +31,26 @@ class PourWaterHoldBowlEnv(CupToBowl, ManiLadderEnv):
       it, x in [-0.16, -0.1], y in [-0.26, -0.18], holding 80 liquid particles (low-friction spheres,
       radius 4 mm) packed from its floor with a small random jitter.
 
-    **Success:** at least `success_fraction` = 80 % of the liquid particles lie inside the bowl's inner
-    volume (below its rim, `particles.fraction_inside`).
+    **Success:** (`CupToBowl.held_pour_metrics`, the PourParticles rule) at least `success_fraction` of the
+    `particle_count` liquid particles lie inside the bowl's inner volume (below its rim, `particles.fraction_inside`);
+    the left gripper holds the bowl (`ee.holds`) and the right gripper the cup, now and on every step
+    since the first particle landed in the bowl (episode memory `bowl_let_go`, `cup_let_go`): the bowl
+    is held while the water goes in, and the water is poured from the held cup, not knocked over.
     """
 
     SUPPORTED_ROBOTS = ["ml_dual_panda"]
     max_dense_reward = 6
     TASK_REGION = (-0.25, 0.15, -0.32, 0.15)
-    particle_config = dataclasses.replace(particles.LIQUID, count=80, radius=0.004)
+    PARAMS = ("success_fraction", "particle_count")
     particle_name = "water"
+    held_containers = {"bowl": "left", "cup": "right"}
     bowl_density = CupToBowl.cup_density  # ~0.1 kg: light, worth holding
     bowl_color = (0.85, 0.75, 0.55, 1)
     placement = {"bowl": ((0.0, 0.06), (-0.04, 0.04)), "cup": ((-0.16, -0.1), (-0.26, -0.18))}
+
+    @property
+    def particle_config(self) -> particles.ParticleConfig:
+        return dataclasses.replace(particles.LIQUID, count=self.particle_count, radius=0.004)
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -59,26 +67,22 @@ class PourWaterHoldBowlEnv(CupToBowl, ManiLadderEnv):
         return self.bowl.pose.p + torch.tensor([0.0, r, self.bowl_shape.height - 0.01], device=self.device)
 
     def _get_obs_extra(self, info: dict):
-        obs = dict(left_tcp_pose=self.agent.tcps["left"].pose.raw_pose, right_tcp_pose=self.agent.tcps["right"].pose.raw_pose,
+        obs = dict(left_tcp_pose=self.ee.tcp("left").raw_pose, right_tcp_pose=self.ee.tcp("right").raw_pose,
                    bowl_held=info["bowl_held"], cup_grasped=info["cup_grasped"])
         if "state" in self.obs_mode:
             obs.update(self._cup_and_bowl_obs())
         return obs
 
     def evaluate(self):
-        return {
-            **self.pour_metrics(),
-            "bowl_held": self.agent.is_grasping("left", self.bowl),
-            "cup_grasped": self.agent.is_grasping("right", self.cup),
-            "cup_lifted": self.cup.pose.p[:, 2] > 0.05,
-        }
+        metrics = self.held_pour_metrics()  # bowl_held, cup_held, bowl_let_go, cup_let_go
+        return {**metrics, "cup_grasped": metrics["cup_held"], "cup_lifted": self.cup.pose.p[:, 2] > 0.05}
 
     def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
         # left: reach and hold the rim; right: reach the cup's side, grasp, lift, carry behind the bowl;
         # then the water in the bowl
-        reach_rim = 1 - torch.tanh(5 * torch.linalg.norm(self.rim_point() - self.agent.tcps["left"].pose.p, dim=1))
+        reach_rim = 1 - torch.tanh(5 * torch.linalg.norm(self.rim_point() - self.ee.tcp("left").p, dim=1))
         cup_mid = self.cup.pose.p + torch.tensor([0, 0, self.cup_shape.height / 2], device=self.device)
-        reach_cup = 1 - torch.tanh(5 * torch.linalg.norm(cup_mid - self.agent.tcps["right"].pose.p, dim=1))
+        reach_cup = 1 - torch.tanh(5 * torch.linalg.norm(cup_mid - self.ee.tcp("right").p, dim=1))
         grasped = info["cup_grasped"].float()
         carry = 1 - torch.tanh(5 * torch.linalg.norm((self.bowl.pose.p - self.cup.pose.p)[:, :2], dim=1))
         reward = 0.5 * (reach_rim + info["bowl_held"].float()) + 0.5 * reach_cup + grasped

@@ -45,18 +45,18 @@ class SpreadTowelBimanualEnv(ManiLadderEnv):
       near corner particles lie on top. The start never covers the target: with the offset alone at
       most (25 - 8) / 25 = 68% (0.17-0.38 measured on seeds 0-11, fold included).
 
-    **Success:** the towel covers at least `min_coverage` = 75% of the target area seen from above,
-    counting only particles lying on the table (centres at most `on_table_height` = 3 cm up;
-    `metrics.target_coverage`, each particle a 2.5 cm square tile).
+    **Success:** the towel covers at least `min_coverage` of the target area (a square of half side
+    `target_half`) seen from above, counting only particles lying on the table (centres at most
+    `on_table_height` up; `metrics.target_coverage`, each particle a tile of the grid spacing), and at
+    some step of the episode both grippers held (`ee.holds`) a corner particle of the towel at once
+    (episode memory `corners_held`: the towel was spread by two corners, not pushed or dragged).
     """
 
     SUPPORTED_ROBOTS = ["ml_dual_panda"]
     max_dense_reward = 6
     TASK_REGION = (-0.3, 0.25, -0.3, 0.3)
     cloth_config = cloth.ClothConfig(radius=0.010)
-    target_half = 0.125
-    min_coverage = 0.75
-    on_table_height = 0.03
+    PARAMS = ("target_half", "min_coverage", "on_table_height")
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -67,6 +67,7 @@ class SpreadTowelBimanualEnv(ManiLadderEnv):
         shapes = [cloth.fold_edge(layout, ROWS, COLS, cells) for cells in FOLD_CELLS]
         self._shape_positions = torch.tensor(np.stack([p for p, _ in shapes]), dtype=torch.float32, device=self.device)
         self._shape_quats = torch.tensor(np.stack([q for _, q in shapes]), dtype=torch.float32, device=self.device)
+        self.memory.flag("corners_held")  # both grippers held a towel corner at the same step
 
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
         super()._initialize_episode(env_idx, options)
@@ -86,28 +87,36 @@ class SpreadTowelBimanualEnv(ManiLadderEnv):
         """The corner particle (actor) each arm takes, keyed by side."""
         return {side: self.towel.spheres[self.towel.layout.named["corners"][k]] for side, k in CORNER.items()}
 
+    def _update_memory(self):
+        if self.memory["corners_held"].all():
+            return  # latched for good
+        corners = [self.towel.spheres[i] for i in self.towel.layout.named["corners"]]
+        left = self.ee.holds(corners, "left")
+        if left.any():  # the right arm's contact queries only where the left holds a corner
+            self.memory.latch("corners_held", left & self.ee.holds(corners, "right"))
+
     def _get_obs_extra(self, info: dict):
-        obs = {f"{side}_tcp_pose": self.agent.tcps[side].pose.raw_pose for side in SIDES}
+        obs = {f"{side}_tcp_pose": self.ee.tcp(side).raw_pose for side in SIDES}
         obs.update(left_grasped=info["left_grasped"], right_grasped=info["right_grasped"])
         if "state" in self.obs_mode:
             obs["towel_points"] = self.towel.positions().flatten(1)
             obs["target_pos"] = self.target.pose.p
             for side, particle in self.corner_particles().items():
-                obs[f"{side}_tcp_to_corner"] = particle.pose.p - self.agent.tcps[side].pose.p
+                obs[f"{side}_tcp_to_corner"] = particle.pose.p - self.ee.tcp(side).p
         return obs
 
     def evaluate(self):
         coverage = metrics.target_coverage(self.towel.positions(), self.cloth_config.spacing, self.target.pose.p,
                                            (self.target_half, self.target_half), max_height=self.on_table_height)
-        info = {f"{side}_grasped": self.agent.is_grasping(side, particle)
-                for side, particle in self.corner_particles().items()}
-        info.update(success=coverage >= self.min_coverage, coverage=coverage)
+        info = {f"{side}_grasped": self.ee.holds(particle, side) for side, particle in self.corner_particles().items()}
+        corners_held = self.memory["corners_held"]
+        info.update(success=(coverage >= self.min_coverage) & corners_held, coverage=coverage, corners_held=corners_held)
         return info
 
     def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
         reward = torch.zeros(self.num_envs, device=self.device)
         for side, particle in self.corner_particles().items():
-            reach = torch.linalg.norm(particle.pose.p - self.agent.tcps[side].pose.p, dim=1)
+            reach = torch.linalg.norm(particle.pose.p - self.ee.tcp(side).p, dim=1)
             reward += (1 - torch.tanh(5 * reach)) + info[f"{side}_grasped"].float()
         reward += 2 * (info["coverage"] / self.min_coverage).clamp(0, 1)
         reward[info["success"]] = self.max_dense_reward

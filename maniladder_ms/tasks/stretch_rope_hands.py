@@ -6,7 +6,6 @@ from typing import Any
 
 import torch
 
-from maniladder_ms.agents.hand_contact import LeapContacts
 from maniladder_ms.deformables import rope
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
@@ -28,43 +27,16 @@ class StretchRopeHandsEnv(rope.RopeBetweenArmsTask, ManiLadderEnv):
     heads within +-15 degrees (uniform) of +y or of -y.
 
     **Success:** the rope's straightness (`rope.straightness`: tip-to-tip distance over arc length) is at
-    least `min_straightness` = 0.9 and every point of it (capsule centres and the two tips) is at least
-    `lift_height` = 5 cm above the table.
-
-    `left_grasped` / `right_grasped` (reward and observation): that hand's index and middle finger both
-    touch one of the three capsules at its end of the rope (the "scissor" pinch the solver uses).
+    least `min_straightness`, every point of it (capsule centres and the two tips) is at least `lift_height`
+    above the table, and each hand holds (`ee.holds`: the solver's "scissor" pinch, or a finger against the
+    thumb or palm) one of the `end_capsules` outermost capsules at the end on its side (`left_grasped`,
+    `right_grasped`: the rope is stretched by both hands, not just lying straight on something).
     """
 
     SUPPORTED_ROBOTS = ["ml_dual_panda_leap"]
     max_dense_reward = 6
     TASK_REGION = (-0.3, 0.1, -0.32, 0.32)
-    min_straightness = 0.9
-    lift_height = 0.05
-
-    def _load_scene(self, options: dict):
-        super()._load_scene(options)  # the rope (rope.RopeTask)
-        self.hands = {side: LeapContacts(self.agent, f"{side}_") for side in SIDES}
-
-    def first_is_left(self) -> torch.Tensor:
-        """(B,) bool: the rope's first capsule lies on the left (+y) arm's side."""
-        return self.rope.links[0].pose.p[:, 1] >= self.rope.links[-1].pose.p[:, 1]
-
-    def end_links(self, count: int = 3) -> tuple[list, list]:
-        """The `count` capsules at each end of the rope, outermost first: (first end, last end)."""
-        links = self.rope.links
-        return links[:count], links[::-1][:count]
-
-    def _grasped(self) -> dict[str, torch.Tensor]:
-        first, last = self.end_links(3)
-        touch = {}
-        for side in SIDES:
-            hand = self.hands[side]
-            at_first = torch.stack([hand.is_scissoring(self.scene, link) for link in first]).any(dim=0)
-            at_last = torch.stack([hand.is_scissoring(self.scene, link) for link in last]).any(dim=0)
-            touch[side] = (at_first, at_last)
-        left_first = self.first_is_left()
-        return {"left": torch.where(left_first, touch["left"][0], touch["left"][1]),
-                "right": torch.where(left_first, touch["right"][1], touch["right"][0])}
+    PARAMS = ("min_straightness", "lift_height", "end_capsules")
 
     def end_points(self) -> dict[str, torch.Tensor]:
         """Centres of the second capsule from each end (where the solver pinches), keyed by side, [B, 3]."""
@@ -78,9 +50,9 @@ class StretchRopeHandsEnv(rope.RopeBetweenArmsTask, ManiLadderEnv):
         lowest = points[..., 2].amin(dim=1)
         straight = straightness >= self.min_straightness
         lifted = lowest >= self.lift_height
-        grasped = self._grasped()
+        grasped = self.end_holds()
         return {
-            "success": straight & lifted,
+            "success": straight & lifted & grasped["left"] & grasped["right"],
             "straight": straight,
             "lifted": lifted,
             "straightness": straightness,
@@ -94,7 +66,7 @@ class StretchRopeHandsEnv(rope.RopeBetweenArmsTask, ManiLadderEnv):
 
 
 LIFT_STEP = 0.006  # metres a control step, as LiftRopeHand's lift: faster swings the rope out of the pinch
-HOLD_HEIGHT = 0.15  # the pinched capsules end this high: the sagging rope and its hanging ends clear 5 cm
+HOLD_HEIGHT = 0.15  # the pinched capsules end this high: the sagging rope and its hanging ends clear `lift_height` (5 cm)
 HOLD_SPREAD = 0.335  # metres between the pinched capsule centres at the end (0.34 between them along the rope)
 
 
