@@ -54,7 +54,7 @@ class ShowcaseEnv(ManiLadderEnv):
         raise NotImplementedError
 
     def _get_obs_extra(self, info: dict):
-        obs = dict(tcp_pose=self.agent.tcp_pose.raw_pose)
+        obs = dict(tcp_pose=self.ee.tcp().raw_pose)
         if "state" in self.obs_mode:
             obs["deformable_points"] = self.deformable_points().flatten(1)
         return obs
