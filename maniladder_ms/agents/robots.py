@@ -35,7 +35,6 @@ from mani_skill.agents.controllers import (
 from mani_skill.agents.registration import register_agent
 from mani_skill.agents.robots.panda.panda_wristcam import PandaWristCam
 from mani_skill.sensors.camera import CameraConfig
-from mani_skill.utils import common, sapien_utils
 
 from .assets import source_urdf, urdf_path
 
@@ -309,20 +308,6 @@ class MLDualPanda(_DualArm):
 
     def _end_effector_config(self, prefix: str):
         return gripper_config(prefix)
-
-    def _after_init(self):
-        super()._after_init()
-        self.fingers = {s: (self.link(f"{s}_panda_leftfinger"), self.link(f"{s}_panda_rightfinger")) for s in self.sides}
-
-    def is_grasping(self, side: str, obj, min_force: float = 0.5, max_angle: float = 85) -> torch.Tensor:
-        """(num_envs,) bool: both fingers of `side`'s gripper press on `obj` (ManiSkill's Panda.is_grasping)."""
-        flags = []
-        for finger, sign in zip(self.fingers[side], (1, -1)):
-            force = self.scene.get_pairwise_contact_forces(finger, obj)
-            opening = sign * finger.pose.to_transformation_matrix()[..., :3, 1]
-            angle = common.compute_angle_between(opening, force)
-            flags.append((torch.linalg.norm(force, dim=1) >= min_force) & (torch.rad2deg(angle) <= max_angle))
-        return flags[0] & flags[1]
 
 
 @register_agent()

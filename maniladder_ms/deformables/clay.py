@@ -148,14 +148,13 @@ class Clay(SphereSet):
         return self.rest.flatten(1).clone()
 
     def set_state(self, state: torch.Tensor, env_idx: torch.Tensor):
-        """Restore rest offsets saved by `state()` for the envs `env_idx` (a tensor or, from ManiSkill's
-        replay_trajectory, a numpy array)."""
-        self.rest[env_idx] = torch.as_tensor(state).reshape(len(env_idx), -1, 3).to(self.rest)
+        """Restore rest offsets saved by `state()` for the envs `env_idx`."""
+        self.rest[env_idx] = state.reshape(len(env_idx), -1, 3).to(self.rest)
         self._push_targets(env_idx, torch.ones(len(env_idx), len(self.drives), dtype=torch.bool))
 
     def set_start(self, start: torch.Tensor, env_idx: torch.Tensor):
         """Restore the start positions (flattened [b, N * 3]) of the envs `env_idx`."""
-        self.start[env_idx] = torch.as_tensor(start).reshape(len(env_idx), -1, 3).to(self.start)
+        self.start[env_idx] = start.reshape(len(env_idx), -1, 3).to(self.start)
 
     def _push_targets(self, env_idx: torch.Tensor, which: torch.Tensor):
         """Send the rest offsets of the links marked in `which` [b, L] to their PhysX drives."""
