@@ -256,3 +256,25 @@ def test_one_pass_contact_forces_match_maniskill_query():
     assert torch.allclose(link_forces(base.scene, base.ball, bodies), expected.norm(dim=-1), atol=1e-6)
     assert expected[0, 0].norm() > 0.3 and expected[0, 0, 2] < 0  # the 58 g ball presses down on its stand
     env.close()
+
+
+def test_many_objects_in_one_pass_equal_one_query_each():
+    """`effectors.pair_forces` (one pass for many objects, what `ee.touches` uses) equals `contact_forces`
+    object by object, exactly: both hands' links and the ball and its stand, the ball resting."""
+    from maniladder_ms.agents.effectors import pair_forces
+
+    env = maniladder_ms.make("HandoverBallHands", obs_mode="state")
+    env.reset(seed=0)
+    base = env.unwrapped
+    for _ in range(3):
+        env.step(hold_action(base.agent))
+    objs = [base.ball, base.stand]
+    links = base.ee["left"].all_links + base.ee["right"].all_links
+    many = pair_forces(base.scene, objs, links)
+    assert many.shape == (2, len(links), 1, 3)
+    for i, obj in enumerate(objs):
+        assert torch.equal(many[i], contact_forces(base.scene, obj, links))
+    assert torch.equal(pair_forces(base.scene, [base.stand], [base.ball])[0, 0],
+                       contact_forces(base.scene, base.stand, [base.ball])[0])
+    assert pair_forces(base.scene, [base.stand], [base.ball]).norm() > 0.3  # the ball rests on its stand
+    env.close()
