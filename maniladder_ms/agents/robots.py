@@ -36,7 +36,7 @@ from mani_skill.agents.registration import register_agent
 from mani_skill.agents.robots.panda.panda_wristcam import PandaWristCam
 from mani_skill.sensors.camera import CameraConfig
 
-from .assets import source_urdf, urdf_path
+from .assets import panda_wristcam_urdf, source_urdf, urdf_path
 
 ARM_JOINTS = [f"panda_joint{i}" for i in range(1, 8)]
 GRIPPER_JOINTS = ["panda_finger_joint1", "panda_finger_joint2"]
@@ -199,6 +199,7 @@ class MLPanda(PandaWristCam):
     """
 
     uid = "ml_panda"
+    urdf_path = panda_wristcam_urdf()  # panda_v3.urdf with the low-poly wrist camera (agents/assets.py)
 
 
 # ==================================================================================================
