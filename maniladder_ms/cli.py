@@ -1,4 +1,4 @@
-"""`maniladder`: list the ladder, render a task, benchmark steps/s, demos, evaluation and reports."""
+"""`maniladder`: list the ladder, render a task, benchmark steps/s, demos, evaluation, calibration and reports."""
 
 from __future__ import annotations
 
@@ -12,6 +12,7 @@ from maniladder_ms.catalog import EMBODIMENTS, LEVELS, OBJECT_CLASSES, OBJECT_PR
 from maniladder_ms.demos.cli import add_parser as add_demos_parser
 from maniladder_ms.demos.files import DemoFileError
 from maniladder_ms.evaluation.cli import add_parsers as add_eval_parsers
+from maniladder_ms.policy.calibrate import add_parser as add_calibrate_parser
 from maniladder_ms.table import print_table
 
 
@@ -226,6 +227,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     add_demos_parser(sub)
     add_eval_parsers(sub)
+    add_calibrate_parser(sub)
     return p
 
 

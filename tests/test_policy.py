@@ -112,12 +112,13 @@ def test_demo_frames_render_the_recorded_states_and_train_an_evaluable_policy(tm
     import maniladder_ms
     from maniladder_ms.evaluation.runner import EpisodeRunner
     from maniladder_ms.policy.evaluate import LadderFlowEvalPolicy
-    from maniladder_ms.policy.features import cache_features, demo_frames, load_features
+    from maniladder_ms.policy.features import cache_features, demo_frames, encode_frames, load_features
 
     demo = Path(__file__).resolve().parents[1] / "demos/PickPlacePen/trajectory.none.pd_ee_delta_pose.physx_cpu.h5"
     cams = ("front_camera", "top_camera")
-    images, actions, ep = next(demo_frames(demo, cams, size=64))
+    images, frames, actions, ep = next(demo_frames(demo, cams, size=64))
     assert images.shape == (len(actions), 2, 64, 64, 3) and images.dtype == np.uint8
+    assert np.array_equal(frames, np.arange(len(actions)))
     env = maniladder_ms.make("PickPlacePen", obs_mode="rgb", cameras=cams, control_mode="pd_ee_delta_pose",
                              sensor_configs=dict(width=64, height=64))
     obs, _ = env.reset(**dict(ep.get("reset_kwargs") or {}, seed=ep["episode_seed"]))
@@ -126,9 +127,13 @@ def test_demo_frames_render_the_recorded_states_and_train_an_evaluable_policy(tm
     assert images[-1].std() > 0 and not np.array_equal(images[0], images[-1])  # the scene moved
 
     encoder = make_encoder("random-projection")
-    path = cache_features(demo, encoder, cams, tmp_path / "features.npz", size=64)
+    path = cache_features(demo, encoder, cams, tmp_path / "features.npz", size=64, stride=3)
     episodes = load_features(path)
-    assert len(episodes) == 2 and episodes[0][0].shape == (len(actions), 2 * encoder.tokens, encoder.dim)
+    n_frames = len(range(0, len(actions), 3))  # every third step rendered, all actions kept
+    assert len(episodes) == 2 and episodes[0][0].shape == (n_frames, 2 * encoder.tokens, encoder.dim)
+    assert len(episodes[0][1]) == len(actions) and episodes[0][2].tolist() == list(range(0, len(actions), 3))
+    # the feature of step 3 is what the per-step render showed at step 3
+    assert torch.allclose(episodes[0][0][1], encode_frames(encoder, images[3:4])[0].half().float())
     config = dataclasses.replace(TINY, cameras=cams, encoder="random-projection", image_size=64, chunk=4, execute=4)
     trainer = LadderFlowTrainer(config, episodes)
     trainer.train(3)

@@ -66,6 +66,12 @@ def cmd_eval(args) -> int:
 def cmd_report(args) -> int:
     from .report import write_report
 
+    if len(args.results) == 1 and (args.results[0] / "calibration.json").is_file():  # a `maniladder calibrate` folder
+        from maniladder_ms.policy.calibrate import write_calibration_report
+
+        html = write_calibration_report(args.results[0], out=args.out)
+        print(f"wrote {html}")
+        return 0
     html = write_report(args.results, out=args.out, title=args.title)
     print(f"wrote {html}")
     return 0
@@ -96,7 +102,8 @@ def add_parsers(subparsers) -> None:
         "report", help="HTML report (+ PNGs) of one or more results folders; the first is the baseline",
     )
     rp.add_argument("results", nargs="+", type=Path,
-                    help="results folders (or a folder holding several); two or more are compared to the first")
+                    help="results folders (or a folder holding several); two or more are compared to the first; "
+                         "or one `maniladder calibrate` folder (docs/calibration)")
     rp.add_argument("--out", type=Path, help="report folder (default <first results>/report)")
     rp.add_argument("--title", default="ManiLadder evaluation report")
     rp.set_defaults(func=_guarded(cmd_report))

@@ -19,8 +19,10 @@ from maniladder_ms.demos.verify import _state_at, _torch_state
 from .encoders import Encoder
 
 
-def demo_frames(h5_path, cameras: Sequence[str], size: int = 128, progress: bool = False) -> Iterator[tuple]:
-    """Per episode of a demo file: (images uint8 (T, cameras, size, size, 3), actions (T, A), episode json)."""
+def demo_frames(h5_path, cameras: Sequence[str], size: int = 128, progress: bool = False,
+                stride: int = 1) -> Iterator[tuple]:
+    """Per episode of a demo file: (images uint8 (F, cameras, size, size, 3) of the frames 0, stride, 2 stride,
+    ..., their step indices (F,), all actions (T, A), episode json)."""
     from tqdm import tqdm
 
     import maniladder_ms
@@ -39,13 +41,14 @@ def demo_frames(h5_path, cameras: Sequence[str], size: int = 128, progress: bool
                 reset_kwargs = dict(ep.get("reset_kwargs") or {})
                 reset_kwargs.setdefault("seed", ep["episode_seed"])
                 env.reset(**reset_kwargs)
-                images = np.empty((len(actions), len(cameras), size, size, 3), np.uint8)
-                for t in range(len(actions)):
-                    base.set_state_dict(_torch_state(_state_at(states, t)))
+                frames = np.arange(0, len(actions), stride)
+                images = np.empty((len(frames), len(cameras), size, size, 3), np.uint8)
+                for i, t in enumerate(frames):
+                    base.set_state_dict(_torch_state(_state_at(states, int(t))))
                     obs = base.get_obs(unflattened=True)
                     for c, cam in enumerate(cameras):
-                        images[t, c] = obs["sensor_data"][cam]["rgb"][0].cpu().numpy()
-                yield images, np.asarray(actions, np.float32), ep
+                        images[i, c] = obs["sensor_data"][cam]["rgb"][0].cpu().numpy()
+                yield images, frames, np.asarray(actions, np.float32), ep
     finally:
         env.close()
 
@@ -58,15 +61,17 @@ def encode_frames(encoder: Encoder, images: np.ndarray) -> torch.Tensor:
 
 
 def cache_features(h5_path, encoder: Encoder, cameras: Sequence[str], out: Path, size: int = 128,
-                   progress: bool = False) -> Path:
-    """Render and encode every episode of a demo file into `out` (.npz: features_<i> float16, actions_<i>,
-    seeds); an existing file is kept (delete it to recompute)."""
+                   progress: bool = False, stride: int = 1) -> Path:
+    """Render and encode every episode of a demo file into `out` (.npz: features_<i> float16 of the frames
+    frames_<i> (every `stride`-th step), all actions_<i>, seeds); an existing file is kept (delete it to
+    recompute)."""
     out = Path(out)
     if out.exists():
         return out
     arrays, seeds = {}, []
-    for i, (images, actions, ep) in enumerate(demo_frames(h5_path, cameras, size, progress)):
+    for i, (images, frames, actions, ep) in enumerate(demo_frames(h5_path, cameras, size, progress, stride)):
         arrays[f"features_{i}"] = encode_frames(encoder, images).numpy().astype(np.float16)
+        arrays[f"frames_{i}"] = frames
         arrays[f"actions_{i}"] = actions
         seeds.append(ep["episode_seed"])
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -77,9 +82,14 @@ def cache_features(h5_path, encoder: Encoder, cameras: Sequence[str], out: Path,
     return out
 
 
-def load_features(path) -> list[tuple[torch.Tensor, torch.Tensor]]:
-    """The episodes of a feature cache as (features (T, n_obs, dim) float32, actions (T, A)) pairs."""
+def load_features(path) -> list[tuple[torch.Tensor, torch.Tensor, torch.Tensor]]:
+    """The episodes of a feature cache as (features (F, n_obs, dim) float32, actions (T, A), frames (F,)):
+    features_[k] is the observation before actions[frames[k]]."""
     data = np.load(Path(path))
     n = len(data["seeds"])
-    return [(torch.from_numpy(data[f"features_{i}"].astype(np.float32)), torch.from_numpy(data[f"actions_{i}"]))
-            for i in range(n)]
+    out = []
+    for i in range(n):
+        feats = torch.from_numpy(data[f"features_{i}"].astype(np.float32))
+        frames = data[f"frames_{i}"] if f"frames_{i}" in data else np.arange(len(feats))
+        out.append((feats, torch.from_numpy(data[f"actions_{i}"]), torch.from_numpy(np.asarray(frames, np.int64))))
+    return out

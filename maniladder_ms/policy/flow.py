@@ -148,17 +148,20 @@ def chunk_targets(actions: torch.Tensor, chunk: int) -> torch.Tensor:
 
 
 class LadderFlowTrainer:
-    """Train one policy on one task's demos: `episodes` is a list of (features (T, n_obs, D), actions (T, A))."""
+    """Train one policy on one task's demos: `episodes` is a list of (features (F, n_obs, D), actions (T, A)[,
+    frames (F,)]): the features of the steps `frames` (default: every step) and all of the episode's actions;
+    each feature frame's target is the chunk of actions from its step on."""
 
     def __init__(self, config: LadderFlowConfig, episodes: list, device: str = "cpu"):
         if not episodes:
             raise ValueError("no demonstration episodes to train on")
         torch.manual_seed(config.seed)
         self.config, self.device = config, device
-        feats = torch.cat([f for f, _ in episodes]).float()
-        actions = [torch.as_tensor(a).float() for _, a in episodes]
+        feats = torch.cat([ep[0] for ep in episodes]).float()
+        actions = [torch.as_tensor(ep[1]).float() for ep in episodes]
+        frames = [torch.as_tensor(ep[2]).long() if len(ep) > 2 else torch.arange(len(ep[1])) for ep in episodes]
         self.normalizer = ActionNormalizer.fit(torch.cat(actions))
-        targets = torch.cat([chunk_targets(self.normalizer.normalize(a), config.chunk) for a in actions])
+        targets = torch.cat([chunk_targets(self.normalizer.normalize(a), config.chunk)[f] for a, f in zip(actions, frames)])
         if feats.shape[0] != targets.shape[0]:
             raise ValueError(f"{feats.shape[0]} feature frames but {targets.shape[0]} action steps")
         self.features, self.targets = feats.to(device), targets.to(device)
@@ -196,15 +199,32 @@ class LadderFlowTrainer:
         return LadderFlowPolicy(self.config, copy.deepcopy(self.ema).cpu(), self.normalizer)
 
     def save(self, path, meta: Optional[dict] = None) -> Path:
-        """A checkpoint; `meta`: what the policy acts in (task, control_mode, ...)."""
+        """A checkpoint (written whole or not at all); `meta`: what the policy acts in (task, control_mode, ...).
+        It holds the optimiser too, so `resume` continues training from it."""
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_suffix(".partial")
         torch.save({
             "protocol": PROTOCOL_VERSION, "config": self.config.as_dict(), "step": self.step_count, "meta": meta or {},
             "feature_dim": self.features.shape[-1], "action_dim": self.targets.shape[-1],
             "normalizer": self.normalizer.state_dict(), "net": self.net.state_dict(), "ema": self.ema.state_dict(),
-        }, path)
+            "optimizer": self.opt.state_dict(), "scheduler": self.sched.state_dict(),
+        }, tmp)
+        tmp.replace(path)
         return path
+
+    def resume(self, path) -> int:
+        """Continue from a checkpoint `save` wrote with the same config and demos; returns its step."""
+        ckpt = torch.load(Path(path), map_location=self.device, weights_only=False)
+        if ckpt["config"] != self.config.as_dict():
+            raise ValueError(f"{path} was trained with another configuration")
+        self.net.load_state_dict(ckpt["net"])
+        self.ema.load_state_dict(ckpt["ema"])
+        self.opt.load_state_dict(ckpt["optimizer"])
+        self.sched.load_state_dict(ckpt["scheduler"])
+        self.step_count = int(ckpt["step"])
+        torch.manual_seed(self.config.seed + self.step_count)  # minibatches after a resume: reproducible too
+        return self.step_count
 
 
 class LadderFlowPolicy:

@@ -1,0 +1,96 @@
+"""`maniladder calibrate`: levels from rates, and a whole (tiny) calibration that survives a kill."""
+
+import dataclasses
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from maniladder_ms.policy.calibrate import CalibrationProtocol, TaskCalibration, calibrate, measured_level
+from maniladder_ms.policy.flow import LadderFlowConfig
+
+REPO = Path(__file__).resolve().parents[1]
+
+# the committed PickPlacePen samples (2 demos), a random-projection encoder and a tiny network: every stage
+# runs for real, in seconds, and solves nothing
+TINY = LadderFlowConfig(encoder="random-projection", d_model=32, heads=2, encoder_layers=1, decoder_layers=1,
+                        dropout=0.0, batch_size=16, train_steps=6)
+TINY_PROTOCOL = CalibrationProtocol(demos=2, frame_stride=4, checkpoints=2, selection_episodes=1, episodes=1)
+
+
+def test_measured_level_follows_the_catalog_intervals():
+    # L1 [60, 85] %, L2 [20, 60) %, L3 (0, 20) %, L4 0 %; above L1's interval: 0 (easier than Level 1)
+    cases = {0.0: 4, 0.05: 3, 0.199: 3, 0.2: 2, 0.59: 2, 0.6: 1, 0.85: 1, 0.86: 0, 1.0: 0}
+    assert {r: measured_level(r) for r in cases} == cases
+
+
+def test_calibrating_an_unbuilt_task_is_a_clear_error(tmp_path):
+    import maniladder_ms
+
+    with pytest.raises(maniladder_ms.TaskNotImplementedError, match="not implemented"):
+        TaskCalibration("InsertPegInHole", tmp_path / "work", tmp_path / "out")
+
+
+_CHILD = """
+import sys, torch
+torch.set_num_threads(1)
+from pathlib import Path
+sys.path.insert(0, {tests!r})
+from test_calibrate import TINY, TINY_PROTOCOL
+from maniladder_ms.policy.calibrate import calibrate
+calibrate(["PickPlacePen"], Path({work!r}), Path({out!r}), demos_dir=Path({demos!r}), config=TINY,
+          protocol=TINY_PROTOCOL, progress=False)
+"""
+
+
+def test_calibrate_resumes_after_a_kill(tmp_path):
+    """Kill a calibration once its checkpoints exist and selection has begun; the re-run keeps the features
+    and checkpoints, finishes, and writes the task's result, the table and the plot."""
+    work, out = tmp_path / "work", tmp_path / "out"
+    task_dir = work / "PickPlacePen"
+    code = _CHILD.format(tests=str(REPO / "tests"), work=str(work), out=str(out), demos=str(REPO / "demos"))
+    child = subprocess.Popen([sys.executable, "-c", code], cwd=tmp_path, start_new_session=True,
+                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    try:
+        # wait for the selection stage's first episode file, then kill the whole process group
+        while child.poll() is None and not list(task_dir.glob("select_*/episodes.jsonl")):
+            time.sleep(0.2)
+        assert child.poll() is None, f"the calibration ended before it could be killed: {child.stderr.read().decode()[-2000:]}"
+        os.killpg(child.pid, signal.SIGKILL)
+        child.wait()
+    finally:
+        if child.poll() is None:
+            os.killpg(child.pid, signal.SIGKILL)
+    assert not (out / "PickPlacePen.json").exists()
+    kept = {p.name: p.stat().st_mtime_ns for p in [task_dir / "features.npz", *task_dir.glob("checkpoint_*.pt")]}
+    assert set(kept) == {"features.npz", "checkpoint_3.pt", "checkpoint_6.pt"}
+    timings_before = json.loads((task_dir / "timings.json").read_text())
+
+    summary = calibrate(["PickPlacePen"], work, out, demos_dir=REPO / "demos", config=TINY, protocol=TINY_PROTOCOL,
+                        progress=False)
+
+    assert {p.name: p.stat().st_mtime_ns for p in [task_dir / "features.npz", *task_dir.glob("checkpoint_*.pt")]} == kept
+    timings = json.loads((task_dir / "timings.json").read_text())
+    assert timings["features"] == timings_before["features"] and timings["train"] == timings_before["train"]
+    result = json.loads((out / "PickPlacePen.json").read_text())
+    assert result["episodes"] == 1 and result["successes"] == 0 and result["measured_level"] == 4
+    assert result["agree"] is False and result["catalog_level"] == 1  # a 6-step policy solves nothing: flagged
+    assert result["selection"]["selected_step"] in (3, 6) and set(result["selection"]["selection_rates"]) == {"3", "6"}
+    assert result["control_mode"] == "pd_ee_delta_pose" and result["config"]["encoder"] == "random-projection"
+    assert summary["n_tasks"] == 1 and (out / "calibration.json").is_file() and (out / "calibration.png").stat().st_size > 0
+
+    # the work folder belongs to its settings: another configuration is refused, not mixed in
+    with pytest.raises(ValueError, match="other settings"):
+        calibrate(["PickPlacePen"], work, out, demos_dir=REPO / "demos", config=dataclasses.replace(TINY, train_steps=8),
+                  protocol=TINY_PROTOCOL, progress=False)
+
+    # `maniladder report` shows a calibration folder
+    from maniladder_ms.cli import main
+
+    assert main(["report", str(out)]) == 0
+    assert "PickPlacePen" in (out / "report" / "report.html").read_text()
