@@ -15,7 +15,8 @@ three quarters of a single-arm scene's vertices: a camera frame of PickPlacePen 
 
 from __future__ import annotations
 
-import re
+import hashlib
+import os
 from pathlib import Path
 
 from mani_skill import PACKAGE_ASSET_DIR
@@ -43,8 +44,9 @@ def camera_hull_path() -> Path:
 def _write_resolved(text: str, name: str) -> str:
     """`text` (a URDF whose mesh paths are absolute) with the camera hull swapped in, written to the cache."""
     text = text.replace(f"{PANDA_ASSET_DIR}/{CAMERA_MESH}", str(camera_hull_path()))
-    out = cache_dir("agents") / f"{name}.urdf"
-    if not out.is_file() or out.read_text() != text:
+    # named by content: processes running other versions of this code never overwrite each other's copy
+    out = cache_dir("agents") / f"{name}-{hashlib.sha1(text.encode()).hexdigest()[:12]}.urdf"
+    if not out.is_file():
         tmp = out.with_suffix(f".tmp{id(text)}")
         tmp.write_text(text)
         tmp.replace(out)  # atomic, so parallel processes never read a half-written file
@@ -52,10 +54,27 @@ def _write_resolved(text: str, name: str) -> str:
 
 
 def panda_wristcam_urdf() -> str:
-    """ManiSkill's `panda_v3.urdf` (Panda + wrist RealSense; `ml_panda`) with the camera hull, loadable."""
+    """ManiSkill's `panda_v3.urdf` (Panda + wrist RealSense; `ml_panda`) with the camera hull, loadable.
+
+    Its mesh paths stay relative, through links to the wheel's mesh folders beside the copy: the Panda agent
+    loads its collision meshes as multiple convex parts, and one loader resolves an absolute path against
+    the URDF's folder (mplib, the solvers' motion planner, looked for `.../agents/work/main/...link0.stl.convex.stl`)."""
+    folder = cache_dir("agents")
+    for sub in ("franka_description", "realsense2_description"):
+        link = folder / sub
+        if not link.exists():
+            tmp = folder / f".{sub}.tmp{os.getpid()}"
+            tmp.unlink(missing_ok=True)
+            tmp.symlink_to(PANDA_ASSET_DIR / sub, target_is_directory=True)
+            tmp.replace(link)  # atomic, like the files
     text = (PANDA_ASSET_DIR / "panda_v3.urdf").read_text()
-    text = re.sub(r'filename="(franka_description|realsense2_description)/', rf'filename="{PANDA_ASSET_DIR}/\1/', text)
-    return _write_resolved(text, "panda_v3")
+    out = _write_resolved(text.replace(f'filename="{CAMERA_MESH}"', f'filename="{PANDA_ASSET_DIR}/{CAMERA_MESH}"'), "panda_v3")
+    srdf = Path(out).with_suffix(".srdf")  # mplib (the solvers' motion planner) reads the SRDF beside the URDF
+    if not srdf.is_file():
+        tmp = srdf.with_suffix(f".tmp{os.getpid()}")
+        tmp.write_text((PANDA_ASSET_DIR / "panda_v3.srdf").read_text())
+        tmp.replace(srdf)
+    return out
 
 
 def source_urdf(name: str) -> Path:
