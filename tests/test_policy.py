@@ -39,9 +39,10 @@ def two_demos(n_obs=12, dim=16, steps=20):
     return episodes
 
 
-def test_tiny_policy_overfits_two_demos(tmp_path):
-    episodes = two_demos()
-    trainer = LadderFlowTrainer(TINY, episodes)
+@pytest.mark.parametrize("keypoints", [0, 2], ids=["tokens", "spatial-softmax"])
+def test_tiny_policy_overfits_two_demos(tmp_path, keypoints):
+    episodes = two_demos()  # 12 tokens: 3 cameras x a 2x2 map
+    trainer = LadderFlowTrainer(dataclasses.replace(TINY, keypoints=keypoints), episodes)
     losses = trainer.train(TINY.train_steps)
     assert np.mean(losses[-50:]) < 0.3 * np.mean(losses[:50])  # the loss falls
     policy = trainer.policy()
@@ -54,12 +55,14 @@ def test_tiny_policy_overfits_two_demos(tmp_path):
     assert max(errors) < 0.25, errors  # its own demo actions are reproduced (actions span about [-1, 1])
 
 
-def test_checkpoint_round_trip(tmp_path):
-    trainer = LadderFlowTrainer(TINY, two_demos())
+@pytest.mark.parametrize("keypoints", [0, 2], ids=["tokens", "spatial-softmax"])
+def test_checkpoint_round_trip(tmp_path, keypoints):
+    config = dataclasses.replace(TINY, keypoints=keypoints)
+    trainer = LadderFlowTrainer(config, two_demos())
     trainer.train(5)
     path = trainer.save(tmp_path / "policy.pt")
     loaded = LadderFlowPolicy.load(path)
-    assert loaded.config == TINY
+    assert loaded.config == config
     feats = two_demos()[0][0][3]
     a = trainer.policy().act(feats, generator=torch.Generator().manual_seed(1))
     b = loaded.act(feats, generator=torch.Generator().manual_seed(1))
@@ -94,6 +97,8 @@ def _has_effnet() -> bool:
 
 @pytest.mark.skipif(not _has_effnet(), reason="efficientnet wheels not installed (scripts/setup.sh installs them)")
 def test_efficientnet_lite0_features_are_offline_and_spatial():
+    s16 = make_encoder("efficientnet-lite0-s16").encode(np.zeros((2, 128, 128, 3), np.uint8))
+    assert s16.shape == (2, 64, 112)  # the stride-16 map: 8 x 8 cells at 128 px
     enc = make_encoder("efficientnet-lite0")
     rng = np.random.default_rng(0)
     images = rng.integers(0, 255, (3, 128, 128, 3), dtype=np.uint8)
@@ -110,6 +115,7 @@ def test_demo_frames_render_the_recorded_states_and_train_an_evaluable_policy(tm
     from pathlib import Path
 
     import maniladder_ms
+    from maniladder_ms.evaluation.policies import policy_env_kwargs
     from maniladder_ms.evaluation.runner import EpisodeRunner
     from maniladder_ms.policy.evaluate import LadderFlowEvalPolicy
     from maniladder_ms.policy.features import cache_features, demo_frames, encode_frames, load_features
@@ -141,10 +147,13 @@ def test_demo_frames_render_the_recorded_states_and_train_an_evaluable_policy(tm
     policy = LadderFlowEvalPolicy(ckpt, encoder=encoder)
     assert policy.cameras == cams and policy.control_mode == "pd_ee_delta_pose"
     spec = maniladder_ms.default_catalog().get("PickPlacePen")
+    env_kwargs = policy_env_kwargs(policy, spec, "rgb")
+    assert env_kwargs == dict(obs_mode="rgb", control_mode="pd_ee_delta_pose", cameras=cams, image_size=64)
     runner = EpisodeRunner(policy, "rgb")
     try:
-        rec = runner.run(spec, episode=0, seed=1_000_000,
-                         env_kwargs=dict(obs_mode="rgb", control_mode="pd_ee_delta_pose", cameras=cams))
+        rec = runner.run(spec, episode=0, seed=1_000_000, env_kwargs=env_kwargs)
+        sensors = runner._env.unwrapped._sensors
+        assert set(sensors) == set(cams) and {s.config.width for s in sensors.values()} == {64}  # what it trained on
     finally:
         runner.close()
     assert rec["steps"] == spec.horizon and rec["success"] is False  # 3 training steps solve nothing

@@ -15,6 +15,8 @@ A policy is any callable `policy(obs, spec) -> action`:
 
 Optional members (duck-typed, all may be absent):
 
+- `image_size`: the side in pixels of the (square) camera images the policy wants (default: the cameras' own,
+  128).
 - `cameras`: the camera uids the policy looks at (e.g. front, left, top): only those are rendered, and only
   on the steps where the policy is asked for actions (the steps of a chunk before its last render nothing).
 - `obs_mode` / `control_mode` attributes: what the policy needs; `obs_mode` overrides `--obs-mode`
@@ -294,18 +296,20 @@ def _solver_control_mode(env_id: str) -> Optional[str]:
 
 def policy_env_kwargs(policy, spec: TaskSpec, obs_mode: str) -> dict:
     """The obs and control mode an episode of `spec` runs under with `policy` (see the module doc)."""
-    kw: dict = {"obs_mode": obs_mode, "control_mode": None, "cameras": None}
+    kw: dict = {"obs_mode": obs_mode, "control_mode": None, "cameras": None, "image_size": None}
     if getattr(policy, "cameras", None):
         kw["cameras"] = tuple(policy.cameras)
+    if getattr(policy, "image_size", None):
+        kw["image_size"] = int(policy.image_size)
     if getattr(policy, "obs_mode", None):
         kw["obs_mode"] = policy.obs_mode
     if getattr(policy, "control_mode", None):
         kw["control_mode"] = policy.control_mode
     if hasattr(policy, "env_kwargs"):
         extra = policy.env_kwargs(spec) or {}
-        unknown = set(extra) - {"obs_mode", "control_mode", "cameras"}
+        unknown = set(extra) - {"obs_mode", "control_mode", "cameras", "image_size"}
         if unknown:
-            raise PolicyError(f"policy env_kwargs may set only obs_mode, control_mode and cameras, not {sorted(unknown)}")
+            raise PolicyError(f"policy env_kwargs may set only obs_mode, control_mode, cameras and image_size, not {sorted(unknown)}")
         kw.update({k: v for k, v in extra.items() if v})
     return kw
 

@@ -136,7 +136,8 @@ class EpisodeRunner:
     def env_for(self, spec, env_kwargs: dict) -> EpisodeMonitor:
         import maniladder_ms
 
-        key = (spec.id, env_kwargs.get("obs_mode"), env_kwargs.get("control_mode"), env_kwargs.get("cameras"))
+        key = (spec.id, env_kwargs.get("obs_mode"), env_kwargs.get("control_mode"), env_kwargs.get("cameras"),
+               env_kwargs.get("image_size"))
         if key != self._key:
             self.close()
             kw = {"obs_mode": maniskill_obs_mode(env_kwargs["obs_mode"]), "reward_mode": "sparse"}
@@ -144,6 +145,8 @@ class EpisodeRunner:
                 kw["control_mode"] = env_kwargs["control_mode"]
             if env_kwargs.get("cameras"):
                 kw["cameras"] = env_kwargs["cameras"]
+            if env_kwargs.get("image_size"):
+                kw["sensor_configs"] = dict(width=env_kwargs["image_size"], height=env_kwargs["image_size"])
             env = maniladder_ms.make(spec.id, **kw)
             self._env = EpisodeMonitor(env, spec, int(env.unwrapped.single_action_space.shape[0]))
             self._key = key

@@ -176,7 +176,7 @@ class TaskCalibration:
         if self.features_path.is_file():
             return
         encoder = make_encoder(self.config.encoder, grid=self.config.grid, device=self.device) \
-            if self.config.encoder == "efficientnet-lite0" else make_encoder(self.config.encoder, grid=self.config.grid)
+            if self.config.encoder.startswith("efficientnet") else make_encoder(self.config.encoder, grid=self.config.grid)
         cache_features(self.demo_h5, encoder, self.config.cameras, self.features_path, size=self.config.image_size,
                        progress=self.progress, stride=self.protocol.frame_stride)
 

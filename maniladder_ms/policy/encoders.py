@@ -70,6 +70,35 @@ class EfficientNetLite0(Encoder):
         return torch.cat(out)
 
 
+class EfficientNetLite0Stride16(EfficientNetLite0):
+    """EfficientNet-Lite0 (ImageNet) cut after block 10: its stride-16 feature map (112 channels; 8x8 at 128 px),
+    every cell a token. The last map (stride 32) is too coarse to place a gripper over a pen: at 128 px one
+    cell spans ~20 cm of table, and a policy on it reached for objects 6 cm off. The policy pools these tokens
+    with its own learned spatial softmax (LadderFlowConfig.keypoints)."""
+
+    name = "efficientnet-lite0-s16"
+    dim = 112
+    last_block = 10
+
+    def __init__(self, grid: int = 2, device: str = "cpu", batch_size: int = 64):
+        super().__init__(grid=grid, device=device, batch_size=batch_size)
+        self.tokens = None  # (size / 16) ** 2: depends on the image size
+
+    @torch.no_grad()
+    def encode(self, images) -> torch.Tensor:
+        images = torch.as_tensor(np.asarray(images))
+        if images.dtype != torch.uint8 or images.ndim != 4 or images.shape[-1] != 3:
+            raise ValueError(f"expected uint8 images (N, H, W, 3), got {tuple(images.shape)} {images.dtype}")
+        net, out = self.net, []
+        for start in range(0, len(images), self.batch_size):
+            x = images[start:start + self.batch_size].to(self.device).permute(0, 3, 1, 2).float() / 255.0
+            x = net._swish(net._bn0(net._conv_stem((x - self._mean) / self._std)))
+            for block in net._blocks[: self.last_block + 1]:
+                x = block(x)
+            out.append(x.flatten(2).transpose(1, 2).cpu())  # (n, h*w, 112), row-major cells
+        return torch.cat(out)
+
+
 class RandomProjection(Encoder):
     """A fixed random convolutional projection: no download, no weights; for tests and ablations only."""
 
@@ -89,6 +118,7 @@ class RandomProjection(Encoder):
 
 ENCODERS: dict[str, Callable[..., Encoder]] = {
     EfficientNetLite0.name: EfficientNetLite0,
+    EfficientNetLite0Stride16.name: EfficientNetLite0Stride16,
     RandomProjection.name: RandomProjection,
 }
 

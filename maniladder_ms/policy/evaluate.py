@@ -22,6 +22,7 @@ class LadderFlowEvalPolicy:
         self.policy = LadderFlowPolicy.load(Path(checkpoint))
         config = self.policy.config
         self.cameras = tuple(config.cameras)
+        self.image_size = config.image_size  # the eval env renders what the policy was trained on
         self.control_mode = self.policy.meta.get("control_mode")
         self.task = self.policy.meta.get("task")
         self.encoder = encoder or make_encoder(config.encoder, grid=config.grid)
