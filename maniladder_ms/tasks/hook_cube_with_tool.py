@@ -46,14 +46,15 @@ class HookCubeWithToolEnv(ManiLadderEnv):
     memory `hooked`), the cube's xy travel over the control steps in which the gripper held the hook and the
     cube lay against the hook's pulling face (its centre, in the hook's frame, in front of the face by at
     most its half diagonal plus `engage_gap`, between the handle and the hook's tip) adds up to at least
-    `pull_fraction` of the start distance from the cube to the zone centre (memory `tool_travel`); and the gripper never touched the cube
-    (`ee.touches`, memory `gripper_touched`).
+    `pull_fraction` of the start distance from the cube to the zone centre (memory `tool_travel`); and the
+    gripper never touched the cube (`ee.touches`, memory `gripper_touched`).
 
-    **Level 2** (against Level 1's single pick-and-place, e.g. PickPlacePen: one grasp, one place, about
-    90 steps): three stages in sequence (grasp the tool; bring the hook, held 14 cm or more from its
-    grasp along a 38 cm handle, down behind a cube it cannot see past, into a 2.5 cm wide gap between
-    the handle and the cube's near side; pull 0.3-0.46 m), a tool whose grasp offset carries every
-    position error to the hook end, and a 5 cm zone tolerance reached only through the tool.
+    **Level 2:** (against Level 1's single pick-and-place, PickPlacePen: 2 stages, grasp and place, 92 steps
+    mean): 3 stages in sequence, 168 steps mean (grasp the tool's handle; carry the hook over the cube and
+    lower it, its pulling face 30 cm out from the grasp, into the 2-3 cm gap beside the cube and 2 cm
+    beyond its far corner; pull the cube 0.3-0.46 m); every position error of the grasp shows up 30 cm out
+    at the hook, and the cube is only ever moved through the tool (5 cm zone tolerance, 80% of the way
+    by the held hook).
     """
 
     max_dense_reward = 8

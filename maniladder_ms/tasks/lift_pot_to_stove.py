@@ -43,10 +43,10 @@ class LiftPotToStoveEnv(LiftTwoHandedTask):
     plate (within `rest_tol` of the plate's top), it is tilted by less than `max_tilt`, and neither gripper
     holds it.
 
-    **Level 2** (against Level 1's LiftWideBox, the same two-gripper lift: 2 stages, a 10 cm lift, 15
-    degrees of tilt, about 95 steps): 4 stages (grasp both handles, lift, carry 24-31 cm, set down and
-    release), both arms' targets moving in lock-step for the whole ~100-step carry so that the pot stays
-    within 10 degrees of level, and a 2 cm placement tolerance on the plate.
+    **Level 2:** (against Level 1's LiftWideBox, the same two-gripper lift: 2 stages, grasp and lift, 47
+    steps mean, 15 degrees of tilt allowed): 4 stages, 137 steps mean (grasp both handles, lift, carry
+    24-31 cm, set down and release), both arms' targets moving in lock-step through the ~80-step carry and
+    set-down so that the pot stays within 10 degrees of level, and a 2 cm placement tolerance on the plate.
     """
 
     SUPPORTED_ROBOTS = ["ml_dual_panda"]
