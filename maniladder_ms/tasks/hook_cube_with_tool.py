@@ -112,11 +112,17 @@ class HookCubeWithToolEnv(ManiLadderEnv):
         moved = torch.linalg.norm(xy - self.memory["cube_last"], dim=1)
         # a steady pull reports the hook's contact with the cube only now and then (PhysX reports the last
         # substep's contacts; the cube slides ahead of the face between pushes): the travel counts while the
-        # cube lies against the held hook's pulling face, once the held hook has pressed on it
-        held = self.ee.holds(self.tool)
-        self.memory.latch("hooked", held & self.tool_on_cube())
-        travel = self.memory["tool_travel"][:, 0] + moved * (held & self.memory["hooked"] & self.engaged())
-        self.memory.store("tool_travel", travel[:, None])
+        # cube lies against the held hook's pulling face, once the held hook has pressed on it. Contact
+        # passes only where they can change the answer (each is a pass over the scene's contacts)
+        hooked = self.memory["hooked"]
+        if not bool(hooked.all()):
+            on_cube = self.tool_on_cube() & ~hooked
+            if bool(on_cube.any()):
+                self.memory.latch("hooked", on_cube & self.ee.holds(self.tool))
+        engaged = self.memory["hooked"] & self.engaged()
+        if bool(engaged.any()):
+            travel = self.memory["tool_travel"][:, 0] + moved * (engaged & self.ee.holds(self.tool))
+            self.memory.store("tool_travel", travel[:, None])
         self.memory.store("cube_last", xy)
 
     def _get_obs_extra(self, info: dict):
@@ -142,7 +148,7 @@ class HookCubeWithToolEnv(ManiLadderEnv):
             "tool_travel": travel,
             "gripper_touched": gripper_touched,
             "tool_grasped": self.ee.holds(self.tool),
-            "tool_on_cube": self.tool_on_cube(),
+            "engaged": self.memory["hooked"] & self.engaged(),
         }
 
     def behind_cube(self) -> torch.Tensor:
@@ -163,7 +169,7 @@ class HookCubeWithToolEnv(ManiLadderEnv):
         placing = 1 - torch.tanh(5 * torch.linalg.norm(self.behind_cube() - self.tool.pose.p, dim=1))
         gap = torch.linalg.norm((self.zone.pose.p - self.cube.pose.p)[:, :2], dim=1)
         progress = (1 - gap / self.memory["start_gap"][:, 0]).clamp(0, 1)
-        reward += held * (placing + 2 * progress * info["tool_on_cube"]) + 2 * info["cube_in_zone"]
+        reward += held * (placing + 2 * progress * info["engaged"]) + 2 * info["cube_in_zone"]
         reward -= info["gripper_touched"].float()
         reward[info["success"]] = self.max_dense_reward
         return reward

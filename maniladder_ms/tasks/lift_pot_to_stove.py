@@ -81,19 +81,21 @@ class LiftPotToStoveEnv(LiftTwoHandedTask):
             torch.as_tensor(self.pot_shape.handle_centre(sign), dtype=torch.float32, device=self.device)[None])).p
             for side, sign in SIDES.items()}
 
-    def _lift_by_handles(self) -> dict:
-        """The LiftTwoHanded family's lift state, each gripper's hold counted only on its own handle."""
-        info = LiftTwoHandedTask.evaluate(self)
+    def _on_handles(self, info: dict) -> torch.Tensor:
+        """Adds `<side>_on_handle` to `info` (the family's lift info): the gripper holds the pot with its TCP
+        within `handle_tol` of its own handle's centre; returns both."""
         handles = self.handle_centres()
         for side in SIDES:
-            on_handle = torch.linalg.norm(self.ee.tcp(side).p - handles[side], dim=1) <= self.handle_tol
-            info[f"{side}_on_handle"] = info[f"{side}_grasped"] & on_handle
-        info["lifted_by_handles"] = (info["is_lifted"] & info["is_level"] & info["left_on_handle"]
-                                     & info["right_on_handle"])
-        return info
+            near = torch.linalg.norm(self.ee.tcp(side).p - handles[side], dim=1) <= self.handle_tol
+            info[f"{side}_on_handle"] = info[f"{side}_grasped"] & near
+        return info["left_on_handle"] & info["right_on_handle"]
 
     def _update_memory(self):
-        self.memory.latch("carried", self._lift_by_handles()["lifted_by_handles"])
+        # the holds (a contact pass each) only where the pot is up and level and not yet carried
+        carried = self.memory["carried"]
+        up = (self.pot.pose.p[:, 2] >= self.lift_height) & (tilt(self.pot) < np.deg2rad(self.max_tilt)) & ~carried
+        if bool(up.any()):
+            self.memory.latch("carried", up & self._on_handles(LiftTwoHandedTask.evaluate(self)))
 
     def _get_obs_extra(self, info: dict):
         obs = dict(left_tcp_pose=self.ee.tcp("left").raw_pose, right_tcp_pose=self.ee.tcp("right").raw_pose,
@@ -107,7 +109,8 @@ class LiftPotToStoveEnv(LiftTwoHandedTask):
         return obs
 
     def evaluate(self):
-        info = self._lift_by_handles()
+        info = LiftTwoHandedTask.evaluate(self)  # the lift: height, tilt, each gripper's hold
+        self._on_handles(info)
         offset = self.pot.pose.p - self.plate.pose.p
         info["is_centred"] = torch.linalg.norm(offset[:, :2], dim=1) <= self.centre_tol
         info["on_plate"] = (offset[:, 2] - self.plate_height).abs() <= self.rest_tol
