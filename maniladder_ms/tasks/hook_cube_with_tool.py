@@ -102,21 +102,32 @@ class HookCubeWithToolEnv(ManiLadderEnv):
         return ((depth > 0) & (depth <= self.cube_half * np.sqrt(2) + self.engage_gap) & (local[:, 1] >= lo)
                 & (local[:, 1] <= hi) & (local[:, 2].abs() < shape.height))
 
+    def near_tool(self) -> torch.Tensor:
+        """(num_envs,) bool: the cube's centre is within its half diagonal and a centimetre of the hook's
+        bounding box (in the hook's frame): elsewhere the two cannot touch."""
+        local = (self.tool.pose.inv() * self.cube.pose).p
+        shape, d = self.hook_shape, self.cube_half * np.sqrt(3) + 0.01
+        hi = shape.hook_span[1]
+        return ((local[:, 0].abs() <= shape.handle_length / 2 + d) & (local[:, 1] >= -shape.width / 2 - d)
+                & (local[:, 1] <= hi + d) & (local[:, 2].abs() <= shape.height / 2 + d))
+
     def tool_on_cube(self) -> torch.Tensor:
         """(num_envs,) bool: the hook presses on the cube."""
         return link_forces(self.scene, self.cube, [self.tool])[0] >= TOUCH_FORCE
 
     def _update_memory(self):
-        self.memory.latch("gripper_touched", self.ee.touches(self.cube))
+        # contact passes (each a pass over the scene's contacts) only where contact is possible
+        hand_near = torch.linalg.norm(self.ee.tcp().p - self.cube.pose.p, dim=1) < HAND_REACH
+        if bool(hand_near.any()):
+            self.memory.latch("gripper_touched", hand_near & self.ee.touches(self.cube))
         xy = self.cube.pose.p[:, :2]
         moved = torch.linalg.norm(xy - self.memory["cube_last"], dim=1)
         # a steady pull reports the hook's contact with the cube only now and then (PhysX reports the last
         # substep's contacts; the cube slides ahead of the face between pushes): the travel counts while the
-        # cube lies against the held hook's pulling face, once the held hook has pressed on it. Contact
-        # passes only where they can change the answer (each is a pass over the scene's contacts)
-        hooked = self.memory["hooked"]
-        if not bool(hooked.all()):
-            on_cube = self.tool_on_cube() & ~hooked
+        # cube lies against the held hook's pulling face, once the held hook has pressed on it
+        near = self.near_tool() & ~self.memory["hooked"]
+        if bool(near.any()):
+            on_cube = near & self.tool_on_cube()
             if bool(on_cube.any()):
                 self.memory.latch("hooked", on_cube & self.ee.holds(self.tool))
         engaged = self.memory["hooked"] & self.engaged()
@@ -175,6 +186,8 @@ class HookCubeWithToolEnv(ManiLadderEnv):
         return reward
 
 
+HAND_REACH = 0.3  # m: the gripper's links (hand and fingers) lie within 0.2 m of its TCP, the cube's corners
+# within 0.035 m of its centre: farther apart they cannot touch
 HOOK_CLEARANCE = 0.02  # the hook's pulling face this far beyond the cube's farthest corner before it drops
 GRASP_FROM_END = 0.06  # the grasp on the handle, from its near end
 GRASP_Z = 0.02  # TCP height of the grasp (the handle is 3 cm high)
