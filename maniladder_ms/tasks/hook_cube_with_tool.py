@@ -1,0 +1,247 @@
+"""HookCubeWithTool (L2 rigid SG): pull a cube from beyond the arm's reach into a near zone with an L-shaped hook."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import torch
+
+from mani_skill.utils.building import actors
+from mani_skill.utils.structs.pose import Pose
+
+from maniladder_ms.agents.effectors import TOUCH_FORCE, link_forces
+from maniladder_ms.envs import ManiLadderEnv, register_task
+from maniladder_ms.geometry import yaw_of, yaw_quat
+from maniladder_ms.objects.markers import MARKER_THICKNESS, build_zone_marker
+from maniladder_ms.objects.tools import HookShape, build_hook
+from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
+from maniladder_ms.solvers.driven import DrivenSolver
+
+TOOL_DENSITY = 250.0  # kg/m^3 (a hollow plastic hook: 90 g)
+# a smooth plastic hook: the wrist's small yaw wobble while pulling dragged the cube along a 0.3-friction face
+# and off the hook's tip on 7 of 25 seeds (a steady ~1 mm per control step sideways)
+TOOL_FRICTION = 0.05
+
+
+@register_task("HookCubeWithTool")
+class HookCubeWithToolEnv(ManiLadderEnv):
+    """**Task:** a cube lies beyond the arm's reach; an L-shaped hook (a long handle with a short hook
+    across its far end) lies within it. Grasp the hook's handle, lower the hook behind the cube and pull
+    the cube back with it into a target zone near the robot.
+
+    **Randomisation:**
+    - the cube (side 2 x `cube_half`) lies flat with a uniform random yaw, its centre uniform in x in
+      [0.28, 0.36], y in [-0.1, 0.1]: 0.89-0.98 m ahead of the arm base, where the gripper cannot reach
+      (the Panda reaches 0.855 m from its shoulder joint, 0.33 m above the table);
+    - the target zone (square tile, side 2 x `zone_half`) lies on the cube's line (same y), its centre
+      uniform in x in [-0.1, 0.0] (0.3-0.46 m to pull);
+    - the hook (handle `handle_length` long, hook `hook_length` long pointing to +y, both 2.5 cm wide and
+      3 cm high) lies flat to the robot's right, its centre uniform in x in [-0.1, 0.0], y in [-0.3, -0.24],
+      its handle along +x turned by a uniform yaw in [-15, 15] degrees.
+
+    **Success:** the cube's centre lies inside the zone (|dx|, |dy| <= `zone_half` from its centre) and the
+    cube rests on the table (centre less than `cube_half` plus one centimetre high); the cube was pulled
+    by the tool: once the held hook has pressed on the cube (`ee.holds` of the hook and their contact,
+    memory `hooked`), the cube's xy travel over the control steps in which the gripper held the hook and the
+    cube lay against the hook's pulling face (its centre, in the hook's frame, in front of the face by at
+    most its half diagonal plus `engage_gap`, between the handle and the hook's tip) adds up to at least
+    `pull_fraction` of the start distance from the cube to the zone centre (memory `tool_travel`); and the
+    gripper never touched the cube (`ee.touches`, memory `gripper_touched`).
+
+    **Level 2:** (against Level 1's single pick-and-place, PickPlacePen: 2 stages, grasp and place, 92 steps
+    mean): 3 stages in sequence, 168 steps mean (grasp the tool's handle; carry the hook over the cube and
+    lower it, its pulling face 30 cm out from the grasp, into the 2-3 cm gap beside the cube and 2 cm
+    beyond its far corner; pull the cube 0.3-0.46 m); every position error of the grasp shows up 30 cm out
+    at the hook, and the cube is only ever moved through the tool (5 cm zone tolerance, 80% of the way
+    by the held hook).
+    """
+
+    max_dense_reward = 8
+    TASK_REGION = (-0.3, 0.42, -0.35, 0.2)
+    PARAMS = ("handle_length", "hook_length", "cube_half", "zone_half", "pull_fraction", "engage_gap")
+    ON_TABLE_TOL = 0.01
+
+    def _load_scene(self, options: dict):
+        super()._load_scene(options)
+        self.hook_shape = HookShape(self.handle_length, self.hook_length)
+        self.tool = build_hook(self.scene, "hook", self.hook_shape, TOOL_DENSITY, color=(0.8, 0.15, 0.12, 1),
+                               friction=TOOL_FRICTION)
+        self.cube = actors.build_cube(self.scene, half_size=self.cube_half, color=(0.12, 0.3, 0.8, 1), name="cube",
+                                      initial_pose=Pose.create_from_pq([0.3, 0, self.cube_half]).sp)
+        self.zone = build_zone_marker(self.scene, "zone", self.zone_half, (0.55, 0.8, 0.55, 1))
+        self.memory.flag("gripper_touched")  # the gripper has touched the cube
+        self.memory.flag("hooked")  # the held hook has pressed on the cube
+        self.memory.value("tool_travel")  # the cube's xy travel while engaged by the held hook
+        self.memory.value("cube_last", 2)  # the cube's xy after the previous control step
+        self.memory.value("start_gap")  # the cube's start distance to the zone centre
+
+    def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
+        super()._initialize_episode(env_idx, options)
+        with torch.device(self.device):
+            b = len(env_idx)
+            cube = torch.stack([0.28 + torch.rand(b) * 0.08, torch.rand(b) * 0.2 - 0.1, torch.full((b,), self.cube_half)],
+                               dim=1)
+            self.cube.set_pose(Pose.create_from_pq(cube, yaw_quat(torch.rand(b) * np.pi / 2)))
+            zone = torch.stack([torch.rand(b) * 0.1 - 0.1, cube[:, 1], torch.full((b,), MARKER_THICKNESS / 2)], dim=1)
+            self.zone.set_pose(Pose.create_from_pq(zone))
+            tool = torch.stack([torch.rand(b) * 0.1 - 0.1, -0.3 + torch.rand(b) * 0.06,
+                                torch.full((b,), self.hook_shape.height / 2)], dim=1)
+            self.tool.set_pose(Pose.create_from_pq(tool, yaw_quat((torch.rand(b) * 2 - 1) * np.deg2rad(15))))
+            self.memory.store("cube_last", cube[:, :2], env_idx)
+            self.memory.store("start_gap", torch.linalg.norm(cube[:, :2] - zone[:, :2], dim=1, keepdim=True), env_idx)
+
+    def engaged(self) -> torch.Tensor:
+        """(num_envs,) bool: the cube lies against the hook's pulling face: its centre, in the hook's frame, in
+        front of the face by at most its half diagonal plus `engage_gap`, between the handle and the hook's
+        tip, and below the hook's top."""
+        local = (self.tool.pose.inv() * self.cube.pose).p
+        shape = self.hook_shape
+        depth = shape.pull_face_x - local[:, 0]
+        lo, hi = shape.hook_span
+        return ((depth > 0) & (depth <= self.cube_half * np.sqrt(2) + self.engage_gap) & (local[:, 1] >= lo)
+                & (local[:, 1] <= hi) & (local[:, 2].abs() < shape.height))
+
+    def near_tool(self) -> torch.Tensor:
+        """(num_envs,) bool: the cube's centre is within its half diagonal and a centimetre of the hook's
+        bounding box (in the hook's frame): elsewhere the two cannot touch."""
+        local = (self.tool.pose.inv() * self.cube.pose).p
+        shape, d = self.hook_shape, self.cube_half * np.sqrt(3) + 0.01
+        hi = shape.hook_span[1]
+        return ((local[:, 0].abs() <= shape.handle_length / 2 + d) & (local[:, 1] >= -shape.width / 2 - d)
+                & (local[:, 1] <= hi + d) & (local[:, 2].abs() <= shape.height / 2 + d))
+
+    def tool_on_cube(self) -> torch.Tensor:
+        """(num_envs,) bool: the hook presses on the cube."""
+        return link_forces(self.scene, self.cube, [self.tool])[0] >= TOUCH_FORCE
+
+    def _update_memory(self):
+        # contact passes (each a pass over the scene's contacts) only where contact is possible
+        hand_near = torch.linalg.norm(self.ee.tcp().p - self.cube.pose.p, dim=1) < HAND_REACH
+        if bool(hand_near.any()):
+            self.memory.latch("gripper_touched", hand_near & self.ee.touches(self.cube))
+        xy = self.cube.pose.p[:, :2]
+        moved = torch.linalg.norm(xy - self.memory["cube_last"], dim=1)
+        # a steady pull reports the hook's contact with the cube only now and then (PhysX reports the last
+        # substep's contacts; the cube slides ahead of the face between pushes): the travel counts while the
+        # cube lies against the held hook's pulling face, once the held hook has pressed on it
+        near = self.near_tool() & ~self.memory["hooked"]
+        if bool(near.any()):
+            on_cube = near & self.tool_on_cube()
+            if bool(on_cube.any()):
+                self.memory.latch("hooked", on_cube & self.ee.holds(self.tool))
+        engaged = self.memory["hooked"] & self.engaged()
+        if bool(engaged.any()):
+            travel = self.memory["tool_travel"][:, 0] + moved * (engaged & self.ee.holds(self.tool))
+            self.memory.store("tool_travel", travel[:, None])
+        self.memory.store("cube_last", xy)
+
+    def _get_obs_extra(self, info: dict):
+        obs = dict(tcp_pose=self.ee.tcp().raw_pose, tool_grasped=info["tool_grasped"])
+        if "state" in self.obs_mode:
+            obs.update(tool_pose=self.tool.pose.raw_pose, cube_pose=self.cube.pose.raw_pose,
+                       zone_pos=self.zone.pose.p, tcp_to_tool=self.tool.pose.p - self.ee.tcp().p,
+                       cube_to_zone=self.zone.pose.p - self.cube.pose.p)
+        return obs
+
+    def evaluate(self):
+        offset = self.cube.pose.p - self.zone.pose.p
+        in_zone = (offset[:, :2].abs() <= self.zone_half).all(dim=1)
+        on_table = self.cube.pose.p[:, 2] < self.cube_half + self.ON_TABLE_TOL
+        travel = self.memory["tool_travel"][:, 0]
+        pulled_by_tool = travel >= self.pull_fraction * self.memory["start_gap"][:, 0]
+        gripper_touched = self.memory["gripper_touched"]
+        cube_in_zone = in_zone & on_table
+        return {
+            "success": cube_in_zone & pulled_by_tool & ~gripper_touched,
+            "cube_in_zone": cube_in_zone,
+            "pulled_by_tool": pulled_by_tool,
+            "tool_travel": travel,
+            "gripper_touched": gripper_touched,
+            "tool_grasped": self.ee.holds(self.tool),
+            "engaged": self.memory["hooked"] & self.engaged(),
+        }
+
+    def behind_cube(self) -> torch.Tensor:
+        """(num_envs, 3) where the hook's origin belongs to pull the cube: handle along +x beside the cube
+        (at -y), the hook's pulling face just beyond it."""
+        shape = self.hook_shape
+        cube = self.cube.pose.p
+        lo, hi = shape.hook_span
+        x = cube[:, 0] + self.cube_half * np.sqrt(2) + HOOK_CLEARANCE - shape.pull_face_x
+        y = cube[:, 1] - (lo + hi) / 2
+        return torch.stack([x, y, torch.full_like(x, shape.height / 2)], dim=1)
+
+    def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
+        tcp = self.ee.tcp().p
+        reward = 1 - torch.tanh(5 * torch.linalg.norm(self.tool.pose.p - tcp, dim=1))
+        held = info["tool_grasped"]
+        reward += held
+        placing = 1 - torch.tanh(5 * torch.linalg.norm(self.behind_cube() - self.tool.pose.p, dim=1))
+        gap = torch.linalg.norm((self.zone.pose.p - self.cube.pose.p)[:, :2], dim=1)
+        progress = (1 - gap / self.memory["start_gap"][:, 0]).clamp(0, 1)
+        reward += held * (placing + 2 * progress * info["engaged"]) + 2 * info["cube_in_zone"]
+        reward -= info["gripper_touched"].float()
+        reward[info["success"]] = self.max_dense_reward
+        return reward
+
+
+HAND_REACH = 0.3  # m: the gripper's links (hand and fingers) lie within 0.2 m of its TCP, the cube's corners
+# within 0.035 m of its centre: farther apart they cannot touch
+HOOK_CLEARANCE = 0.02  # the hook's pulling face this far beyond the cube's farthest corner before it drops
+GRASP_FROM_END = 0.06  # the grasp on the handle, from its near end
+GRASP_Z = 0.02  # TCP height of the grasp (the handle is 3 cm high)
+CARRY_Z = 0.16  # the hook's centre height while it moves over the cube (clear of it with the handle pitched 15 deg in the grip)
+LOWERED_Z = 0.024  # the hook's centre height while pulling (its bottom 9 mm above the table: a hook end
+# dragging on the table rattles and kicks the cube sideways)
+PULL_STEP = 0.004  # metres per control step of the pull
+
+
+@register_solver("HookCubeWithTool", control_modes=TCP_DELTA_MODES)
+def solve_hook_cube_with_tool(env, seed: int) -> dict:
+    """Grasp the handle near its end top-down, carry the hook over and beyond the cube, lower it beside and
+    behind the cube, pull straight back until the cube's centre is on the zone's."""
+    with DrivenSolver.episode(env, seed) as s:
+        task: HookCubeWithToolEnv = env.unwrapped
+        n, device = task.num_envs, task.device
+        shape = task.hook_shape
+        tool = task.tool.pose
+        grasp = (tool * Pose.create_from_pq(torch.tensor([[GRASP_FROM_END - shape.handle_length / 2, 0.0, 0.0]],
+                                                         device=device))).p
+        grasp[:, 2] = GRASP_Z
+        # fingers close across the handle: the TCP's x axis along it
+        yaw = DrivenSolver.neutral_yaw(yaw_of(tool.q), np.pi)
+        s.pick("arm", "gripper", grasp, yaw, lift=CARRY_Z - shape.height / 2)
+
+        def tcp_for(tool_p: torch.Tensor, grip: Pose | None = None):
+            """TCP target that puts the hook's origin at `tool_p`, level, the handle along +x, for the tool
+            as it sits in the grip now (the handle pitches in the fingers under the hook's weight)."""
+            grip = task.tool.pose.inv() * s.tcp("arm") if grip is None else grip
+            target = Pose.create_from_pq(tool_p, level) * grip
+            return target.p, target.q
+
+        level = yaw_quat(torch.zeros(n, device=device))
+
+        def servo(tool_p: torch.Tensor, max_steps: int, tol: float):
+            """Drive the hook's origin to `tool_p` closed loop (re-reading the grip every control step)."""
+            for _ in range(max_steps):
+                s.step({"arm": tcp_for(tool_p)})
+                if bool((torch.linalg.norm(task.tool.pose.p - tool_p, dim=1) < tol).all()):
+                    return
+
+        behind = task.behind_cube()
+        carry, lowered = behind.clone(), behind.clone()
+        carry[:, 2], lowered[:, 2] = CARRY_Z, LOWERED_Z
+        servo(carry, 80, 0.01)
+        servo(lowered, 40, 0.004)
+        # pull: the pulling face ends one cube half beyond the zone centre (the cube flat against it)
+        end = lowered.clone()
+        end[:, 0] = task.zone.pose.p[:, 0] + task.cube_half - shape.pull_face_x
+        # the grip as it is once the hook is down (re-reading it every step feeds the hook's rattle back)
+        grip = task.tool.pose.inv() * s.tcp("arm")
+        steps = max(1, round(float(torch.linalg.norm(end - lowered, dim=1).max()) / PULL_STEP))
+        for k in range(1, steps + 1):
+            s.step({"arm": tcp_for(lowered + (end - lowered) * k / steps, grip)})
+        servo(end, 10, 0.003)
+        s.hold_until_success()
+        return s.info
