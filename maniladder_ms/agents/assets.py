@@ -6,11 +6,17 @@ and RealSense meshes of ManiSkill's bundled Panda as `package://franka_descripti
 the URDF's folder, so `urdf_path(name)` writes a copy with those paths made absolute (pointing into the
 installed mani-skill wheel) into the ManiLadder cache and returns its path.
 
-The wrist RealSense's visual mesh (`d415.stl`, 425k triangles) is swapped for its convex hull (12.6k
-triangles, same outline to 0.1 mm at 128 px) in every loaded copy, ManiSkill's `panda_v3.urdf` included
-(`panda_wristcam_urdf`). On lavapipe every camera draws every vertex in the scene, and that one mesh was
-three quarters of a single-arm scene's vertices: a camera frame of PickPlacePen cost 2.4x PickCube-v1's
-(measured: 88 vs 37 ms). Its collision shape is a box and is untouched, so physics is unchanged.
+Light visuals (one home: `_write_resolved`, which every loaded copy goes through, ManiSkill's
+`panda_v3.urdf` for `ml_panda` included). On lavapipe (CPU Vulkan) every camera draws every vertex in the
+scene, and a camera frame costs roughly in proportion to them. The stock visuals were ~450k vertices per
+arm: the Franka link/hand/finger .glb files (exported flat shaded, ~400k) and the wrist RealSense
+(`d415.stl`, 425k triangles; then its convex hull, 38k vertices as loaded). Every loaded URDF now uses
+the decimated copies committed in `agents/meshes/` (scripts/make_panda_meshes.py: each material part
+welded, quadric-decimated to 30%, smooth shaded with creases kept; the camera is its decimated hull):
+~31k vertices per arm, materials (white/black plastic, link6's marks) kept. Measured on PickPlacePen,
+128 px, three scene cameras (this machine, loaded): capture 62 -> 21 ms per camera (median; min 45 -> 11),
+449k -> 44k scene vertices. Collision shapes and everything physical are untouched (only `<visual>`
+mesh paths change), so physics and the committed demos are unchanged.
 """
 
 from __future__ import annotations
@@ -25,24 +31,27 @@ PANDA_ASSET_DIR = Path(PACKAGE_ASSET_DIR) / "robots" / "panda"
 
 
 CAMERA_MESH = "realsense2_description/meshes/d415.stl"
+PANDA_VISUAL_DIR = "franka_description/meshes/visual"
+PANDA_VISUALS = ("link0", "link1", "link2", "link3", "link4", "link5", "link6", "link7", "hand", "finger")
+# the decimated visuals, committed (written by scripts/make_panda_meshes.py); a wheel carries them
+LIGHT_MESH_DIR = AGENTS_DIR / "meshes"
 
 
 def camera_hull_path() -> Path:
-    """The wrist camera's visual as the convex hull of the wheel's d415.stl, computed once per cache."""
-    out = cache_dir("agents") / "d415_hull.stl"
-    if not out.is_file():
-        import trimesh
-
-        hull = trimesh.load(PANDA_ASSET_DIR / CAMERA_MESH, force="mesh").convex_hull
-        tmp = out.with_suffix(f".tmp{id(hull)}")
-        hull.export(tmp, file_type="stl")
-        tmp.replace(out)  # atomic, so parallel processes never read a half-written file
-    return out
+    """The wrist camera's light visual: the convex hull of d415.stl, decimated (committed, see LIGHT_MESH_DIR)."""
+    return LIGHT_MESH_DIR / "realsense" / "d415_hull.glb"
 
 
 def _write_resolved(text: str, name: str) -> str:
-    """`text` (a URDF whose mesh paths are absolute) with the camera hull swapped in, written to the cache."""
+    """`text` (a URDF whose mesh paths are absolute) with the light visuals swapped in, written to the cache.
+
+    The one place where visual meshes are substituted (every loaded URDF goes through here); collision
+    meshes and everything physical stay as written. See the module docstring for the measured costs.
+    """
     text = text.replace(f"{PANDA_ASSET_DIR}/{CAMERA_MESH}", str(camera_hull_path()))
+    for mesh in PANDA_VISUALS:  # decimated Franka visuals: 30k vertices per arm instead of 398k
+        text = text.replace(f'filename="{PANDA_ASSET_DIR}/{PANDA_VISUAL_DIR}/{mesh}.glb"',
+                            f'filename="{LIGHT_MESH_DIR / "panda" / mesh}.glb"')
     out = cache_dir("agents") / f"{name}.urdf"
     if not out.is_file() or out.read_text() != text:
         tmp = out.with_suffix(f".tmp{id(text)}")
@@ -52,7 +61,7 @@ def _write_resolved(text: str, name: str) -> str:
 
 
 def panda_wristcam_urdf() -> str:
-    """ManiSkill's `panda_v3.urdf` (Panda + wrist RealSense; `ml_panda`) with the camera hull, loadable."""
+    """ManiSkill's `panda_v3.urdf` (Panda + wrist RealSense; `ml_panda`) with the light visuals, loadable."""
     text = (PANDA_ASSET_DIR / "panda_v3.urdf").read_text()
     text = re.sub(r'filename="(franka_description|realsense2_description)/', rf'filename="{PANDA_ASSET_DIR}/\1/', text)
     return _write_resolved(text, "panda_v3")
