@@ -1,10 +1,10 @@
 """Write the decimated Panda visual meshes committed in agents/meshes/panda/ (a one-off tool).
 
-On lavapipe (CPU Vulkan) a camera frame costs roughly in proportion to the vertices in the scene, and the
+On lavapipe (CPU Vulkan) a camera frame costs roughly in proportion to the triangles in the scene, and the
 Franka visual meshes of ManiSkill's bundled Panda (franka_description/meshes/visual/*.glb, exported flat
-shaded: three vertices per triangle) are ~430k vertices per arm. This script welds each material part,
+shaded: three vertices per triangle) are 135k triangles per arm. This script welds each material part,
 decimates it with quadric edge collapse (fast-simplification), and re-shades it smooth with vertices
-split at creases sharper than CREASE_DEG, so one arm becomes a few tens of thousands of vertices. Every
+split at creases sharper than CREASE_DEG, so an arm's 135k triangles (398k vertices) become 17k (15k). Every
 part keeps its own glTF material (white / black plastic, the coloured marks on link6: base colour,
 metallic, roughness, double sided), so the robot looks the same at camera resolution.
 
@@ -13,6 +13,9 @@ fast-simplification is needed only here, never at run time (the package loads th
     pip install --target /tmp/simp fast-simplification
     PYTHONPATH=/tmp/simp:. python scripts/make_panda_meshes.py           # rewrite agents/meshes/panda/
     PYTHONPATH=/tmp/simp:. python scripts/make_panda_meshes.py --check   # counts only, write nothing
+
+(pip's --target copy brings numpy 2; delete /tmp/simp/numpy* so the venv's numpy is used: the extension
+runs on either.) The output is the same bytes on every run with the same trimesh / fast-simplification.
 
 Source meshes: franka_description (Franka Emika, Apache-2.0) as bundled in the mani-skill wheel.
 """
@@ -30,7 +33,7 @@ REPO = Path(__file__).resolve().parents[1]
 OUT_DIR = REPO / "agents" / "meshes" / "panda"
 CAMERA_OUT = REPO / "agents" / "meshes" / "realsense" / "d415_hull.glb"
 MESHES = ["link0", "link1", "link2", "link3", "link4", "link5", "link6", "link7", "hand", "finger"]
-KEEP_FRACTION = 0.30  # triangles kept per part (of the welded mesh)
+KEEP_FRACTION = 0.12  # triangles kept per part (of the welded mesh)
 MIN_FACES = 1000  # parts this small (the finger, link6's coloured marks) are only welded, not decimated
 CAMERA_KEEP_FRACTION = 0.05  # of the camera hull's triangles (the decimation stalls near 1.8k: fine)
 CREASE_DEG = 35.0  # edges sharper than this stay hard (vertices split); the rest are smooth shaded
@@ -72,18 +75,19 @@ def make_camera() -> tuple[trimesh.Trimesh, int, int]:
     light = trimesh.Trimesh(v, f).convex_hull
     shaded = trimesh.graph.smooth_shade(light, angle=np.radians(CREASE_DEG), facet_minarea=None)
     shaded.metadata = {}
-    return shaded, len(hull.faces) * 3, len(shaded.vertices)  # the hull as an STL: 3 vertices per triangle
+    return shaded, (len(hull.faces), len(hull.faces) * 3), (len(shaded.faces), len(shaded.vertices))  # STL: 3 per triangle
 
 
-def make(name: str) -> tuple[trimesh.Scene, int, int]:
+def make(name: str) -> tuple[trimesh.Scene, tuple[int, int], tuple[int, int]]:
+    """The light copy of visual mesh `name`, and (triangles, vertices) before and after."""
     scene = trimesh.load(source_dir() / f"{name}.glb")
-    before = sum(len(g.vertices) for g in scene.geometry.values())
+    before = (sum(len(g.faces) for g in scene.geometry.values()), sum(len(g.vertices) for g in scene.geometry.values()))
     light = {key: simplify_part(geom) for key, geom in scene.geometry.items()}
     out = trimesh.Scene()  # rebuilt with fixed node names (trimesh's loaded ones are random): same bytes every run
     for node in sorted(scene.graph.nodes_geometry, key=lambda n: scene.graph[n][1]):  # by part name
         transform, key = scene.graph[node]
         out.add_geometry(light[key], geom_name=key, node_name=key, transform=transform)
-    after = sum(len(g.vertices) for g in out.geometry.values())
+    after = (sum(len(g.faces) for g in out.geometry.values()), sum(len(g.vertices) for g in out.geometry.values()))
     return out, before, after
 
 
@@ -92,7 +96,7 @@ def main(argv=None) -> int:
     ap.add_argument("--check", action="store_true", help="print the counts, write nothing")
     args = ap.parse_args(argv)
     OUT_DIR.mkdir(parents=True, exist_ok=True)
-    total_b = total_a = 0
+    total_b, total_a = np.zeros(2, int), np.zeros(2, int)
     for name in MESHES:
         scene, before, after = make(name)
         total_b, total_a = total_b + before, total_a + after
@@ -103,8 +107,9 @@ def main(argv=None) -> int:
             data = scene.export(file_type="glb", include_normals=True)
             (OUT_DIR / f"{name}.glb").write_bytes(data)
             size = f"  {len(data) / 1024:.0f} KiB"
-        print(f"{name:7s} vertices {before:6d} -> {after:6d}{size}")
-    print(f"Panda   vertices {total_b:6d} -> {total_a:6d} ({total_a / total_b:.1%}) per arm")
+        print(f"{name:7s} triangles {before[0]:6d} -> {after[0]:5d}, vertices {before[1]:6d} -> {after[1]:5d}{size}")
+    print(f"Panda   triangles {total_b[0]:6d} -> {total_a[0]:5d} ({total_a[0] / total_b[0]:.1%}), "
+          f"vertices {total_b[1]:6d} -> {total_a[1]:5d} ({total_a[1] / total_b[1]:.1%}) per arm (one finger)")
     camera, before, after = make_camera()
     size = ""
     if not args.check:
@@ -113,7 +118,7 @@ def main(argv=None) -> int:
         (CAMERA_OUT.parent).mkdir(parents=True, exist_ok=True)
         CAMERA_OUT.write_bytes(data)
         size = f"  {len(data) / 1024:.0f} KiB"
-    print(f"d415    vertices {before:6d} -> {after:6d}{size}  (from its convex hull as an STL)")
+    print(f"d415    triangles {before[0]:6d} -> {after[0]:5d}, vertices {before[1]:6d} -> {after[1]:5d}{size}  (its hull)")
     return 0
 
 

@@ -7,16 +7,17 @@ the URDF's folder, so `urdf_path(name)` writes a copy with those paths made abso
 installed mani-skill wheel) into the ManiLadder cache and returns its path.
 
 Light visuals (one home: `_write_resolved`, which every loaded copy goes through, ManiSkill's
-`panda_v3.urdf` for `ml_panda` included). On lavapipe (CPU Vulkan) every camera draws every vertex in the
-scene, and a camera frame costs roughly in proportion to them. The stock visuals were ~450k vertices per
-arm: the Franka link/hand/finger .glb files (exported flat shaded, ~400k) and the wrist RealSense
-(`d415.stl`, 425k triangles; then its convex hull, 38k vertices as loaded). Every loaded URDF now uses
-the decimated copies committed in `agents/meshes/` (scripts/make_panda_meshes.py: each material part
-welded, quadric-decimated to 30%, smooth shaded with creases kept; the camera is its decimated hull):
-~31k vertices per arm, materials (white/black plastic, link6's marks) kept. Measured on PickPlacePen,
-128 px, three scene cameras (this machine, loaded): capture 62 -> 21 ms per camera (median; min 45 -> 11),
-449k -> 44k scene vertices. Collision shapes and everything physical are untouched (only `<visual>`
-mesh paths change), so physics and the committed demos are unchanged.
+`panda_v3.urdf` for `ml_panda` included). On lavapipe (CPU Vulkan) every camera draws every triangle in
+the scene, and a camera frame costs roughly in proportion to them. The stock visuals were 148k triangles
+(437k vertices: exported flat shaded) per arm: the Franka link/hand/finger .glb files and the wrist
+RealSense (`d415.stl`, 425k triangles, already replaced by its 12.6k-triangle convex hull). Every loaded
+URDF now uses the decimated copies committed in `agents/meshes/` (scripts/make_panda_meshes.py: each
+material part welded, quadric-decimated to 12% of its triangles, smooth shaded with creases kept, its
+glTF material kept; the camera is its hull decimated to 1.6k triangles): 19k triangles / 16k vertices per
+arm. Measured, 128 px, the three scene cameras, median capture per camera (loaded 2-core machine, same
+conditions; PickCube-v1's camera: 74 ms there, 37 ms on a quiet one): PickPlacePen 63 -> 15 ms,
+HandoverCube 119 -> 23 ms, LiftBasketHands 102 -> 21 ms. Only `<visual>` mesh paths change: collision
+shapes and everything physical are as written, so physics and the committed demos are unchanged.
 """
 
 from __future__ import annotations
@@ -49,7 +50,7 @@ def _write_resolved(text: str, name: str) -> str:
     meshes and everything physical stay as written. See the module docstring for the measured costs.
     """
     text = text.replace(f"{PANDA_ASSET_DIR}/{CAMERA_MESH}", str(camera_hull_path()))
-    for mesh in PANDA_VISUALS:  # decimated Franka visuals: 30k vertices per arm instead of 398k
+    for mesh in PANDA_VISUALS:  # decimated Franka visuals: 17k triangles per arm instead of 135k
         text = text.replace(f'filename="{PANDA_ASSET_DIR}/{PANDA_VISUAL_DIR}/{mesh}.glb"',
                             f'filename="{LIGHT_MESH_DIR / "panda" / mesh}.glb"')
     out = cache_dir("agents") / f"{name}.urdf"
