@@ -1,5 +1,8 @@
 """The ManiLadder agents: registered, load in an empty ManiLadder scene, every controller steps, rest
-keyframe reached, state round trip, wrist cameras, TidyBot base drive, cube lifts with the helpers."""
+keyframe reached, state round trip, wrist cameras, TidyBot base drive, cube lifts with the helpers, the
+render budget of their visual meshes and the loaded URDFs' visual-only substitutions."""
+
+import pathlib
 
 import gymnasium as gym
 import numpy as np
@@ -278,3 +281,53 @@ def test_many_objects_in_one_pass_equal_one_query_each():
                        contact_forces(base.scene, base.stand, [base.ball])[0])
     assert pair_forces(base.scene, [base.stand], [base.ball]).norm() > 0.3  # the ball rests on its stand
     env.close()
+
+
+# Render budget: on lavapipe a camera frame's cost follows the triangles (and vertices) in the scene. With
+# the decimated visuals (agents/meshes/, swapped in by agents/assets.py) a Panda arm with its hand and wrist
+# camera renders ~19k triangles / ~16k vertices; the stock meshes were 148k / 437k. Counts, not timings.
+TRIANGLES_PER_ARM = 30_000
+VERTICES_PER_ARM = 30_000
+
+
+@pytest.mark.parametrize("uid", AGENT_UIDS)
+def test_render_budget(uid):
+    """The loaded robot's visual shapes stay light, so the heavy meshes cannot come back silently."""
+    from sapien.render import RenderBodyComponent
+
+    env = make(uid)
+    try:
+        env.reset(seed=0)
+        parts = [part for link in env.unwrapped.agent.robot.links for obj in link._objs
+                 if (body := obj.entity.find_component_by_type(RenderBodyComponent)) is not None
+                 for shape in body.render_shapes for part in shape.parts]
+        triangles = sum(part.triangles.shape[0] for part in parts)
+        vertices = sum(part.vertices.shape[0] for part in parts)
+        arms = 2 if "dual" in uid else 1
+        assert 0 < triangles <= TRIANGLES_PER_ARM * arms, f"{uid}: {triangles} rendered triangles"
+        assert 0 < vertices <= VERTICES_PER_ARM * arms, f"{uid}: {vertices} rendered vertices"
+    finally:
+        env.close()
+
+
+@pytest.mark.parametrize("uid", AGENT_UIDS)
+def test_loaded_copy_changes_visual_meshes_only(uid):
+    """The URDF that loads differs from its source only in `<visual>` mesh files (all in agents/meshes/):
+    every collision shape, joint, inertia and material is as written, so physics is unchanged."""
+    import re
+
+    from maniladder_ms.agents import assets
+
+    if uid == "ml_panda":
+        source = (assets.PANDA_ASSET_DIR / "panda_v3.urdf").read_text()
+        loaded = open(assets.panda_wristcam_urdf()).read()
+    else:
+        source = assets.source_urdf(uid).read_text()
+        loaded = open(assets.urdf_path(uid)).read()
+    visual = re.compile(r"<visual>.*?</visual>", re.S)
+    prefix = "" if uid == "ml_panda" else "package://"
+    assert visual.sub("", source) == visual.sub("", loaded).replace(f"{assets.PANDA_ASSET_DIR}/", prefix)
+    meshes = [m for block in visual.findall(loaded) for m in re.findall(r'filename="([^"]*)"', block)]
+    assert not [m for m in meshes if assets.PANDA_VISUAL_DIR in m or assets.CAMERA_MESH in m]  # no stock ones
+    assert sum(m.startswith(str(assets.LIGHT_MESH_DIR)) for m in meshes) >= 8  # an arm (link0-7) at least
+    assert all(pathlib.Path(m).is_file() for m in meshes)

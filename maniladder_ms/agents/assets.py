@@ -6,11 +6,18 @@ and RealSense meshes of ManiSkill's bundled Panda as `package://franka_descripti
 the URDF's folder, so `urdf_path(name)` writes a copy with those paths made absolute (pointing into the
 installed mani-skill wheel) into the ManiLadder cache and returns its path.
 
-The wrist RealSense's visual mesh (`d415.stl`, 425k triangles) is swapped for its convex hull (12.6k
-triangles, same outline to 0.1 mm at 128 px) in every loaded copy, ManiSkill's `panda_v3.urdf` included
-(`panda_wristcam_urdf`). On lavapipe every camera draws every vertex in the scene, and that one mesh was
-three quarters of a single-arm scene's vertices: a camera frame of PickPlacePen cost 2.4x PickCube-v1's
-(measured: 88 vs 37 ms). Its collision shape is a box and is untouched, so physics is unchanged.
+Light visuals (one home: `_write_resolved`, which every loaded copy goes through, ManiSkill's
+`panda_v3.urdf` for `ml_panda` included). On lavapipe (CPU Vulkan) every camera draws every triangle in
+the scene, and a camera frame costs roughly in proportion to them. The stock visuals were 148k triangles
+(437k vertices: exported flat shaded) per arm: the Franka link/hand/finger .glb files and the wrist
+RealSense (`d415.stl`, 425k triangles, already replaced by its 12.6k-triangle convex hull). Every loaded
+URDF now uses the decimated copies committed in `agents/meshes/` (scripts/make_panda_meshes.py: each
+material part welded, quadric-decimated to 12% of its triangles, smooth shaded with creases kept, its
+glTF material kept; the camera is its hull decimated to 1.6k triangles): 19k triangles / 16k vertices per
+arm. Measured, 128 px, the three scene cameras, median capture per camera (loaded 2-core machine, same
+conditions; PickCube-v1's camera: 74 ms there, 37 ms on a quiet one): PickPlacePen 63 -> 15 ms,
+HandoverCube 119 -> 23 ms, LiftBasketHands 102 -> 21 ms. Only `<visual>` mesh paths change: collision
+shapes and everything physical are as written, so physics and the committed demos are unchanged.
 """
 
 from __future__ import annotations
@@ -26,24 +33,27 @@ PANDA_ASSET_DIR = Path(PACKAGE_ASSET_DIR) / "robots" / "panda"
 
 
 CAMERA_MESH = "realsense2_description/meshes/d415.stl"
+PANDA_VISUAL_DIR = "franka_description/meshes/visual"
+PANDA_VISUALS = ("link0", "link1", "link2", "link3", "link4", "link5", "link6", "link7", "hand", "finger")
+# the decimated visuals, committed (written by scripts/make_panda_meshes.py); a wheel carries them
+LIGHT_MESH_DIR = AGENTS_DIR / "meshes"
 
 
 def camera_hull_path() -> Path:
-    """The wrist camera's visual as the convex hull of the wheel's d415.stl, computed once per cache."""
-    out = cache_dir("agents") / "d415_hull.stl"
-    if not out.is_file():
-        import trimesh
-
-        hull = trimesh.load(PANDA_ASSET_DIR / CAMERA_MESH, force="mesh").convex_hull
-        tmp = out.with_suffix(f".tmp{id(hull)}")
-        hull.export(tmp, file_type="stl")
-        tmp.replace(out)  # atomic, so parallel processes never read a half-written file
-    return out
+    """The wrist camera's light visual: the convex hull of d415.stl, decimated (committed, see LIGHT_MESH_DIR)."""
+    return LIGHT_MESH_DIR / "realsense" / "d415_hull.glb"
 
 
 def _write_resolved(text: str, name: str) -> str:
-    """`text` (a URDF whose mesh paths are absolute) with the camera hull swapped in, written to the cache."""
+    """`text` (a URDF whose mesh paths are absolute) with the light visuals swapped in, written to the cache.
+
+    The one place where visual meshes are substituted (every loaded URDF goes through here); collision
+    meshes and everything physical stay as written. See the module docstring for the measured costs.
+    """
     text = text.replace(f"{PANDA_ASSET_DIR}/{CAMERA_MESH}", str(camera_hull_path()))
+    for mesh in PANDA_VISUALS:  # decimated Franka visuals: 17k triangles per arm instead of 135k
+        text = text.replace(f'filename="{PANDA_ASSET_DIR}/{PANDA_VISUAL_DIR}/{mesh}.glb"',
+                            f'filename="{LIGHT_MESH_DIR / "panda" / mesh}.glb"')
     # named by content: processes running other versions of this code never overwrite each other's copy
     out = cache_dir("agents") / f"{name}-{hashlib.sha1(text.encode()).hexdigest()[:12]}.urdf"
     if not out.is_file():
@@ -54,7 +64,7 @@ def _write_resolved(text: str, name: str) -> str:
 
 
 def panda_wristcam_urdf() -> str:
-    """ManiSkill's `panda_v3.urdf` (Panda + wrist RealSense; `ml_panda`) with the camera hull, loadable.
+    """ManiSkill's `panda_v3.urdf` (Panda + wrist RealSense; `ml_panda`) with the light visuals, loadable.
 
     Its mesh paths stay relative, through links to the wheel's mesh folders beside the copy: the Panda agent
     loads its collision meshes as multiple convex parts, and one loader resolves an absolute path against
@@ -68,7 +78,9 @@ def panda_wristcam_urdf() -> str:
             tmp.symlink_to(PANDA_ASSET_DIR / sub, target_is_directory=True)
             tmp.replace(link)  # atomic, like the files
     text = (PANDA_ASSET_DIR / "panda_v3.urdf").read_text()
-    out = _write_resolved(text.replace(f'filename="{CAMERA_MESH}"', f'filename="{PANDA_ASSET_DIR}/{CAMERA_MESH}"'), "panda_v3")
+    for visual in (CAMERA_MESH, *(f"{PANDA_VISUAL_DIR}/{m}.glb" for m in PANDA_VISUALS)):  # absolute, to be swapped
+        text = text.replace(f'filename="{visual}"', f'filename="{PANDA_ASSET_DIR}/{visual}"')
+    out = _write_resolved(text, "panda_v3")
     srdf = Path(out).with_suffix(".srdf")  # mplib (the solvers' motion planner) reads the SRDF beside the URDF
     if not srdf.is_file():
         tmp = srdf.with_suffix(f".tmp{os.getpid()}")
