@@ -70,11 +70,15 @@ class InsertPegBimanualEnv(InsertPegTask):
         """(b, 3) world position where the left gripper holds the handle: `HANDLE_GRIP` from its free end,
         2 cm below its top."""
         x = self.hole.outer_half + self.BLOCK_HANDLE - self.HANDLE_GRIP
-        local = torch.tensor([[x, 0.0, self.hole.rim_height - 0.02]], device=self.device).expand(self.num_envs, 3)
-        return (self.block.pose * Pose.create_from_pq(local)).p
+        return self.block_point([x, 0.0, self.hole.rim_height - 0.02])
 
     def task_conditions(self, info: dict) -> torch.Tensor:
-        info["block_grasped"] = self.ee.holds(self.block, "left")
+        # the contact query only where the left TCP is within reach of the block (its farthest corner from
+        # its origin plus the margin of `holds_peg`)
+        h = self.hole
+        reach = float(np.linalg.norm([h.outer_half + h.handle, h.outer_half, h.rim_height])) + self.HOLD_REACH_MARGIN
+        near = torch.linalg.norm(self.ee.tcp("left").p - self.block.pose.p, dim=1) <= reach
+        info["block_grasped"] = (self.ee.holds(self.block, "left") & near) if bool(near.any()) else near
         info["block_lifted"] = self.block.pose.p[:, 2] >= self.lift_height
         return info["block_grasped"] & info["block_lifted"]
 
@@ -91,7 +95,7 @@ class InsertPegBimanualEnv(InsertPegTask):
     def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
         left_reach = torch.linalg.norm(self.handle_point() - self.ee.tcp("left").p, dim=1)
         right_reach = torch.linalg.norm(self.peg.pose.p - self.ee.tcp("right").p, dim=1)
-        block_held, peg_held = info["block_grasped"], self.ee.holds(self.peg, "right")
+        block_held, peg_held = info["block_grasped"], info["right_peg_grasped"]
         reward = (1 - torch.tanh(5 * left_reach)) + block_held.float()
         reward += (self.block.pose.p[:, 2] / self.lift_height).clamp(0, 1) * block_held
         reward += (1 - torch.tanh(5 * right_reach)) + peg_held.float()
