@@ -1,0 +1,170 @@
+"""The InsertPeg family's rule (InsertPegInHole, InsertPegBimanual; later InsertPegTight): a square peg goes
+into a blind square hole in a block, and stays there on its own.
+
+The family base `InsertPegTask` builds the peg and the hole block from the catalog params (the same builders,
+`objects.peg_hole`, for every row: a row's `clearance` sets the hole's width) and holds the rule, `evaluate`,
+once; the task classes place the objects, say whether the block is a fixture or a free body with a handle,
+add their own conditions (`task_conditions`) and keep their solvers.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+
+from mani_skill.utils.structs.pose import Pose
+
+from maniladder_ms.envs import ManiLadderEnv
+from maniladder_ms.objects.peg_hole import HoleBlockShape, build_hole_block, build_square_peg
+
+
+class InsertPegTask(ManiLadderEnv):
+    """Family base (registers no task). **Success:** the peg is inserted: its lower end's centre, in the
+    block's frame (z along the hole's axis), lies at least `insert_depth` below the hole's rim and inside
+    the hole's square opening (half side `peg_half` plus half the `clearance`); the peg's axis is within
+    `max_tilt` of the hole's; no gripper holds the peg (`ee.holds`: it stays in the hole on its own); and
+    the task's own conditions hold (`task_conditions`).
+    """
+
+    PARAMS = ("peg_half", "peg_length", "clearance", "hole_depth", "insert_depth", "max_tilt")
+    # the block: a fixture (kinematic) or a free body; the length of its handle along its +x (0: none)
+    BLOCK_FIXED = True
+    BLOCK_HANDLE = 0.0
+    BLOCK_WALL = 0.01
+    BLOCK_BASE = 0.01
+
+    @property
+    def hole(self) -> HoleBlockShape:
+        return HoleBlockShape(hole_half=self.peg_half + self.clearance / 2, depth=self.hole_depth,
+                              wall=self.BLOCK_WALL, base=self.BLOCK_BASE, handle=self.BLOCK_HANDLE)
+
+    def _load_scene(self, options: dict):
+        super()._load_scene(options)
+        self.peg = build_square_peg(self.scene, "peg", self.peg_half, self.peg_length, color=(0.85, 0.65, 0.3, 1),
+                                    tip_color=(0.8, 0.15, 0.1, 1))
+        self.block = build_hole_block(self.scene, "hole_block", self.hole, color=(0.3, 0.45, 0.7, 1),
+                                      rim_color=(0.95, 0.95, 0.95, 1), kinematic=self.BLOCK_FIXED)
+
+    # a gripper whose TCP is further than this from the peg's centre cannot hold it (the peg's far corner
+    # lies `peg_length` / 2 + 0.5 cm from its centre, the finger pads within 3 cm of the TCP): `holds_peg`
+    # skips its contact query there (a contact query is the costliest part of a CPU step)
+    HOLD_REACH_MARGIN = 0.05
+
+    @staticmethod
+    def _rotation(actor) -> torch.Tensor:
+        """(b, 3, 3) rotation of an actor (a closed form: ManiSkill's quaternion_to_matrix took a fifth of a step)."""
+        w, x, y, z = actor.pose.q.unbind(-1)
+        return torch.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y),
+                            2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x),
+                            2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], dim=-1).reshape(-1, 3, 3)
+
+    def block_point(self, local: torch.Tensor) -> torch.Tensor:
+        """(b, 3) world position of the point `local` (3,) of the block's frame."""
+        return self.block.pose.p + self._rotation(self.block) @ torch.as_tensor(local, dtype=torch.float32, device=self.device)
+
+    def peg_tip(self) -> torch.Tensor:
+        """(b, 3) world position of the centre of the peg's lower end."""
+        return self.peg.pose.p - self.peg_length / 2 * self._rotation(self.peg)[:, :, 2]
+
+    def hole_mouth(self) -> torch.Tensor:
+        """(b, 3) world position of the centre of the hole's opening (on the rim's plane)."""
+        return self.block_point([0.0, 0.0, self.hole.rim_height])
+
+    def insertion_state(self) -> dict[str, torch.Tensor]:
+        """The rule's measurements: `depth` (m below the rim of the peg's lower end, in the block's frame),
+        `lateral` (m, the larger of its |x|, |y| offsets from the hole's axis; `offset` their norm), `tilt` (rad
+        between the axes)."""
+        block_r = self._rotation(self.block)
+        local = ((self.peg_tip() - self.block.pose.p).unsqueeze(1) @ block_r).squeeze(1)
+        depth = self.hole.rim_height - local[:, 2]
+        lateral = local[:, :2].abs().max(dim=1).values
+        cos = (self._rotation(self.peg)[:, :, 2] * block_r[:, :, 2]).sum(dim=1).clamp(-1, 1)
+        tilt = torch.arccos(cos)
+        is_aligned = tilt <= np.deg2rad(self.max_tilt)
+        in_opening = lateral <= self.hole.hole_half
+        return dict(depth=depth, lateral=lateral, offset=local[:, :2].norm(dim=1), tilt=tilt, is_aligned=is_aligned,
+                    in_opening=in_opening, is_inserted=(depth >= self.insert_depth) & in_opening & is_aligned)
+
+    def holds_peg(self, side: str) -> torch.Tensor:
+        """(b,) bool: `ee.holds(peg, side)`, asked only where that TCP is within reach of the peg."""
+        near = torch.linalg.norm(self.ee.tcp(side).p - self.peg.pose.p, dim=1) <= self.peg_length / 2 + self.HOLD_REACH_MARGIN
+        if not bool(near.any()):
+            return near
+        return self.ee.holds(self.peg, side) & near
+
+    def task_conditions(self, info: dict) -> torch.Tensor:
+        """(b,) bool: what the task adds to the family rule (all True by default); may add flags to `info`."""
+        return torch.ones(self.num_envs, dtype=torch.bool, device=self.device)
+
+    def evaluate(self):
+        info = self.insertion_state()
+        held = {side: self.holds_peg(side) for side in self.ee.sides}
+        info["is_grasped"] = torch.stack(list(held.values())).any(dim=0)
+        if len(held) > 1:
+            info.update({f"{side}_peg_grasped": flag for side, flag in held.items()})
+        info["success"] = info["is_inserted"] & ~info["is_grasped"] & self.task_conditions(info)
+        return info
+
+    def insertion_reward(self, info: dict) -> torch.Tensor:
+        """(b,) in [0, 3]: the peg's tip over the hole's mouth and aligned (up to 2), then as deep as
+        `insert_depth` (up to 1): the stages every task's dense reward ends with."""
+        to_mouth = info["offset"] + (-info["depth"]).clamp(min=0)
+        align = (1 - torch.tanh(10 * to_mouth)) + (1 - info["tilt"] / np.pi)
+        deep = (info["depth"] / self.insert_depth).clamp(0, 1) * (info["in_opening"] & info["is_aligned"])
+        return align + deep
+
+
+# ---- the family's solver phases (DrivenSolver, pd_ee_delta_pose) ----------------------------------------
+HOVER = 0.015  # the peg's lower end this high over the rim while it is lined up with the hole
+LINE_UP_TOL = 0.0005  # m: the lower end's lateral offset from the hole's axis before going down
+DESCENT_STEP = 0.002  # m per control step the target goes down
+FLOOR_GAP = 0.003  # the insertion stops with the lower end this high over the hole's floor
+
+
+def _yaw_in(m: torch.Tensor) -> torch.Tensor:
+    return torch.atan2(m[:, 1, 0], m[:, 0, 0])
+
+
+def peg_in_hand(task: InsertPegTask, ee_side: str | None) -> Pose:
+    """The peg's pose in the TCP frame, measured now."""
+    return task.ee.tcp(ee_side).inv() * task.peg.pose
+
+
+def peg_goal_tcp(task: InsertPegTask, peg_in_tcp: Pose, tip_height: float):
+    """(p, q) of the TCP that puts the held peg (`peg_in_tcp`: where it sits in the hand) on the hole's axis,
+    its lower end `tip_height` above the rim (along the axis), its faces along the hole's walls (of the four
+    such yaws the nearest to the peg's now). The block's pose is read now: the goal follows a moving block."""
+    peg_in_block = (task.block.pose.inv() * task.peg.pose).to_transformation_matrix()
+    turns = torch.round(_yaw_in(peg_in_block) / (np.pi / 2)) * (np.pi / 2)
+    n = task.num_envs
+    local_p = torch.zeros(n, 3, device=task.device)
+    local_p[:, 2] = task.hole.rim_height + tip_height + task.peg_length / 2
+    local_q = torch.stack([torch.cos(turns / 2), torch.zeros_like(turns), torch.zeros_like(turns), torch.sin(turns / 2)], 1)
+    goal = task.block.pose * Pose.create_from_pq(local_p, local_q) * peg_in_tcp.inv()
+    return goal.p, goal.q
+
+
+def insert_held_peg(s, task: InsertPegTask, arm: str, ee_part: str, ee_side: str | None,
+                    line_up_steps: int = 40, max_descent_steps: int = 60):
+    """Carry the held peg over the hole, line its lower end up with the hole's axis (closed loop on the
+    measured peg and block), go down the hole to `FLOOR_GAP` above its floor, let go and back off upwards.
+    Where the peg sits in the hand is measured while it hangs free and then kept: once the hole's walls
+    touch it, it turns in the fingers, and a goal that followed it would turn the hand after it."""
+    grip = peg_in_hand(task, ee_side)
+    s.move({arm: peg_goal_tcp(task, grip, HOVER + 0.05)}, max_steps=60, pos_tol=0.005, rot_tol=0.05)
+    grip = peg_in_hand(task, ee_side)
+    for _ in range(line_up_steps):
+        s.step({arm: peg_goal_tcp(task, grip, HOVER)})
+        info = task.insertion_state()
+        if bool((info["offset"] < LINE_UP_TOL).all() & (info["depth"] > -HOVER - 0.002).all()):
+            break
+    height = HOVER
+    bottom = -(task.hole_depth - FLOOR_GAP)
+    for _ in range(max_descent_steps):
+        height = max(height - DESCENT_STEP, bottom)
+        s.step({arm: peg_goal_tcp(task, grip, height)})
+        if bool((task.insertion_state()["depth"] >= task.hole_depth - FLOOR_GAP - 0.001).all()):
+            break
+    s.release(ee_part, steps=8)
+    tcp = s.tcp(arm)
+    s.move({arm: (s.above(tcp.p, 0.06), tcp.q)}, max_steps=20, pos_tol=0.01)
