@@ -32,8 +32,9 @@ def test_measured_level_follows_the_catalog_intervals():
 def test_calibrating_an_unbuilt_task_is_a_clear_error(tmp_path):
     import maniladder_ms
 
+    unbuilt = next(s.id for s in maniladder_ms.default_catalog().tasks if not s.implemented)
     with pytest.raises(maniladder_ms.TaskNotImplementedError, match="not implemented"):
-        TaskCalibration("InsertPegInHole", tmp_path / "work", tmp_path / "out")
+        TaskCalibration(unbuilt, tmp_path / "work", tmp_path / "out")
 
 
 _CHILD = """
