@@ -57,10 +57,15 @@ def _write_resolved(text: str, name: str) -> str:
     # named by content: processes running other versions of this code never overwrite each other's copy
     out = cache_dir("agents") / f"{name}-{hashlib.sha1(text.encode()).hexdigest()[:12]}.urdf"
     if not out.is_file():
-        tmp = out.with_suffix(f".tmp{id(text)}")
-        tmp.write_text(text)
-        tmp.replace(out)  # atomic, so parallel processes never read a half-written file
+        _write_atomic(out, text)
     return str(out)
+
+
+def _write_atomic(path: Path, text: str) -> None:
+    """Write via a temporary file and a rename, so parallel processes never read a half-written file."""
+    tmp = path.with_suffix(f".tmp{os.getpid()}")
+    tmp.write_text(text)
+    tmp.replace(path)
 
 
 def panda_wristcam_urdf() -> str:
@@ -83,9 +88,7 @@ def panda_wristcam_urdf() -> str:
     out = _write_resolved(text, "panda_v3")
     srdf = Path(out).with_suffix(".srdf")  # mplib (the solvers' motion planner) reads the SRDF beside the URDF
     if not srdf.is_file():
-        tmp = srdf.with_suffix(f".tmp{os.getpid()}")
-        tmp.write_text((PANDA_ASSET_DIR / "panda_v3.srdf").read_text())
-        tmp.replace(srdf)
+        _write_atomic(srdf, (PANDA_ASSET_DIR / "panda_v3.srdf").read_text())
     return out
 
 

@@ -64,16 +64,14 @@ def cmd_eval(args) -> int:
 
 
 def cmd_report(args) -> int:
-    from .report import write_report
-
     from maniladder_ms.policy.calibrate import load_results, write_calibration_report
 
-    if len(args.results) == 1 and args.results[0].is_dir() and load_results(args.results[0]):  # `maniladder calibrate` results
+    from .report import write_report
 
+    if len(args.results) == 1 and args.results[0].is_dir() and load_results(args.results[0]):  # `maniladder calibrate` results
         html = write_calibration_report(args.results[0], out=args.out)
-        print(f"wrote {html}")
-        return 0
-    html = write_report(args.results, out=args.out, title=args.title)
+    else:
+        html = write_report(args.results, out=args.out, title=args.title)
     print(f"wrote {html}")
     return 0
 

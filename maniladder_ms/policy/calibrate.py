@@ -149,11 +149,13 @@ class TaskCalibration:
     def features_path(self) -> Path:
         return self.dir / "features.npz"
 
-    def checkpoint(self, k: int) -> Path:
-        return self.dir / f"checkpoint_{self._ckpt_step(k)}.pt"
+    @property
+    def checkpoint_steps(self) -> list[int]:
+        n = self.protocol.checkpoints
+        return [self.config.train_steps * k // n for k in range(1, n + 1)]
 
-    def _ckpt_step(self, k: int) -> int:
-        return self.config.train_steps * k // self.protocol.checkpoints
+    def checkpoint(self, step: int) -> Path:
+        return self.dir / f"checkpoint_{step}.pt"
 
     # ---- stages ------------------------------------------------------------------------------------
     def stage_demos(self):
@@ -175,8 +177,7 @@ class TaskCalibration:
 
         if self.features_path.is_file():
             return
-        encoder = make_encoder(self.config.encoder, grid=self.config.grid, device=self.device) \
-            if self.config.encoder.startswith("efficientnet") else make_encoder(self.config.encoder, grid=self.config.grid)
+        encoder = make_encoder(self.config.encoder, grid=self.config.grid, device=self.device)
         cache_features(self.demo_h5, encoder, self.config.cameras, self.features_path, size=self.config.image_size,
                        progress=self.progress, stride=self.protocol.frame_stride)
 
@@ -184,43 +185,42 @@ class TaskCalibration:
         from .features import load_features
         from .flow import LadderFlowTrainer
 
-        todo = [k for k in range(1, self.protocol.checkpoints + 1) if not self.checkpoint(k).is_file()]
+        todo = [step for step in self.checkpoint_steps if not self.checkpoint(step).is_file()]
         if not todo:
             return
         episodes = load_features(self.features_path)[: self.protocol.demos]
         trainer = LadderFlowTrainer(self.config, episodes, device=self.device)
-        done = [k for k in range(1, self.protocol.checkpoints + 1) if self.checkpoint(k).is_file()]
+        done = [step for step in self.checkpoint_steps if step not in todo]
         if done:
             trainer.resume(self.checkpoint(max(done)))
         meta = {"task": self.spec.id, "control_mode": self.control_mode}
-        for k in todo:
-            losses = trainer.train(self._ckpt_step(k) - trainer.step_count, progress=self.progress)
-            trainer.save(self.checkpoint(k), meta=dict(meta, final_loss=float(sum(losses[-100:]) / max(len(losses[-100:]), 1))))
+        for step in todo:
+            losses = trainer.train(step - trainer.step_count, progress=self.progress)
+            trainer.save(self.checkpoint(step), meta=dict(meta, final_loss=float(sum(losses[-100:]) / max(len(losses[-100:]), 1))))
 
-    def _evaluate(self, k: int, folder: str, episodes: int, seed_set: int) -> dict:
+    def _evaluate(self, step: int, folder: str, episodes: int, seed_set: int) -> dict:
         from maniladder_ms.evaluation.runner import evaluate
 
         from .evaluate import LadderFlowEvalPolicy
 
-        policy = LadderFlowEvalPolicy(self.checkpoint(k))
+        policy = LadderFlowEvalPolicy(self.checkpoint(step))
         summary = evaluate(policy, self.dir / folder, tasks=[self.spec.id], episodes=episodes, seed=seed_set,
                            progress=self.progress, bootstrap=0)
         return summary["tasks"][self.spec.id]
 
     def stage_select(self) -> dict:
-        rates = {}
-        for k in range(1, self.protocol.checkpoints + 1):
-            t = self._evaluate(k, f"select_{self._ckpt_step(k)}", self.protocol.selection_episodes, SELECTION_SEED_SET)
-            rates[self._ckpt_step(k)] = t["rate"]
+        path = self.dir / "selection.json"
+        if path.is_file():
+            return json.loads(path.read_text())
+        rates = {step: self._evaluate(step, f"select_{step}", self.protocol.selection_episodes, SELECTION_SEED_SET)["rate"]
+                 for step in self.checkpoint_steps}
         best = max(rates, key=lambda step: (rates[step], step))
         sel = {"selection_rates": {str(s): r for s, r in rates.items()}, "selected_step": best}
-        (self.dir / "selection.json").write_text(json.dumps(sel, indent=1))
+        path.write_text(json.dumps(sel, indent=1))
         return sel
 
-    def stage_evaluate(self) -> dict:
-        sel = json.loads((self.dir / "selection.json").read_text())
-        k = [k for k in range(1, self.protocol.checkpoints + 1) if self._ckpt_step(k) == sel["selected_step"]][0]
-        return self._evaluate(k, "evaluate", self.protocol.episodes, EVALUATION_SEED_SET)
+    def stage_evaluate(self, sel: dict) -> dict:
+        return self._evaluate(sel["selected_step"], "evaluate", self.protocol.episodes, EVALUATION_SEED_SET)
 
     # ---- all of it ---------------------------------------------------------------------------------
     def run(self) -> dict:
@@ -228,10 +228,8 @@ class TaskCalibration:
         self._timed("demos", self.stage_demos)
         self._timed("features", self.stage_features)
         self._timed("train", self.stage_train)
-        sel_path = self.dir / "selection.json"
-        sel = json.loads(sel_path.read_text()) if sel_path.is_file() else self._timed("select", self.stage_select)
-        task = self._timed("evaluate", self.stage_evaluate)
-        return self.write_result(task, sel)
+        sel = self._timed("select", self.stage_select)
+        return self.write_result(self._timed("evaluate", lambda: self.stage_evaluate(sel)), sel)
 
     def write_result(self, task: dict, sel: dict) -> dict:
         from maniladder_ms.demos.files import load_demo_json
@@ -261,7 +259,7 @@ class TaskCalibration:
 def _calibrate_one(task_id: str, kwargs: dict) -> dict:
     import torch
 
-    torch.set_num_threads(kwargs.pop("threads", 1))
+    torch.set_num_threads(1)  # one task per process and core
     return TaskCalibration(task_id, **kwargs).run()
 
 
@@ -401,17 +399,15 @@ def add_parser(sub) -> None:
 def cmd_calibrate(args) -> int:
     import sys
 
-    catalog = default_catalog()
-    if args.tasks:
-        tasks = [t.strip() for t in args.tasks.split(",") if t.strip()]
-    else:
-        specs = catalog.filter(level=args.level, suite=args.suite)
-        if not specs:
-            raise ValueError(f"no catalog task in {args.suite or f'level {args.level}'}")
-        skipped = [s.id for s in specs if not s.implemented]
-        if skipped:
-            print(f"skipping {len(skipped)} task(s) not implemented yet: {', '.join(skipped)}", file=sys.stderr)
-        tasks = [s.id for s in specs if s.implemented]
+    from maniladder_ms.evaluation.runner import select_tasks
+
+    names = [t.strip() for t in args.tasks.split(",") if t.strip()] if args.tasks else None
+    specs, skipped = select_tasks(default_catalog(), names, args.level, args.suite)
+    if not specs and not skipped:
+        raise ValueError(f"no catalog task in {args.suite or f'level {args.level}'}")
+    if skipped:
+        print(f"skipping {len(skipped)} task(s) not implemented yet: {', '.join(skipped)}", file=sys.stderr)
+    tasks = [s.id for s in specs]
     if args.device.startswith("cuda"):
         import torch
 

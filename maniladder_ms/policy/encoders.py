@@ -64,10 +64,14 @@ class EfficientNetLite0(Encoder):
         out = []
         for start in range(0, len(images), self.batch_size):
             x = images[start:start + self.batch_size].to(self.device).permute(0, 3, 1, 2).float() / 255.0
-            fmap = self.net.extract_features((x - self._mean) / self._std)  # (n, 1280, h, w)
-            pooled = F.adaptive_avg_pool2d(fmap, self.grid)  # (n, 1280, g, g)
-            out.append(pooled.flatten(2).transpose(1, 2).cpu())  # (n, g*g, 1280)
+            out.append(self._tokens((x - self._mean) / self._std).cpu())
         return torch.cat(out)
+
+    def _tokens(self, x: torch.Tensor) -> torch.Tensor:
+        """Normalised images (n, 3, H, W) -> tokens (n, tokens, dim)."""
+        fmap = self.net.extract_features(x)  # (n, 1280, h, w)
+        pooled = F.adaptive_avg_pool2d(fmap, self.grid)  # (n, 1280, g, g)
+        return pooled.flatten(2).transpose(1, 2)  # (n, g*g, 1280)
 
 
 class EfficientNetLite0Stride16(EfficientNetLite0):
@@ -84,19 +88,12 @@ class EfficientNetLite0Stride16(EfficientNetLite0):
         super().__init__(grid=grid, device=device, batch_size=batch_size)
         self.tokens = None  # (size / 16) ** 2: depends on the image size
 
-    @torch.no_grad()
-    def encode(self, images) -> torch.Tensor:
-        images = torch.as_tensor(np.asarray(images))
-        if images.dtype != torch.uint8 or images.ndim != 4 or images.shape[-1] != 3:
-            raise ValueError(f"expected uint8 images (N, H, W, 3), got {tuple(images.shape)} {images.dtype}")
-        net, out = self.net, []
-        for start in range(0, len(images), self.batch_size):
-            x = images[start:start + self.batch_size].to(self.device).permute(0, 3, 1, 2).float() / 255.0
-            x = net._swish(net._bn0(net._conv_stem((x - self._mean) / self._std)))
-            for block in net._blocks[: self.last_block + 1]:
-                x = block(x)
-            out.append(x.flatten(2).transpose(1, 2).cpu())  # (n, h*w, 112), row-major cells
-        return torch.cat(out)
+    def _tokens(self, x: torch.Tensor) -> torch.Tensor:
+        net = self.net
+        x = net._swish(net._bn0(net._conv_stem(x)))
+        for block in net._blocks[: self.last_block + 1]:
+            x = block(x)
+        return x.flatten(2).transpose(1, 2)  # (n, h*w, 112), row-major cells
 
 
 class RandomProjection(Encoder):
@@ -104,16 +101,16 @@ class RandomProjection(Encoder):
 
     name = "random-projection"
 
-    def __init__(self, grid: int = 2, dim: int = 32, seed: int = 0):
+    def __init__(self, grid: int = 2, dim: int = 32, seed: int = 0, device: str = "cpu"):
         g = torch.Generator().manual_seed(seed)
         self.grid, self.tokens, self.dim = grid, grid * grid, dim
-        self.weight = torch.randn(dim, 3, 8, 8, generator=g) / 8.0
+        self.weight = (torch.randn(dim, 3, 8, 8, generator=g) / 8.0).to(device)
 
     @torch.no_grad()
     def encode(self, images) -> torch.Tensor:
-        x = torch.as_tensor(np.asarray(images)).permute(0, 3, 1, 2).float() / 255.0
+        x = torch.as_tensor(np.asarray(images)).to(self.weight.device).permute(0, 3, 1, 2).float() / 255.0
         fmap = torch.tanh(F.conv2d(x, self.weight, stride=8))
-        return F.adaptive_avg_pool2d(fmap, self.grid).flatten(2).transpose(1, 2)
+        return F.adaptive_avg_pool2d(fmap, self.grid).flatten(2).transpose(1, 2).cpu()
 
 
 ENCODERS: dict[str, Callable[..., Encoder]] = {
