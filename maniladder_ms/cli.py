@@ -235,7 +235,7 @@ def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)
-    except (UnknownTaskError, CatalogError, DemoFileError, FileExistsError, ValueError) as e:
+    except (UnknownTaskError, CatalogError, DemoFileError, FileExistsError, ValueError, NotImplementedError) as e:
         print(f"maniladder: error: {e}", file=sys.stderr)
         return 2
 

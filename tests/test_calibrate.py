@@ -32,9 +32,18 @@ def test_measured_level_follows_the_catalog_intervals():
 def test_calibrating_an_unbuilt_task_is_a_clear_error(tmp_path):
     import maniladder_ms
 
-    unbuilt = next(s.id for s in maniladder_ms.default_catalog().tasks if not s.implemented)
+    catalog = maniladder_ms.default_catalog()
+    unbuilt = next(s.id for s in catalog.tasks if not s.implemented)
     with pytest.raises(maniladder_ms.TaskNotImplementedError, match="not implemented"):
         TaskCalibration(unbuilt, tmp_path / "work", tmp_path / "out")
+
+    # the command says so in one line (exit 2), and so for a suite with nothing built
+    from maniladder_ms.cli import main
+
+    empty = next(s.suite for s in catalog.tasks if not any(t.implemented for t in catalog.filter(suite=s.suite)))
+    for args in (["--tasks", unbuilt], ["--suite", empty]):
+        assert main(["calibrate", *args, "--work", str(tmp_path / "w"), "--out", str(tmp_path / "o")]) == 2
+    assert not (tmp_path / "w").exists() and not (tmp_path / "o").exists()
 
 
 _CHILD = """
