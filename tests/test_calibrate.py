@@ -91,7 +91,7 @@ def test_calibrate_resumes_after_a_kill(tmp_path):
     assert result["episodes"] == 1 and result["successes"] == 0 and result["measured_level"] == 4
     assert result["agree"] is False and result["catalog_level"] == 1  # a 6-step policy solves nothing: flagged
     assert result["selection"]["selected_step"] in (3, 6) and set(result["selection"]["selection_rates"]) == {"3", "6"}
-    assert result["control_mode"] == "pd_ee_delta_pose" and result["config"]["encoder"] == "random-projection"
+    assert result["control_mode"] == "pd_joint_pos" and result["demo_control_mode"] == "pd_joint_pos" and result["config"]["encoder"] == "random-projection"
     assert summary["n_tasks"] == 1 and (out / "calibration.json").is_file() and (out / "calibration.png").stat().st_size > 0
 
     # the work folder belongs to its settings: another configuration is refused, not mixed in
@@ -104,3 +104,10 @@ def test_calibrate_resumes_after_a_kill(tmp_path):
 
     assert main(["report", str(out)]) == 0
     assert "PickPlacePen" in (out / "report" / "report.html").read_text()
+
+
+def test_results_of_another_protocol_are_not_summarised(tmp_path):
+    from maniladder_ms.policy.calibrate import load_results
+
+    (tmp_path / "Old.json").write_text(json.dumps({"task": "Old", "measured_level": 3, "protocol": "v0"}))
+    assert load_results(tmp_path) == []

@@ -140,15 +140,23 @@ def test_demo_frames_render_the_recorded_states_and_train_an_evaluable_policy(tm
     assert len(episodes[0][1]) == len(actions) and episodes[0][2].tolist() == list(range(0, len(actions), 3))
     # the feature of step 3 is what the per-step render showed at step 3
     assert torch.allclose(episodes[0][0][1], encode_frames(encoder, images[3:4])[0].half().float())
+    # the policy's actions: the same frames, the demo's actions as absolute joint targets (7 arm joints + gripper)
+    joint = load_features(cache_features(demo, encoder, cams, tmp_path / "joint.npz", size=64, stride=3,
+                                         control_mode="pd_joint_pos"))
+    assert torch.equal(joint[0][0], episodes[0][0]) and joint[0][1].shape == (len(actions), 8)
+    assert torch.equal(joint[0][1][:, 7], episodes[0][1][:, 6])  # the gripper command is the same in both modes
+    with pytest.raises(ValueError, match="pd_joint_pos only"):
+        cache_features(demo, encoder, cams, tmp_path / "other.npz", control_mode="pd_joint_delta_pos")
+    episodes = joint
     config = dataclasses.replace(TINY, cameras=cams, encoder="random-projection", image_size=64, chunk=4, execute=4)
     trainer = LadderFlowTrainer(config, episodes)
     trainer.train(3)
-    ckpt = trainer.save(tmp_path / "policy.pt", meta=dict(task="PickPlacePen", control_mode="pd_ee_delta_pose"))
+    ckpt = trainer.save(tmp_path / "policy.pt", meta=dict(task="PickPlacePen", control_mode="pd_joint_pos"))
     policy = LadderFlowEvalPolicy(ckpt, encoder=encoder)
-    assert policy.cameras == cams and policy.control_mode == "pd_ee_delta_pose"
+    assert policy.cameras == cams and policy.control_mode == "pd_joint_pos"
     spec = maniladder_ms.default_catalog().get("PickPlacePen")
     env_kwargs = policy_env_kwargs(policy, spec, "rgb")
-    assert env_kwargs == dict(obs_mode="rgb", control_mode="pd_ee_delta_pose", cameras=cams, image_size=64)
+    assert env_kwargs == dict(obs_mode="rgb", control_mode="pd_joint_pos", cameras=cams, image_size=64)
     runner = EpisodeRunner(policy, "rgb")
     try:
         rec = runner.run(spec, episode=0, seed=1_000_000, env_kwargs=env_kwargs)

@@ -56,6 +56,18 @@ def open_demo_h5(h5_path: Path) -> h5py.File:
         raise DemoFileError(f"{path}: unreadable or truncated HDF5 file ({e})") from e
 
 
+def state_at(states: dict, t: int) -> dict:
+    """The env state of step `t` (batch of one) out of an episode's stacked `env_states`."""
+    return {k: state_at(v, t) if isinstance(v, dict) else v[t : t + 1] for k, v in states.items()}
+
+
+def torch_state(state: dict):
+    """A state dict of arrays as torch tensors, as `set_state_dict` takes it."""
+    import torch
+
+    return {k: torch_state(v) if isinstance(v, dict) else torch.as_tensor(v) for k, v in state.items()}
+
+
 def episode_arrays(h5: h5py.File, episode_id: int, where: str) -> tuple:
     """(actions, env_states dict) of one episode, or a DemoFileError naming what is missing."""
     key = f"traj_{episode_id}"

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from .files import episode_arrays, load_demo_json, open_demo_h5
+from .files import episode_arrays, load_demo_json, open_demo_h5, state_at, torch_state
 
 
 @dataclass
@@ -19,10 +19,6 @@ class EpisodeCheck:
     success_from_actions: bool  # replaying the recorded actions from the seeded reset succeeds
     success_from_states: bool  # the recorded final env state satisfies the success rule
     max_drift: float  # largest |state| difference between the action replay and the recorded states
-
-
-def _state_at(states: dict, t: int) -> dict:
-    return {k: _state_at(v, t) if isinstance(v, dict) else v[t : t + 1] for k, v in states.items()}
 
 
 def _flat(state: dict) -> np.ndarray:
@@ -59,18 +55,14 @@ def _check_episode(env, ep: dict, actions: np.ndarray, states: dict) -> EpisodeC
     reset_kwargs = dict(ep.get("reset_kwargs") or {})
     reset_kwargs.setdefault("seed", ep["episode_seed"])
     env.reset(**reset_kwargs)
-    drift = float(np.abs(_flat(base.get_state_dict()) - _flat(_state_at(states, 0))).max())
+    drift = float(np.abs(_flat(base.get_state_dict()) - _flat(state_at(states, 0))).max())
     info = {}
     for t, action in enumerate(actions):
         _, _, _, _, info = env.step(action)
-        drift = max(drift, float(np.abs(_flat(base.get_state_dict()) - _flat(_state_at(states, t + 1))).max()))
-    base.set_state_dict(_torch_state(_state_at(states, len(actions))))
+        drift = max(drift, float(np.abs(_flat(base.get_state_dict()) - _flat(state_at(states, t + 1))).max()))
+    base.set_state_dict(torch_state(state_at(states, len(actions))))
     from_states = bool(base.evaluate()["success"][0])
     return EpisodeCheck(
         episode_id=ep["episode_id"], seed=ep["episode_seed"], steps=len(actions),
         success_from_actions=bool(info["success"][0]), success_from_states=from_states, max_drift=drift,
     )
-
-
-def _torch_state(state: dict) -> dict:
-    return {k: _torch_state(v) if isinstance(v, dict) else torch.as_tensor(v) for k, v in state.items()}

@@ -1,8 +1,9 @@
-"""The reference policy that places tasks on the ladder (issue 20, in progress): LadderFlow protocol v1.
+"""The reference policy that places tasks on the ladder (issue 20, in progress): LadderFlow protocol v2.
 
 `encoders`: frozen pretrained image encoders (EfficientNet-Lite0 ImageNet weights, offline, instead of the
-paper's RADIO); `flow`: the flow-matching transformer, its training on cached features and checkpoints.
-Rollouts, feature caching from demos and `maniladder calibrate` are not built yet.
+paper's RADIO); `flow`: the flow-matching transformer, its training on cached features and checkpoints;
+`features`: demo frames rendered and encoded once; `evaluate`: a checkpoint as a `maniladder eval` policy;
+`calibrate`: `maniladder calibrate`, demos -> features -> train -> select -> evaluate -> a measured level.
 """
 
 from .flow import PROTOCOL_VERSION, LadderFlowConfig, LadderFlowPolicy, LadderFlowTrainer

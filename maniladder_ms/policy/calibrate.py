@@ -1,12 +1,13 @@
-"""`maniladder calibrate`: measure each task's level with the reference policy (LadderFlow, protocol v1).
+"""`maniladder calibrate`: measure each task's level with the reference policy (LadderFlow, protocol v2).
 
 Per task, five stages, each leaving its result in the task's work folder so that a killed run resumes
 where it stopped (a stage whose output exists is not run again; a half-written output never exists):
 
-1. demos     `demos` (20) solver demonstrations, seeds from 0, in the task's calibration control mode
-             (`control_mode_for`); an existing demo file of that task/mode in `--demos` is used as is.
+1. demos     `demos` (20) solver demonstrations, seeds from 0, in the mode the task's solver drives
+             (`demo_control_mode_for`); an existing demo file of that task/mode in `--demos` is used as is.
 2. features  every `frame_stride`-th demo frame rendered from the policy's cameras (front, left, top;
-             128x128 RGB) and encoded by the frozen encoder, cached as float16 (`features.npz`).
+             128x128 RGB) and encoded by the frozen encoder, cached as float16 (`features.npz`), with the
+             demo's actions as absolute joint targets (`POLICY_CONTROL_MODE`, `demos.joint_targets`).
 3. train     one LadderFlow policy on those features; a checkpoint after every `train_steps / checkpoints`
              steps (each holds the optimiser: training resumes from the last one).
 4. select    every checkpoint evaluated on `selection_episodes` episodes of the selection seed set
@@ -40,15 +41,16 @@ from .flow import PROTOCOL_VERSION, LadderFlowConfig
 SELECTION_SEED_SET = 1  # `maniladder eval --seed 1`: episode k resets with seed 1,010,000 + k
 EVALUATION_SEED_SET = 0  # the protocol's standard evaluation seeds: 1,000,000 + k
 STAGES = ("demos", "features", "train", "select", "evaluate")
-# the control mode of the calibration demos and policy: end-effector deltas where the task's solver drives
-# them (every task but PourBeansIntoBowl); a policy without proprioception cannot read absolute joint
-# targets off an image as well as it can read which way to move
-PREFERRED_CONTROL_MODES = ("pd_ee_delta_pose", "pd_joint_pos")
+# the policy acts in absolute joint targets (protocol v2). Measured with v1's network on the same 20 demos
+# and features, 20 selection episodes each: end-effector deltas (protocol v1) LiftWideBox 2/10 -> absolute
+# joint targets 18/20, PickPlacePen ~1/10 both; deltas integrate their errors over an open-loop chunk, while
+# targets only have to be read off the scene
+POLICY_CONTROL_MODE = "pd_joint_pos"
 
 
 @dataclasses.dataclass(frozen=True)
 class CalibrationProtocol:
-    """Everything besides the network that protocol v1 fixes; part of every result."""
+    """Everything besides the network that protocol v2 fixes; part of every result."""
 
     demos: int = 20
     demo_seed: int = 0
@@ -61,14 +63,13 @@ class CalibrationProtocol:
         return dataclasses.asdict(self)
 
 
-def control_mode_for(task_id: str) -> str:
+def demo_control_mode_for(task_id: str) -> str:
+    """The mode the calibration demos are recorded in: the policy's own where the solver drives it, else the
+    solver's first (the one it is tuned in), converted to joint targets for training."""
     from maniladder_ms.solvers import solver_for
 
     modes = solver_for(task_id).control_modes
-    for mode in PREFERRED_CONTROL_MODES:
-        if mode in modes:
-            return mode
-    return modes[0]
+    return POLICY_CONTROL_MODE if POLICY_CONTROL_MODE in modes else modes[0]
 
 
 def level_ranges(catalog=None) -> dict[int, tuple[float, float]]:
@@ -110,7 +111,8 @@ class TaskCalibration:
         self.dir = Path(work) / task_id
         self.out = Path(out)
         self.demos_dir = Path(demos_dir) if demos_dir else self.dir / "demos"
-        self.control_mode = control_mode_for(task_id)
+        self.control_mode = POLICY_CONTROL_MODE
+        self.demo_control_mode = demo_control_mode_for(task_id)
         self.timings_path = self.dir / "timings.json"
 
     # ---- bookkeeping -------------------------------------------------------------------------------
@@ -128,7 +130,7 @@ class TaskCalibration:
     def _check_settings(self):
         """A work folder belongs to one configuration: resuming with another one would mix them."""
         settings = {"protocol": PROTOCOL_VERSION, "config": self.config.as_dict(), "calibration": self.protocol.as_dict(),
-                    "control_mode": self.control_mode}
+                    "control_mode": self.control_mode, "demo_control_mode": self.demo_control_mode}
         path = self.dir / "settings.json"
         if path.is_file():
             old = json.loads(path.read_text())
@@ -143,7 +145,7 @@ class TaskCalibration:
     def demo_h5(self) -> Path:
         from maniladder_ms.demos.files import demo_path
 
-        return demo_path(self.demos_dir, self.spec.id, "none", self.control_mode)
+        return demo_path(self.demos_dir, self.spec.id, "none", self.demo_control_mode)
 
     @property
     def features_path(self) -> Path:
@@ -168,7 +170,7 @@ class TaskCalibration:
                 raise ValueError(f"{self.demo_h5} holds {n} demos; calibration trains on {self.protocol.demos}")
             return
         report = generate(self.spec.id, self.protocol.demos, self.demos_dir, seed=self.protocol.demo_seed,
-                          control_mode=self.control_mode, progress=self.progress)
+                          control_mode=self.demo_control_mode, progress=self.progress)
         self.log(f"{self.spec.id}: {report.kept} demos ({report.success_rate:.0%} solver success) -> {report.path}")
 
     def stage_features(self):
@@ -179,7 +181,7 @@ class TaskCalibration:
             return
         encoder = make_encoder(self.config.encoder, grid=self.config.grid, device=self.device)
         cache_features(self.demo_h5, encoder, self.config.cameras, self.features_path, size=self.config.image_size,
-                       progress=self.progress, stride=self.protocol.frame_stride)
+                       progress=self.progress, stride=self.protocol.frame_stride, control_mode=self.control_mode)
 
     def stage_train(self):
         from .features import load_features
@@ -245,7 +247,8 @@ class TaskCalibration:
             "best_selection_success": max(sel["selection_rates"].values()),
             "best_selection_success_note": "best success over checkpoints on the selection seeds (the paper's "
                                            "'best success during training'): biased upwards",
-            "selection": sel, "control_mode": self.control_mode, "horizon": self.spec.horizon,
+            "selection": sel, "control_mode": self.control_mode, "demo_control_mode": self.demo_control_mode,
+            "horizon": self.spec.horizon,
             "demo_mean_steps": sum(e["elapsed_steps"] for e in demos) / max(len(demos), 1),
             "mean_steps": task["mean_steps"], "timings_s": self._timings(),
             "protocol": PROTOCOL_VERSION, "config": self.config.as_dict(), "calibration": self.protocol.as_dict(),
@@ -303,12 +306,13 @@ def _result_line(r: dict, wall: Optional[float] = None) -> str:
 
 
 def load_results(out: Path) -> list[dict]:
+    """The task results in `out` measured under this protocol (another protocol's numbers are not comparable)."""
     rows = []
     for p in sorted(Path(out).glob("*.json")):
         if p.name == "calibration.json":
             continue
         r = json.loads(p.read_text())
-        if "measured_level" in r:
+        if "measured_level" in r and r.get("protocol") == PROTOCOL_VERSION:
             rows.append(r)
     return rows
 

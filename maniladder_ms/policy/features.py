@@ -8,13 +8,13 @@ stored per episode as float16 (`cache_features`), so training never renders or e
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Iterator, Sequence
+from typing import Iterator, Optional, Sequence
 
 import numpy as np
 import torch
 
-from maniladder_ms.demos.files import episode_arrays, load_demo_json, open_demo_h5
-from maniladder_ms.demos.verify import _state_at, _torch_state
+from maniladder_ms.demos.files import episode_arrays, load_demo_json, open_demo_h5, state_at, torch_state
+from maniladder_ms.demos.joint_targets import TARGET_MODE, joint_target_episodes
 
 from .encoders import Encoder
 
@@ -44,7 +44,7 @@ def demo_frames(h5_path, cameras: Sequence[str], size: int = 128, progress: bool
                 frames = np.arange(0, len(actions), stride)
                 images = np.empty((len(frames), len(cameras), size, size, 3), np.uint8)
                 for i, t in enumerate(frames):
-                    base.set_state_dict(_torch_state(_state_at(states, int(t))))
+                    base.set_state_dict(torch_state(state_at(states, int(t))))
                     obs = base.get_obs(unflattened=True)
                     for c, cam in enumerate(cameras):
                         images[i, c] = obs["sensor_data"][cam]["rgb"][0].cpu().numpy()
@@ -61,15 +61,27 @@ def encode_frames(encoder: Encoder, images: np.ndarray) -> torch.Tensor:
 
 
 def cache_features(h5_path, encoder: Encoder, cameras: Sequence[str], out: Path, size: int = 128,
-                   progress: bool = False, stride: int = 1) -> Path:
+                   progress: bool = False, stride: int = 1, control_mode: Optional[str] = None) -> Path:
     """Render and encode every episode of a demo file into `out` (.npz: features_<i> float16 of the frames
-    frames_<i> (every `stride`-th step), all actions_<i>, seeds); an existing file is kept (delete it to
-    recompute)."""
+    frames_<i> (every `stride`-th step), all actions_<i>, seeds, control_mode); an existing file is kept (delete
+    it to recompute). `control_mode`: the mode of the stored actions, None for the recorded one, or
+    "pd_joint_pos" (absolute joint targets, converted by `demos.joint_targets`)."""
     out = Path(out)
     if out.exists():
         return out
+    recorded = load_demo_json(Path(h5_path))["env_info"].get("env_kwargs", {}).get("control_mode")
+    converted = None
+    if control_mode not in (None, recorded):
+        if control_mode != TARGET_MODE:
+            raise ValueError(f"actions convert to {TARGET_MODE} only, not {control_mode!r}")
+        converted = joint_target_episodes(h5_path, progress=progress)
     arrays, seeds = {}, []
     for i, (images, frames, actions, ep) in enumerate(demo_frames(h5_path, cameras, size, progress, stride)):
+        if converted is not None:
+            actions, replayed, conv_ep = next(converted)
+            if conv_ep["episode_id"] != ep["episode_id"] or not replayed:
+                raise RuntimeError(f"{h5_path}: episode {ep['episode_id']} no longer succeeds when replayed for its "
+                                   "joint targets; re-record the demos")
         arrays[f"features_{i}"] = encode_frames(encoder, images).numpy().astype(np.float16)
         arrays[f"frames_{i}"] = frames
         arrays[f"actions_{i}"] = actions
@@ -77,7 +89,7 @@ def cache_features(h5_path, encoder: Encoder, cameras: Sequence[str], out: Path,
     out.parent.mkdir(parents=True, exist_ok=True)
     partial = out.with_suffix(".partial.npz")
     np.savez(partial, seeds=np.asarray(seeds), encoder=np.asarray(encoder.name), cameras=np.asarray(list(cameras)),
-             **arrays)
+             control_mode=np.asarray(control_mode or recorded or ""), **arrays)
     partial.replace(out)  # complete files only: an interrupted run recomputes
     return out
 

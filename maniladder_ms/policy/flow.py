@@ -1,16 +1,17 @@
-"""LadderFlow: the reference policy's network and its training (protocol v1).
+"""LadderFlow: the reference policy's network and its training (protocol v2).
 
 A small transformer encoder-decoder that denoises action chunks with flow matching (rectified flow):
 - observation: frozen encoder tokens of the front, left and top cameras (no proprioception, no privileged
   state): EfficientNet-Lite0's stride-16 map (8 x 8 cells at 128 px), pooled per camera by 8 learned
   spatial-softmax keypoints (expected cell position + weighted feature), projected to `d_model`, plus learned
   per-token position embeddings;
-- action chunk: `chunk` (16) normalised actions; training draws t ~ U(0, 1) and noise x0 ~ N(0, I),
-  forms x_t = (1 - t) x0 + t x1 and regresses the velocity x1 - x0; inference integrates the predicted
+- action chunk: `chunk` (16) normalised actions, absolute joint targets (`pd_joint_pos`: arm joint angles,
+  gripper command or hand joint targets; protocol v1 used end-effector deltas, see `policy.calibrate`);
+  training draws t ~ U(0, 1) and noise x0 ~ N(0, I), forms x_t = (1 - t) x0 + t x1 and regresses the velocity x1 - x0; inference integrates the predicted
   velocity from noise with `integration_steps` Euler steps; the policy executes the first `execute` (8);
 - AdamW, cosine learning rate, an exponential moving average of the weights (the EMA is what acts).
 
-Everything that defines protocol v1 is `LadderFlowConfig()`'s defaults; a checkpoint carries its config,
+Everything that defines the protocol is `LadderFlowConfig()`'s defaults; a checkpoint carries its config,
 the action normaliser and both weight sets, so it acts the same on any machine.
 """
 
@@ -25,7 +26,7 @@ from typing import Optional
 import torch
 from torch import nn
 
-PROTOCOL_VERSION = "v1"
+PROTOCOL_VERSION = "v2"  # v2: absolute joint-target actions (v1: end-effector deltas)
 
 
 @dataclasses.dataclass(frozen=True)

@@ -1,0 +1,83 @@
+"""A demo's actions as absolute joint targets (`pd_joint_pos`), whatever mode it was recorded in.
+
+Every arm controller of our agents ends in PD drive targets: `pd_ee_delta_pose` solves IK for them, and
+`pd_joint_delta_pos` adds its delta to them. Replaying an episode from its first recorded state in its own
+mode and reading each arm controller's drive target after every step gives the `pd_joint_pos` action that
+sets the very same targets, so the converted episode replays the same motion. Parts that are identical in
+both modes (grippers, LEAP hands, the mobile base's velocity) keep their recorded action slice.
+
+ManiSkill's `replay_trajectory` converts from `pd_joint_pos` to the delta modes, not back; the reference
+policy acts in absolute joint targets (see `maniladder_ms.policy.flow`), hence this direction.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Iterator
+
+import numpy as np
+
+from .files import DemoFileError, episode_arrays, load_demo_json, open_demo_h5, state_at, torch_state
+
+TARGET_MODE = "pd_joint_pos"
+
+
+def _part_layout(agent, source_mode: str) -> list[tuple[str, int, bool]]:
+    """(part name, its action width in `source_mode`, whether it becomes drive targets) per controller part."""
+    configs = agent._controller_configs
+    if TARGET_MODE not in configs:
+        raise ValueError(f"agent {agent.uid} has no {TARGET_MODE} control mode to convert into")
+    controller = agent.controller
+    layout = []
+    for name, part in controller.controllers.items():
+        same = configs[TARGET_MODE][name] == configs[source_mode][name]
+        if not same and not getattr(part, "sets_target_qpos", False):
+            raise ValueError(f"{agent.uid}: controller part {name!r} in {source_mode} sets no joint targets")
+        layout.append((name, part.action_space.shape[-1], not same))
+    return layout
+
+
+def joint_target_episodes(h5_path, progress: bool = False) -> Iterator[tuple[np.ndarray, bool, dict]]:
+    """Per episode of a demo file: (its actions as `pd_joint_pos` targets (T, A'), whether the replay in the
+    recorded mode still succeeded, the episode's json). An episode already in `pd_joint_pos` is passed through."""
+    import torch
+    from tqdm import tqdm
+
+    import maniladder_ms
+
+    h5_path = Path(h5_path)
+    meta = load_demo_json(h5_path)
+    env_kwargs = dict(meta["env_info"].get("env_kwargs", {}))
+    for key in ("task_id", "obs_mode", "render_mode", "sensor_configs"):
+        env_kwargs.pop(key, None)
+    source_mode = env_kwargs.get("control_mode")
+    if source_mode is None:
+        raise DemoFileError(f"{h5_path}: the json names no control_mode; cannot convert its actions")
+    with open_demo_h5(h5_path) as h5:
+        if source_mode == TARGET_MODE:
+            for ep in meta["episodes"]:
+                actions, _ = episode_arrays(h5, ep["episode_id"], str(h5_path))
+                yield np.asarray(actions, np.float32), bool(ep.get("success", True)), ep
+            return
+        env = maniladder_ms.make(meta["task_spec"].id, obs_mode="state", **env_kwargs)
+        base = env.unwrapped
+        try:
+            for ep in tqdm(meta["episodes"], desc=f"joint targets {h5_path.parent.name}", disable=not progress):
+                actions, states = episode_arrays(h5, ep["episode_id"], str(h5_path))
+                reset_kwargs = dict(ep.get("reset_kwargs") or {})
+                reset_kwargs.setdefault("seed", ep["episode_seed"])
+                env.reset(**reset_kwargs)  # a reconfiguring reset rebuilds the agent: read its controller after
+                base.set_state_dict(torch_state(state_at(states, 0)))
+                parts = base.agent.controller.controllers
+                layout = _part_layout(base.agent, source_mode)
+                out, info = [], {}
+                for action in actions:
+                    _, _, _, _, info = env.step(torch.as_tensor(action)[None])
+                    row, start = [], 0
+                    for name, width, to_targets in layout:
+                        row.append(parts[name]._target_qpos[0].cpu().numpy() if to_targets else np.asarray(action[start:start + width]))
+                        start += width
+                    out.append(np.concatenate(row))
+                yield np.asarray(out, np.float32), bool(info["success"][0]) if info else False, ep
+        finally:
+            env.close()
