@@ -161,6 +161,10 @@ class HandoverMugHandsEnv(HandoverTask):
 #   (handed_over latched), but the right's hold (fingers over the handle, thumb on the body) lets the mug go within
 #   ~40 steps of the left opening. (A run where the right took the mug off the table after the left dropped it
 #   latched neither both_held nor handed_over: the rule rejects it.)
+# - the left opening for 10 steps before it backs off down and away (+y): it no longer drags the mug, but the
+#   right still loses it within ~40 steps. Why: the right's thumb (at -x) lands on the left's middle fingertip, so
+#   the right stops ~2 cm above its target and closes near the rim (contacts: thumb tip + fingertips only). A
+#   deeper curl than "power" for the right ([0, 1.9, 1.0, 0.8] x 3, HandoverBallHands' CRADLE_SQUEEZE): the same.
 # Next to try: the right's grip (TAKER_DEPTH / TAKER_SHIFT, a deeper curl than "power" for the 12 cm span across
 # handle and body, or its thumb on the handle with yaw pi), a lighter giver squeeze before the swap (HandoverBallHands'
 # "relax" step); then seeds 101-109 and the sweep. A run takes 2-4 min on the loaded machine: the 50-seed sweep ~2 h.
@@ -176,6 +180,8 @@ TAKER_SHIFT = 0.01  # the taker's TCP this far towards the handle from the mug's
 TAKER_DEPTH = 0.045  # the taker's TCP this far below the rim
 TAKER_WAIT = (0.0, -0.2, 0.15)  # from MEET, where the right waits top-down during the pick and roll
 TAKER_ASIDE = 0.025  # the taker lines up this far towards its thumb (-x): the thumb clears the rim
+GIVER_OPEN_STEPS = 10  # the giver's fingers open clear of the mug before it moves
+GIVER_RETREAT = (0.0, 0.08, -0.1)  # then it backs off down and away from the mug (+y)
 TAKER_LIFT = 0.03  # the taker lifts the mug this far off the giver's palm as the giver opens
 PLACE_GAP = 0.006  # the mug's bottom this far above the coaster when the right hand opens
 
@@ -212,8 +218,10 @@ def solve_handover_mug_hands(env, seed: int) -> dict:
         # the giver opens while the taker lifts the mug off its palm, then drops away
         s.set_ee("left_hand", "open", steps=0)
         s.move({"right_arm": (s.above(take_p, TAKER_LIFT), taker_q)}, max_steps=15)
+        for _ in range(GIVER_OPEN_STEPS):
+            s.step()
         tcp = s.tcp("left_arm")
-        s.move({"left_arm": (tcp.p - torch.tensor([0.0, 0.0, 0.1], device=dev), tcp.q)}, max_steps=20, pos_tol=0.02)
+        s.move({"left_arm": (tcp.p + torch.tensor(GIVER_RETREAT, device=dev), tcp.q)}, max_steps=20, pos_tol=0.02)
         # the taker: over the coaster, down, open, up
         tcp = s.tcp("right_arm").p.clone()
         held = tcp - task.mug.pose.p  # TCP from the mug's bottom centre, as held
