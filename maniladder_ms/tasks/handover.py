@@ -3,7 +3,8 @@ one end effector (the giver, the left) passes an object to the other (the taker,
 
 The family base `HandoverTask` holds the rule, `evaluate`, once for every embodiment; the task classes build
 their object (`self.item`) and, where the taker puts it down, its target zone (`self.target`), and keep their
-solvers.
+solvers. A task whose handover must be hand to hand sets `HAND_TO_HAND`; one whose target is not a square
+zone on the table overrides `_placed`, and one whose pose origin is not the object's centre `item_centre`.
 """
 
 from __future__ import annotations
@@ -19,7 +20,9 @@ class HandoverTask(ManiLadderEnv):
     the giver had held it (episode memory `handed_over`); then, for a task with a target zone
     (`self.target`, a square of `zone_half`), the object rests in it on the table (centre less than
     `on_table_tol` above its resting height) touched by neither end effector; without one, the taker holds
-    it, the giver does not touch it and it is at least `lift_height` above the table.
+    it, the giver does not touch it and it is at least `lift_height` above the table. A `HAND_TO_HAND` task
+    further asks that both end effectors held the object at once, at least `lift_height` above the table,
+    before the taker held it alone (episode memory `both_held`).
     """
 
     GIVER, TAKER = "left", "right"
@@ -27,15 +30,25 @@ class HandoverTask(ManiLadderEnv):
     # set by the task's `_load_scene`: the object handed over, and the target zone marker (None: the taker keeps it)
     item = None
     target = None
+    # True: the handover counts only after both end effectors held the object at once, its centre at least
+    # `lift_height` above the table (episode memory `both_held`): a hand-to-hand pass, not a pick-up of an object
+    # the giver dropped or put down
+    HAND_TO_HAND = False
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
         self.memory.flag("giver_held")  # the giver has held the object
+        if self.HAND_TO_HAND:
+            self.memory.flag("both_held")  # ... both held it at once, off the table
         self.memory.flag("handed_over")  # ... and later the taker held it, mid-air, the giver off it
 
     def item_rest_height(self) -> float:
         """Centre height of the object resting on the table (tasks with a target zone)."""
         raise NotImplementedError
+
+    def item_centre(self) -> torch.Tensor:
+        """World centre (num_envs, 3) of the object (default: its pose's origin)."""
+        return self.item.pose.p
 
     def _handover_state(self) -> dict[str, torch.Tensor]:
         giver, taker = self.GIVER, self.TAKER
@@ -44,28 +57,39 @@ class HandoverTask(ManiLadderEnv):
             f"{taker}_grasped": self.ee.holds(self.item, taker),
             f"{giver}_touch": self.ee.touches(self.item, giver),
             f"{taker}_touch": self.ee.touches(self.item, taker),
-            "is_lifted": self.item.pose.p[:, 2] >= self.lift_height,
+            "is_lifted": self.item_centre()[:, 2] >= self.lift_height,
         }
 
     def _update_memory(self):
         now = self._handover_state()
         giver, taker = self.GIVER, self.TAKER
         swapped = now[f"{taker}_grasped"] & ~now[f"{giver}_grasped"] & ~now[f"{giver}_touch"] & now["is_lifted"]
-        self.memory.latch("handed_over", self.memory["giver_held"] & swapped)
+        before = self.memory["both_held" if self.HAND_TO_HAND else "giver_held"]
+        self.memory.latch("handed_over", before & swapped)
         self.memory.latch("giver_held", now[f"{giver}_grasped"])
+        if self.HAND_TO_HAND:
+            both = now[f"{giver}_grasped"] & now[f"{taker}_grasped"] & now["is_lifted"]
+            self.memory.latch("both_held", both)
 
     def evaluate(self):
         info = self._handover_state()
         giver, taker = self.GIVER, self.TAKER
         info["giver_held"] = self.memory["giver_held"]
+        if self.HAND_TO_HAND:
+            info["both_held"] = self.memory["both_held"]
         info["handed_over"] = self.memory["handed_over"]
         if self.target is None:
             delivered = info[f"{taker}_grasped"] & ~info[f"{giver}_touch"] & info["is_lifted"]
         else:
-            offset = self.item.pose.p - self.target.pose.p
-            info["in_zone"] = (offset[:, :2].abs() <= self.zone_half).all(dim=1)
-            on_table = self.item.pose.p[:, 2] < self.item_rest_height() + self.on_table_tol
-            info["placed"] = info["in_zone"] & on_table
+            info["placed"] = self._placed(info)
             delivered = info["placed"] & ~info[f"{giver}_touch"] & ~info[f"{taker}_touch"]
         info["success"] = info["handed_over"] & delivered
         return info
+
+    def _placed(self, info: dict) -> torch.Tensor:
+        """The object rests in the target (default: a square zone of `zone_half` on the table, the object's
+        centre less than `on_table_tol` above its resting height); adds its parts to `info`."""
+        offset = self.item.pose.p - self.target.pose.p
+        info["in_zone"] = (offset[:, :2].abs() <= self.zone_half).all(dim=1)
+        on_table = self.item.pose.p[:, 2] < self.item_rest_height() + self.on_table_tol
+        return info["in_zone"] & on_table
