@@ -55,10 +55,11 @@ class MobileFetchMugEnv(ManiLadderEnv):
     hold it.
 
     **Level 2:** against Level 1's SG tasks (one fixed arm, one pick and place on one table, e.g. HangMug:
-    3 stages, ~110 steps), the base must drive: ~1 m to the side table and ~1 m back at up to 0.5 m/s, the
-    arm's TCP riding with it, between a pick and a place at two places no single arm pose reaches; 5 stages
-    (drive, grasp and lift, drive back with the mug hanging from a rim grasp, place within 4 cm upright
-    within 10 degrees, release), ~290 steps mean within a horizon of 600.
+    3 stages, ~105 steps in its samples, horizon 150), the base must drive: ~1 m to the side table and ~1 m
+    back at up to 0.5 m/s, the arm's TCP riding with it, between a pick and a place at two places no single
+    arm pose reaches; 4 stages (drive to the side table, grasp and lift, drive back with the mug hanging
+    from a rim grasp, set it down within 4 cm and upright within 10 degrees and release), 241 steps mean
+    (212-263) within a horizon of 600.
     """
 
     SUPPORTED_ROBOTS = ["ml_tidybot"]
