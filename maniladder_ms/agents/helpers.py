@@ -16,6 +16,7 @@ import torch
 from mani_skill.agents.controllers.pd_base_vel import PDBaseVelController
 from mani_skill.agents.controllers.pd_ee_pose import PDEEPoseController
 from mani_skill.agents.controllers.pd_joint_pos import PDJointPosController, PDJointPosMimicController
+from mani_skill.utils.structs.pose import Pose
 from mani_skill.utils.geometry.rotation_conversions import (
     axis_angle_to_matrix,
     matrix_to_axis_angle,
@@ -240,12 +241,30 @@ def wrap_angle(a: torch.Tensor) -> torch.Tensor:
 
 
 def drive_base_to(driver: Driver, target, max_steps: int = 200, pos_tol: float = 0.005, yaw_tol: float = 0.01,
-                  gain: float = 3.0):
-    """Drive a holonomic base (`ml_tidybot`) to base joint values (x, y, yaw) with a P controller."""
+                  gain: float = 3.0, speed: float = 1.0):
+    """Drive a holonomic base (`ml_tidybot`) to base joint values (x, y, yaw) with a P controller, at most
+    `speed` of the base's top speed (a fraction of 0.5 m/s, 1.57 rad/s).
+
+    The arm rides along: its TCP target (the driver's last one, else where the TCP is now) is kept fixed in
+    the base's frame, re-expressed in the world at every step from the base's pose then. (A world-fixed
+    target, the Driver's default, would have the arm reach back for it as the base drives away; the IK
+    solves from the current base joints, so the target at the current base pose leaves the arm joints as
+    they are.)"""
     agent, base = driver.agent, driver.base
     target = torch.as_tensor(target, dtype=torch.float32, device=base.device).reshape(-1, 3)
     ctrl = _controllers(agent)["base"]
     vmax = torch.as_tensor(np.asarray(ctrl.config.upper, dtype=np.float32), device=base.device)
+    riding = {}  # arm -> its TCP target in the base link's frame
+    for arm in driver.arm_names():
+        p, q = driver.arm_targets.get(arm, (driver.tcp(arm).p, driver.tcp(arm).q))
+        riding[arm] = agent.base_link.pose.inv() * Pose.create_from_pq(p, q)
+
+    def step(vel):
+        for arm, rel in riding.items():
+            world = agent.base_link.pose * rel
+            driver.arm_targets[arm] = (world.p, world.q)
+        driver.step(base_vel=vel)
+
     for _ in range(max_steps):
         q = agent.robot.get_qpos()[:, :3]
         err = target - q
@@ -256,8 +275,8 @@ def drive_base_to(driver: Driver, target, max_steps: int = 200, pos_tol: float =
         # world error -> base frame (the controller turns base-frame velocities back into the world)
         ex, ey = c * err[:, 0] + s * err[:, 1], -s * err[:, 0] + c * err[:, 1]
         vel = torch.stack([ex, ey, err[:, 2]], dim=1) * gain / vmax
-        driver.step(base_vel=vel.clamp(-1, 1))
+        step(vel.clamp(-speed, speed))
     # settle with zero velocity
     for _ in range(5):
-        driver.step(base_vel=torch.zeros(base.num_envs, 3, device=base.device))
+        step(torch.zeros(base.num_envs, 3, device=base.device))
     return driver.last

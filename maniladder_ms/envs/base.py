@@ -102,6 +102,14 @@ class ManiLadderEnv(BaseEnv):
     READY_JOINTS: ClassVar[dict[str, float]] = {}
     # the names of the catalog `params` a task (family) class reads: its catalog row must give exactly these
     PARAMS: ClassVar[tuple[str, ...]] = ()
+    # third-view cameras, uid -> (eye, target) in world metres, and the human render camera's (eye, target):
+    # a task whose scene reaches past the table (a mobile task's second table) widens them, keeping the uids
+    CAMERA_VIEWS: ClassVar[dict[str, tuple]] = {
+        "front_camera": ([0.55, 0, 0.45], [-0.1, 0, 0.05]),
+        "left_camera": ([-0.1, 0.7, 0.45], [-0.1, 0, 0.05]),
+        "top_camera": ([-0.05, 0, 0.95], [-0.0, 0, 0]),
+    }
+    RENDER_VIEW: ClassVar[tuple] = ([0.6, 0.7, 0.6], [-0.1, 0.0, 0.1])
 
     def __init__(
         self,
@@ -146,15 +154,9 @@ class ManiLadderEnv(BaseEnv):
     # ---- cameras ------------------------------------------------------------------------------
     @property
     def _default_sensor_configs(self):
-        target = [-0.1, 0, 0.05]
-        views = {
-            "front_camera": ([0.55, 0, 0.45], target),
-            "left_camera": ([-0.1, 0.7, 0.45], target),
-            "top_camera": ([-0.05, 0, 0.95], [-0.0, 0, 0]),
-        }
         return [
             CameraConfig(uid, sapien_utils.look_at(eye=eye, target=tgt), CAMERA_SIZE, CAMERA_SIZE, 1.1, 0.01, 10)
-            for uid, (eye, tgt) in views.items()
+            for uid, (eye, tgt) in self.CAMERA_VIEWS.items()
         ]
 
     def _setup_sensors(self, options: dict):
@@ -187,7 +189,7 @@ class ManiLadderEnv(BaseEnv):
 
     @property
     def _default_human_render_camera_configs(self):
-        pose = sapien_utils.look_at(eye=[0.6, 0.7, 0.6], target=[-0.1, 0.0, 0.1])
+        pose = sapien_utils.look_at(*self.RENDER_VIEW)
         return CameraConfig("render_camera", pose, 512, 512, 1.0, 0.01, 10)
 
     # ---- scene --------------------------------------------------------------------------------

@@ -1,10 +1,11 @@
-"""Small rigid table-top objects made from primitives: pen, tray, upright cylinder."""
+"""Small rigid table-top objects made from primitives: pen, tray, upright cylinder, flat boxes (a card, a stand)."""
 
 from __future__ import annotations
 
 import numpy as np
 import sapien
 import sapien.render
+import sapien.physx as physx
 
 from mani_skill.envs.scene import ManiSkillScene
 
@@ -75,3 +76,17 @@ def build_upright_cylinder(scene: ManiSkillScene, name: str, radius: float, half
         builder.add_cylinder_visual(upright, radius=radius, half_length=half_height, material=material)
     builder.initial_pose = sapien.Pose(p=[0, 0, half_height])
     return builder.build(name=name)
+
+
+def build_flat_box(scene: ManiSkillScene, name: str, half_size, color, density: float = WOOD_DENSITY,
+                   friction: float | None = None, kinematic: bool = False) -> "Actor":
+    """A box lying flat on z = 0 (a thin card, a low stand); its origin is its centre. `friction`: static and
+    dynamic friction of its surface (None: SAPIEN's default material); `kinematic`: a fixture."""
+    builder = scene.create_actor_builder()
+    material = None if friction is None else physx.PhysxMaterial(friction, friction, 0.0)
+    builder.add_box_collision(half_size=list(half_size), material=material, density=density)
+    if scene.can_render():
+        builder.add_box_visual(half_size=list(half_size),
+                               material=sapien.render.RenderMaterial(base_color=list(color), roughness=0.5))
+    builder.initial_pose = sapien.Pose(p=[0, 0, half_size[2]])
+    return builder.build_kinematic(name=name) if kinematic else builder.build(name=name)
