@@ -44,8 +44,9 @@ class CarryBoxToShelfHandsEnv(ManiLadderEnv):
     **Success:** the carton was carried by both hands: at some control step each hand held it (`ee.holds` for
     the left and the right) while its lowest bottom corner was at least `lift_height` above the table and it was
     not standing on the shelf (episode memory `carried`); and now it stands on the shelf: each of its four
-    bottom corners lies within `rest_tol` of the board's top face in height and inside the board's top
-    rectangle (the shelf footprint), and neither hand touches it (`ee.touches`).
+    bottom corners (of the carton, half sizes `box_half`, mass `box_mass`) lies within `rest_tol` in height of the
+    board's top face (`shelf_height` above the table) and inside the board's top rectangle (half sizes `shelf_half`,
+    the shelf footprint), and neither hand touches it (`ee.touches`).
 
     **Level 2:** (against Level 1's LiftBasketHands, the same two-LEAP-hand lift: 2 stages, grasp and lift,
     158 steps mean, handles the fingers hook under) 4 stages, ~178 steps mean: press both palms on the
