@@ -1,4 +1,5 @@
-"""A box with a hinged lid, as a ManiSkill articulation built in code (OpenBoxRetrieval, OpenLidHoldBox).
+"""Boxes: a box with a hinged lid, as a ManiSkill articulation built in code (OpenBoxRetrieval,
+OpenLidHoldBox), and a closed carton (CarryBoxToShelfHands).
 
 The body (root link) is an open box standing on z = 0; the lid is a plate hinged along the body's
 top +x edge, opening upwards over +x, whose free (-x) edge overhangs the front wall as a lip that
@@ -12,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import sapien
+import sapien.physx as physx
 import sapien.render
 import torch
 
@@ -81,3 +83,21 @@ def build_lidded_box(scene: ManiSkillScene, name: str, shape: LiddedBoxShape, bo
 
 def lid_angle(box) -> torch.Tensor:
     return box.get_qpos()[:, 0]
+
+
+def build_carton(scene: ManiSkillScene, name: str, half_size, mass: float, color, friction: float = 0.6,
+                 tape_color=(0.85, 0.78, 0.6, 1)):
+    """A closed carton (one box, `half_size` (x, y, z)) of `mass` kg as a dynamic actor standing on z = 0: its
+    origin is the centre of its bottom face. A strip of tape runs over its top along x (visual only)."""
+    hx, hy, hz = half_size
+    builder = scene.create_actor_builder()
+    centre = sapien.Pose(p=[0, 0, hz])
+    builder.add_box_collision(centre, half_size=[hx, hy, hz], material=physx.PhysxMaterial(friction, friction, 0.0),
+                              density=mass / (8 * hx * hy * hz))
+    if scene.can_render():
+        builder.add_box_visual(centre, half_size=[hx, hy, hz],
+                               material=sapien.render.RenderMaterial(base_color=list(color), roughness=0.8))
+        builder.add_box_visual(sapien.Pose(p=[0, 0, 2 * hz + 0.0005]), half_size=[hx + 0.0005, 0.025, 0.001],
+                               material=sapien.render.RenderMaterial(base_color=list(tape_color), roughness=0.4))
+    builder.initial_pose = sapien.Pose()
+    return builder.build(name=name)

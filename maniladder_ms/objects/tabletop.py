@@ -1,11 +1,12 @@
-"""Small rigid table-top objects made from primitives: pen, tray, upright cylinder, flat boxes (a card, a stand)."""
+"""Small rigid table-top objects made from primitives: pen, trays, upright cylinder, flat boxes (a card, a stand),
+shelf, ping-pong ball."""
 
 from __future__ import annotations
 
 import numpy as np
 import sapien
-import sapien.render
 import sapien.physx as physx
+import sapien.render
 
 from mani_skill.envs.scene import ManiSkillScene
 
@@ -90,3 +91,63 @@ def build_flat_box(scene: ManiSkillScene, name: str, half_size, color, density: 
                                material=sapien.render.RenderMaterial(base_color=list(color), roughness=0.5))
     builder.initial_pose = sapien.Pose(p=[0, 0, half_size[2]])
     return builder.build_kinematic(name=name) if kinematic else builder.build(name=name)
+
+
+def build_shelf(scene: ManiSkillScene, name: str, top_half: tuple[float, float], height: float, color,
+                board: float = 0.02, panel: float = 0.02) -> "Actor":
+    """A fixed (kinematic) shelf standing on the table: a board `top_half` (x, y) half size, its top face
+    `height` above the table, on two side panels under its +-y ends; open in front, behind and underneath.
+    The actor origin is on the table under the board's centre."""
+    hx, hy = top_half
+    parts = [([0, 0, height - board / 2], [hx, hy, board / 2])]
+    legs = (height - board) / 2
+    parts += [([0, sign * (hy - panel / 2), legs], [hx, panel / 2, legs]) for sign in (1, -1)]
+    builder = scene.create_actor_builder()
+    mat = sapien.render.RenderMaterial(base_color=list(color), roughness=0.7) if scene.can_render() else None
+    for centre, half in parts:
+        builder.add_box_collision(sapien.Pose(p=centre), half_size=half)
+        if mat is not None:
+            builder.add_box_visual(sapien.Pose(p=centre), half_size=half, material=mat)
+    builder.initial_pose = sapien.Pose()
+    return builder.build_kinematic(name=name)
+
+
+def serving_tray_parts(inner_half_size: tuple[float, float], rim_height: float, end_height: float, wall_thickness: float,
+                       base_thickness: float) -> list[tuple[list[float], list[float]]]:
+    """(centre, half size) boxes of a serving tray standing on z = 0: base plate, low rims along its +-x sides
+    (`rim_height`), tall end walls at +-y (`end_height`, the parts two hands take)."""
+    ix, iy = inner_half_size
+    t = wall_thickness
+    return [
+        ([0, 0, base_thickness / 2], [ix + t, iy + t, base_thickness / 2]),
+        *[([sign * (ix + t / 2), 0, rim_height / 2], [t / 2, iy, rim_height / 2]) for sign in (1, -1)],
+        *[([0, sign * (iy + t / 2), end_height / 2], [ix + t, t / 2, end_height / 2]) for sign in (1, -1)],
+    ]
+
+
+def build_serving_tray(scene: ManiSkillScene, name: str, inner_half_size: tuple[float, float], rim_height: float,
+                       end_height: float, wall_thickness: float, base_thickness: float, color,
+                       density: float = WOOD_DENSITY) -> "Actor":
+    """A serving tray (`serving_tray_parts`) as a dynamic actor; its origin is the centre of its bottom face."""
+    builder = scene.create_actor_builder()
+    mat = sapien.render.RenderMaterial(base_color=list(color), roughness=0.5) if scene.can_render() else None
+    for centre, half in serving_tray_parts(inner_half_size, rim_height, end_height, wall_thickness, base_thickness):
+        builder.add_box_collision(pose=sapien.Pose(p=centre), half_size=half, density=density)
+        if mat is not None:
+            builder.add_box_visual(pose=sapien.Pose(p=centre), half_size=half, material=mat)
+    builder.initial_pose = sapien.Pose()
+    return builder.build(name=name)
+
+
+def build_ping_pong_ball(scene: ManiSkillScene, name: str, radius: float, mass: float, color,
+                         friction: float = 0.5, restitution: float = 0.8) -> "Actor":
+    """A hollow ball (a thin shell: inertia 2/3 m r^2) of `mass` kg; its origin is its centre."""
+    builder = scene.create_actor_builder()
+    builder.add_sphere_collision(radius=radius, material=physx.PhysxMaterial(friction, friction, restitution))
+    inertia = 2 / 3 * mass * radius**2
+    builder.set_mass_and_inertia(mass, sapien.Pose(), [inertia] * 3)
+    if scene.can_render():
+        builder.add_sphere_visual(radius=radius, material=sapien.render.RenderMaterial(base_color=list(color),
+                                                                                      roughness=0.3))
+    builder.initial_pose = sapien.Pose(p=[0, 0, radius])
+    return builder.build(name=name)
