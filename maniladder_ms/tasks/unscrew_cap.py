@@ -1,4 +1,5 @@
-"""The UnscrewCap family's rule (OpenJarBimanual, OpenJarHands, UnscrewCapHand; later TwistOpenBottleHands):
+"""The UnscrewCap family's rule (OpenJarBimanual; the catalog's OpenJarHands, UnscrewCapHand and
+TwistOpenBottleHands are not built yet):
 turn a screw lid or cap (`objects.jar`, its thread a revolute joint with friction) off its thread, the
 container held by another end effector (or clamped to the table).
 
