@@ -1,0 +1,98 @@
+"""Unscrewing a lid in strokes with a top-down end effector (the UnscrewCap family, `objects.jar`): grip the
+lid, turn the wrist counter-clockwise until Panda joint 7 nears its limit, let go, turn the open hand back,
+grip again, until the task reports success.
+
+The wrist turns at most ~0.04 rad a control step in `pd_ee_delta_pose` (the controller's 0.1 rad step
+against the arm's PD lag), and joint 7 spans 5.8 rad, so a turn of more than ~300 degrees needs
+regrasps. The loop is closed on the TCP's measured yaw (the target leads it by `LEAD`, less than pi, so
+the orientation error never takes the short way back) and on joint 7, whose limits end each stroke.
+"""
+
+from __future__ import annotations
+
+import torch
+
+from maniladder_ms.agents.helpers import top_down_quat
+from mani_skill.utils.geometry.rotation_conversions import quaternion_to_matrix
+
+from .driven import DrivenSolver
+
+J7_LIMIT = 2.8973  # rad, Panda joint 7's range is +-this
+J7_MARGIN = 0.2  # each stroke stops this far from the limit
+LEAD = 0.3  # rad the yaw target leads the measured yaw (the Driver turns at most 0.1 rad a step)
+ABOVE_LID = 0.04  # m the open hand rises while it turns back
+BACK_MARGIN = 0.3  # rad: the hand turns back for the rest of the turn plus this (the grip slips a little)
+
+
+def tcp_yaw(s: DrivenSolver, arm: str) -> torch.Tensor:
+    """(n,) yaw of a top-down TCP: the angle of its x axis about world z."""
+    r = quaternion_to_matrix(s.tcp(arm).q)
+    return torch.atan2(r[:, 1, 0], r[:, 0, 0])
+
+
+def _j7(s: DrivenSolver, arm: str) -> torch.Tensor:
+    names = [j.name for j in s.agent.robot.active_joints]
+    prefix = arm[: -len("arm")]
+    return s.agent.robot.get_qpos()[:, names.index(f"{prefix}panda_joint7")]
+
+
+def turn_wrist(s: DrivenSolver, arm: str, position, direction: int, stop, max_steps: int):
+    """Turn a top-down TCP about the vertical at `position()` (n, 3), counter-clockwise from above for
+    `direction` +1, as fast as the controller goes, until `stop()` (a bool) or `max_steps`."""
+    for _ in range(max_steps):
+        if stop():
+            return
+        yaw = tcp_yaw(s, arm) + direction * LEAD
+        s.step({arm: (position(), top_down_quat(yaw, s.base.num_envs, s.base.device))})
+
+
+def wind_up_target(s: DrivenSolver, arm: str, position: torch.Tensor):
+    """This control step's target (p, q) of a top-down TCP that goes to `position` while its wrist turns
+    clockwise (from above) to the start of joint 7's range, where a stroke begins; call it each step (it
+    can run beside other arms' moves)."""
+    wound = _j7(s, arm) >= J7_LIMIT - J7_MARGIN
+    yaw = tcp_yaw(s, arm) - torch.where(wound, 0.0, LEAD)
+    return position, top_down_quat(yaw, s.base.num_envs, s.base.device)
+
+
+def is_wound_up(s: DrivenSolver, arm: str) -> bool:
+    return bool((_j7(s, arm) >= J7_LIMIT - J7_MARGIN).all())
+
+
+def lid_points(task):
+    """Functions of no argument giving, now, the TCP grip point on the lid of `task.jar` (mid-height, on its
+    axis) and the point `ABOVE_LID` above its top, (n, 3) each."""
+    lid_h = task.jar_shape.lid_height
+    down = torch.tensor([0.0, 0.0, lid_h / 2], device=task.device)
+    up = torch.tensor([0.0, 0.0, ABOVE_LID], device=task.device)
+    return (lambda: task.lid_top() - down), (lambda: task.lid_top() + up)
+
+
+def unscrew(s: DrivenSolver, task, arm: str, ee: str, max_strokes: int = 4, stroke_steps: int = 200):
+    """Unscrew `task.jar`'s lid (UnscrewCapTask) in strokes with `arm` / `ee` (see the module docstring);
+    the hand winds up first unless it already has (`wind_up_target`)."""
+    release = float(torch.deg2rad(torch.tensor(float(task.release_angle))))
+    grip_point, above = lid_points(task)
+
+    def done():
+        return bool(s.info.get("success", torch.zeros(1, dtype=torch.bool)).all())
+
+    s.release(ee, steps=0)
+    for _ in range(80):
+        if is_wound_up(s, arm):
+            break
+        s.step({arm: wind_up_target(s, arm, above())})
+    for _ in range(max_strokes):
+        q = top_down_quat(tcp_yaw(s, arm), task.num_envs, task.device)
+        s.move({arm: (grip_point(), q)}, max_steps=30, pos_tol=0.003)
+        s.grasp(ee)
+        turn_wrist(s, arm, grip_point, 1, lambda: done() or bool((_j7(s, arm) <= -J7_LIMIT + J7_MARGIN).all()),
+                   max_steps=stroke_steps)
+        if done():
+            return
+        s.release(ee, steps=5)
+        # turn back as far as the rest of the turn needs (or the wrist allows)
+        back_to = _j7(s, arm) + (release - task.memory["held_turn"][:, 0] + BACK_MARGIN)
+        turn_wrist(s, arm, above, -1,
+                   lambda: bool(((_j7(s, arm) >= back_to) | (_j7(s, arm) >= J7_LIMIT - J7_MARGIN)).all()),
+                   max_steps=stroke_steps)
