@@ -56,6 +56,22 @@ def open_demo_h5(h5_path: Path) -> h5py.File:
         raise DemoFileError(f"{path}: unreadable or truncated HDF5 file ({e})") from e
 
 
+def replay_env_kwargs(meta: dict) -> dict:
+    """The env kwargs a demo file was recorded with (control mode, agent, ...), less what a replay sets itself
+    (the task, obs and render modes, sensor configs)."""
+    env_kwargs = dict(meta["env_info"].get("env_kwargs", {}))
+    for key in ("task_id", "obs_mode", "render_mode", "sensor_configs"):
+        env_kwargs.pop(key, None)
+    return env_kwargs
+
+
+def episode_reset_kwargs(ep: dict) -> dict:
+    """`env.reset` kwargs that restart a recorded episode: its own reset kwargs, seeded by its episode seed."""
+    reset_kwargs = dict(ep.get("reset_kwargs") or {})
+    reset_kwargs.setdefault("seed", ep["episode_seed"])
+    return reset_kwargs
+
+
 def state_at(states: dict, t: int) -> dict:
     """The env state of step `t` (batch of one) out of an episode's stacked `env_states`."""
     return {k: state_at(v, t) if isinstance(v, dict) else v[t : t + 1] for k, v in states.items()}

@@ -17,7 +17,10 @@ from typing import Iterator
 
 import numpy as np
 
-from .files import DemoFileError, episode_arrays, load_demo_json, open_demo_h5, state_at, torch_state
+from .files import (
+    DemoFileError, episode_arrays, episode_reset_kwargs, load_demo_json, open_demo_h5, replay_env_kwargs, state_at,
+    torch_state,
+)
 
 TARGET_MODE = "pd_joint_pos"
 
@@ -47,9 +50,7 @@ def joint_target_episodes(h5_path, progress: bool = False) -> Iterator[tuple[np.
 
     h5_path = Path(h5_path)
     meta = load_demo_json(h5_path)
-    env_kwargs = dict(meta["env_info"].get("env_kwargs", {}))
-    for key in ("task_id", "obs_mode", "render_mode", "sensor_configs"):
-        env_kwargs.pop(key, None)
+    env_kwargs = replay_env_kwargs(meta)
     source_mode = env_kwargs.get("control_mode")
     if source_mode is None:
         raise DemoFileError(f"{h5_path}: the json names no control_mode; cannot convert its actions")
@@ -64,9 +65,8 @@ def joint_target_episodes(h5_path, progress: bool = False) -> Iterator[tuple[np.
         try:
             for ep in tqdm(meta["episodes"], desc=f"joint targets {h5_path.parent.name}", disable=not progress):
                 actions, states = episode_arrays(h5, ep["episode_id"], str(h5_path))
-                reset_kwargs = dict(ep.get("reset_kwargs") or {})
-                reset_kwargs.setdefault("seed", ep["episode_seed"])
-                env.reset(**reset_kwargs)  # a reconfiguring reset rebuilds the agent: read its controller after
+                # a reconfiguring reset rebuilds the agent: read its controller after it
+                env.reset(**episode_reset_kwargs(ep))
                 base.set_state_dict(torch_state(state_at(states, 0)))
                 parts = base.agent.controller.controllers
                 layout = _part_layout(base.agent, source_mode)
@@ -75,7 +75,10 @@ def joint_target_episodes(h5_path, progress: bool = False) -> Iterator[tuple[np.
                     _, _, _, _, info = env.step(torch.as_tensor(action)[None])
                     row, start = [], 0
                     for name, width, to_targets in layout:
-                        row.append(parts[name]._target_qpos[0].cpu().numpy() if to_targets else np.asarray(action[start:start + width]))
+                        if to_targets:
+                            row.append(parts[name]._target_qpos[0].cpu().numpy())
+                        else:
+                            row.append(np.asarray(action[start:start + width]))
                         start += width
                     out.append(np.concatenate(row))
                 yield np.asarray(out, np.float32), bool(info["success"][0]) if info else False, ep

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from .files import episode_arrays, load_demo_json, open_demo_h5, state_at, torch_state
+from .files import episode_arrays, episode_reset_kwargs, load_demo_json, open_demo_h5, state_at, torch_state
 
 
 @dataclass
@@ -52,9 +52,7 @@ def verify(path: Path, progress: bool = True) -> list[EpisodeCheck]:
 
 def _check_episode(env, ep: dict, actions: np.ndarray, states: dict) -> EpisodeCheck:
     base = env.unwrapped
-    reset_kwargs = dict(ep.get("reset_kwargs") or {})
-    reset_kwargs.setdefault("seed", ep["episode_seed"])
-    env.reset(**reset_kwargs)
+    env.reset(**episode_reset_kwargs(ep))
     drift = float(np.abs(_flat(base.get_state_dict()) - _flat(state_at(states, 0))).max())
     info = {}
     for t, action in enumerate(actions):

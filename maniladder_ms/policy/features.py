@@ -13,7 +13,9 @@ from typing import Iterator, Optional, Sequence
 import numpy as np
 import torch
 
-from maniladder_ms.demos.files import episode_arrays, load_demo_json, open_demo_h5, state_at, torch_state
+from maniladder_ms.demos.files import (
+    episode_arrays, episode_reset_kwargs, load_demo_json, open_demo_h5, replay_env_kwargs, state_at, torch_state,
+)
 from maniladder_ms.demos.joint_targets import TARGET_MODE, joint_target_episodes
 
 from .encoders import Encoder
@@ -28,19 +30,14 @@ def demo_frames(h5_path, cameras: Sequence[str], size: int = 128, progress: bool
     import maniladder_ms
 
     meta = load_demo_json(Path(h5_path))
-    env_kwargs = dict(meta["env_info"].get("env_kwargs", {}))
-    for key in ("task_id", "obs_mode", "render_mode", "sensor_configs"):
-        env_kwargs.pop(key, None)
     env = maniladder_ms.make(meta["task_spec"].id, obs_mode="rgb", cameras=tuple(cameras),
-                             sensor_configs=dict(width=size, height=size), **env_kwargs)
+                             sensor_configs=dict(width=size, height=size), **replay_env_kwargs(meta))
     base = env.unwrapped
     try:
         with open_demo_h5(Path(h5_path)) as h5:
             for ep in tqdm(meta["episodes"], desc=f"render {Path(h5_path).parent.name}", disable=not progress):
                 actions, states = episode_arrays(h5, ep["episode_id"], str(h5_path))
-                reset_kwargs = dict(ep.get("reset_kwargs") or {})
-                reset_kwargs.setdefault("seed", ep["episode_seed"])
-                env.reset(**reset_kwargs)
+                env.reset(**episode_reset_kwargs(ep))
                 frames = np.arange(0, len(actions), stride)
                 images = np.empty((len(frames), len(cameras), size, size, 3), np.uint8)
                 for i, t in enumerate(frames):
@@ -69,7 +66,7 @@ def cache_features(h5_path, encoder: Encoder, cameras: Sequence[str], out: Path,
     out = Path(out)
     if out.exists():
         return out
-    recorded = load_demo_json(Path(h5_path))["env_info"].get("env_kwargs", {}).get("control_mode")
+    recorded = replay_env_kwargs(load_demo_json(Path(h5_path))).get("control_mode")
     converted = None
     if control_mode not in (None, recorded):
         if control_mode != TARGET_MODE:

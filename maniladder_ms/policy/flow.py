@@ -7,8 +7,9 @@ A small transformer encoder-decoder that denoises action chunks with flow matchi
   per-token position embeddings;
 - action chunk: `chunk` (16) normalised actions, absolute joint targets (`pd_joint_pos`: arm joint angles,
   gripper command or hand joint targets; protocol v1 used end-effector deltas, see `policy.calibrate`);
-  training draws t ~ U(0, 1) and noise x0 ~ N(0, I), forms x_t = (1 - t) x0 + t x1 and regresses the velocity x1 - x0; inference integrates the predicted
-  velocity from noise with `integration_steps` Euler steps; the policy executes the first `execute` (8);
+  training draws t ~ U(0, 1) and noise x0 ~ N(0, I), forms x_t = (1 - t) x0 + t x1 and regresses the velocity
+  x1 - x0; inference integrates the predicted velocity from noise with `integration_steps` Euler steps; the
+  policy executes the first `execute` (8);
 - AdamW, cosine learning rate, an exponential moving average of the weights (the EMA is what acts).
 
 Everything that defines the protocol is `LadderFlowConfig()`'s defaults; a checkpoint carries its config,
