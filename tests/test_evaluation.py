@@ -118,6 +118,9 @@ def test_solver_policy_succeeds_on_pickplacepen(tmp_path):
     recs = read_episodes(tmp_path / "solver")
     assert [r["seed"] for r in recs] == [eval_seed(0, k) for k in range(6)]
     assert all(r["control_mode"] == "pd_joint_pos" and 0 < r["steps"] <= 150 for r in recs)
+    # how far each episode got: a success grasped the pen and held it over the tray on the way
+    assert all({"is_grasped", "is_over_tray"} <= set(r["reached"]) for r in recs if r["success"]), recs
+    assert t["reached"]["is_grasped"] >= 5 / 6 and "success" not in t["reached"], t
     assert s["ladder"]["level"] == 1 and not s["ladder"]["exact"]
     assert (tmp_path / "solver" / "summary.json").exists()
 
@@ -126,6 +129,7 @@ def test_random_policy_gets_nothing(tmp_path):
     s = evaluate("random", tmp_path / "random", tasks=[PEN], episodes=3, progress=False)
     t = s["tasks"][PEN]
     assert t["successes"] == 0 and t["mean_steps"] == 150  # ran to the horizon every time
+    assert not any("is_grasped" in r["reached"] for r in read_episodes(tmp_path / "random"))
     assert s["ladder"]["level"] == 0 and s["ladder"]["exact"]
 
 

@@ -82,6 +82,18 @@ def as_action_chunk(raw, action_dim: int, where: str) -> np.ndarray:
     return a
 
 
+def reached_flags(info: dict) -> set[str]:
+    """The names of a task's intermediate flags (`evaluate`'s boolean entries besides success and fail: grasped,
+    lifted, over the tray, ...) that hold in `info`: recorded per episode, they show how far a failing policy got."""
+    out = set()
+    for key, value in info.items():
+        if key in ("success", "fail") or not (hasattr(value, "dtype") and str(value.dtype) in ("torch.bool", "bool")):
+            continue
+        if bool(np.asarray(_to_numpy(value)).any()):
+            out.add(key)
+    return out
+
+
 class EpisodeMonitor(gym.Wrapper):
     """Checks every action and measures the episode since the last reset: steps, success within the
     horizon. Env-driving policies get the env through it, so the protocol holds for them too."""
@@ -98,12 +110,14 @@ class EpisodeMonitor(gym.Wrapper):
         self.resets = 0
         self.steps = 0
         self.success_step: Optional[int] = None
+        self.reached: set[str] = set()
 
     def reset(self, *, seed=None, options=None):
         self.resets += 1
         self.seed = seed
         self.steps = 0
         self.success_step = None
+        self.reached = set()
         return self.env.reset(seed=seed, options=options)
 
     def step(self, action):
@@ -115,6 +129,8 @@ class EpisodeMonitor(gym.Wrapper):
         self.steps += 1
         if self.success_step is None and self.steps <= self.horizon and bool(np.asarray(_to_numpy(info["success"])).any()):
             self.success_step = self.steps
+        if self.steps <= self.horizon:
+            self.reached |= reached_flags(info)
         return obs, reward, terminated, truncated, info
 
 
@@ -207,6 +223,7 @@ class EpisodeRunner:
             "success": success, "steps": env.success_step if success else min(env.steps, spec.horizon),
             "wall_s": round(wall, 4), "policy_s": round(policy_s, 4), "level": spec.level, "suite": spec.suite,
             "obs_mode": env_kwargs["obs_mode"], "control_mode": base.control_mode,
+            "reached": sorted(env.reached),  # intermediate flags that held at some step (`reached_flags`)
             "time": time.strftime("%Y-%m-%dT%H:%M:%S"),
         }
         if note:
