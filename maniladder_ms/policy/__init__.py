@@ -1,4 +1,4 @@
-"""The reference policy that places tasks on the ladder (issue 20, in progress): LadderFlow protocol v2.
+"""The reference policy that places tasks on the ladder (issue 20, in progress): LadderFlow protocol v3.
 
 `encoders`: frozen pretrained image encoders (EfficientNet-Lite0 ImageNet weights, offline, instead of the
 paper's RADIO); `flow`: the flow-matching transformer, its training on cached features and checkpoints;

@@ -1,4 +1,4 @@
-"""`maniladder calibrate`: measure each task's level with the reference policy (LadderFlow, protocol v2).
+"""`maniladder calibrate`: measure each task's level with the reference policy (LadderFlow, protocol v3).
 
 Per task, five stages, each leaving its result in the task's work folder so that a killed run resumes
 where it stopped (a stage whose output exists is not run again; a half-written output never exists):
@@ -50,7 +50,7 @@ POLICY_CONTROL_MODE = "pd_joint_pos"
 
 @dataclasses.dataclass(frozen=True)
 class CalibrationProtocol:
-    """Everything besides the network that protocol v2 fixes; part of every result."""
+    """Everything besides the network that the protocol fixes; part of every result."""
 
     demos: int = 20
     demo_seed: int = 0
