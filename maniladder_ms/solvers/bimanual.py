@@ -127,3 +127,27 @@ def lift_together(s: DrivenSolver, grasps: list[Grasp], height: float):
     grasp_together(s, [g.ee for g in grasps])
     up = torch.tensor([0.0, 0.0, height], device=s.base.device)
     glide(s, {g.arm: (g.p, g.p + up, g.q) for g in grasps})
+
+
+SET_DOWN_STEP = 0.006  # metres per control step of a two-arm set-down
+RELEASE_WAIT_STEPS = 10  # control steps the opened grippers wait before rising
+
+
+def carry_and_set_down(s: DrivenSolver, grasps: list[Grasp], lift: float, shift: torch.Tensor, down: float,
+                       rise: torch.Tensor, carry_step: float = LIFT_STEP):
+    """After `lift_together(s, grasps, lift)`: carry the object horizontally by `shift` ((n, 3) world offset,
+    its z ignored) in lock-step, the targets advancing `carry_step` a control step; lower it until the grasp
+    points are `down` above where they were grasped; open every end effector, wait, and rise by `rise`
+    (world offset) together."""
+    shift = shift.clone()
+    shift[:, 2] = 0
+    device = s.base.device
+    up = torch.tensor([0.0, 0.0, lift], device=device)
+    low = torch.tensor([0.0, 0.0, down], device=device)
+    glide(s, {g.arm: (g.p + up, g.p + up + shift, g.q) for g in grasps}, step_length=carry_step)
+    glide(s, {g.arm: (g.p + up + shift, g.p + shift + low, g.q) for g in grasps}, step_length=SET_DOWN_STEP)
+    for g in grasps:
+        s.release(g.ee, steps=0)
+    for _ in range(RELEASE_WAIT_STEPS):
+        s.step()
+    glide(s, {g.arm: (g.p + shift + low, g.p + shift + low + rise, g.q) for g in grasps}, settle_steps=5)

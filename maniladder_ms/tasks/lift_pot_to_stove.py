@@ -15,7 +15,7 @@ from maniladder_ms.geometry import yaw_of, yaw_quat
 from maniladder_ms.objects.basket import tilt
 from maniladder_ms.objects.pot import PotShape, build_pot, build_stove_plate
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
-from maniladder_ms.solvers.bimanual import Grasp, glide, lift_together
+from maniladder_ms.solvers.bimanual import Grasp, carry_and_set_down, lift_together
 from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver
 
 from .lift_two_handed import LiftTwoHandedTask
@@ -152,16 +152,7 @@ def solve_lift_pot_to_stove(env, seed: int) -> dict:
         handles = task.handle_centres()
         grasps = [Grasp(f"{side}_arm", f"{side}_gripper", p, q, above) for side, p in handles.items()]
         lift_together(s, grasps, LIFT)
-        shift = task.plate.pose.p - task.pot.pose.p
-        shift[:, 2] = 0
-        up = torch.tensor([0.0, 0.0, LIFT], device=device)
-        down = torch.tensor([0.0, 0.0, task.plate_height + SET_DOWN_GAP], device=device)
-        glide(s, {g.arm: (g.p + up, g.p + up + shift, g.q) for g in grasps})
-        glide(s, {g.arm: (g.p + up + shift, g.p + shift + down, g.q) for g in grasps}, step_length=0.006)
-        for g in grasps:
-            s.release(g.ee, steps=0)
-        for _ in range(10):
-            s.step()
-        glide(s, {g.arm: (g.p + shift + down, g.p + shift + down + above / 2, g.q) for g in grasps}, settle_steps=5)
+        carry_and_set_down(s, grasps, LIFT, task.plate.pose.p - task.pot.pose.p, task.plate_height + SET_DOWN_GAP,
+                           above / 2)
         s.hold_until_success()
         return s.info

@@ -12,13 +12,13 @@ from mani_skill.utils.geometry.rotation_conversions import quaternion_apply
 from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.agents.helpers import top_down_quat
-from maniladder_ms.envs import register_task  # noqa: F401 (the registration below is left out)
+from maniladder_ms.envs import register_task
 from maniladder_ms.geometry import yaw_of, yaw_quat
 from maniladder_ms.objects.basket import tilt
 from maniladder_ms.objects.markers import MARKER_THICKNESS, build_zone_marker
 from maniladder_ms.objects.tabletop import build_ping_pong_ball, build_serving_tray
-from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver  # noqa: F401
-from maniladder_ms.solvers.bimanual import Grasp, glide, lift_together
+from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
+from maniladder_ms.solvers.bimanual import Grasp, carry_and_set_down, lift_together
 from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver
 
 from .lift_two_handed import LiftTwoHandedTask
@@ -28,8 +28,7 @@ TRAY_INNER_HALF = (0.1, 0.15)  # the floor inside the rims, (x, y): 20 x 30 cm
 TRAY_WALL, TRAY_BASE, TRAY_END_HEIGHT = 0.01, 0.008, 0.06
 
 
-# NOT BUILT YET: registration left out until the solver has been run (see the branch's commit message); restore
-# the decorator line `@register_task("PingPongTransport")` here to register it
+@register_task("PingPongTransport")
 class PingPongTransportEnv(LiftTwoHandedTask):
     """**Task:** a serving tray stands on the table near the robot with a ping-pong ball lying on it; both arms
     take the tray by its two end walls, lift it, carry it to a target zone at the far side of the table and set
@@ -163,7 +162,7 @@ CARRY_STEP = 0.006  # metres per control step of the carry (LIFT_STEP is 0.01): 
 SET_DOWN_GAP = 0.003  # the tray's bottom this far above the table when the grippers open
 
 
-# @register_solver("PingPongTransport", control_modes=TCP_DELTA_MODES)  (with the task's registration)
+@register_solver("PingPongTransport", control_modes=TCP_DELTA_MODES)
 def solve_ping_pong_transport(env, seed: int) -> dict:
     """Each arm grasps its end wall top-down, fingers across it; both lift together, carry the tray over the
     zone in lock-step, lower it onto the table, open and rise."""
@@ -174,16 +173,7 @@ def solve_ping_pong_transport(env, seed: int) -> dict:
         above = torch.tensor([0.0, 0.0, APPROACH_HEIGHT], device=device)
         grasps = [Grasp(f"{side}_arm", f"{side}_gripper", p, q, above) for side, p in task.wall_points().items()]
         lift_together(s, grasps, LIFT)
-        shift = task.zone.pose.p - task.tray.pose.p
-        shift[:, 2] = 0
-        up = torch.tensor([0.0, 0.0, LIFT], device=device)
-        down = torch.tensor([0.0, 0.0, SET_DOWN_GAP], device=device)
-        glide(s, {g.arm: (g.p + up, g.p + up + shift, g.q) for g in grasps}, step_length=CARRY_STEP)
-        glide(s, {g.arm: (g.p + up + shift, g.p + shift + down, g.q) for g in grasps}, step_length=0.006)
-        for g in grasps:
-            s.release(g.ee, steps=0)
-        for _ in range(10):
-            s.step()
-        glide(s, {g.arm: (g.p + shift + down, g.p + shift + down + above / 2, g.q) for g in grasps}, settle_steps=5)
+        carry_and_set_down(s, grasps, LIFT, task.zone.pose.p - task.tray.pose.p, SET_DOWN_GAP, above / 2,
+                           carry_step=CARRY_STEP)
         s.hold_until_success()
         return s.info
