@@ -11,15 +11,14 @@ import torch
 from mani_skill.utils.geometry.rotation_conversions import quaternion_apply
 from mani_skill.utils.structs.pose import Pose
 
-from maniladder_ms.agents.helpers import top_down_quat
 from maniladder_ms.envs import register_task
 from maniladder_ms.geometry import yaw_of, yaw_quat
 from maniladder_ms.objects.basket import tilt
 from maniladder_ms.objects.markers import MARKER_THICKNESS, build_zone_marker
 from maniladder_ms.objects.tabletop import build_ping_pong_ball, build_serving_tray
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
-from maniladder_ms.solvers.bimanual import Grasp, carry_and_set_down, lift_together
-from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver
+from maniladder_ms.solvers.bimanual import top_down_carry
+from maniladder_ms.solvers.driven import DrivenSolver
 
 from .lift_two_handed import LiftTwoHandedTask
 
@@ -73,7 +72,8 @@ class PingPongTransportEnv(LiftTwoHandedTask):
         super()._load_scene(options)
         self.tray = build_serving_tray(self.scene, "tray", TRAY_INNER_HALF, self.rim_height, TRAY_END_HEIGHT,
                                        TRAY_WALL, TRAY_BASE, color=(0.55, 0.35, 0.2, 1))
-        self.ball = build_ping_pong_ball(self.scene, "ball", self.ball_radius, self.ball_mass, color=(0.95, 0.5, 0.1, 1))
+        self.ball = build_ping_pong_ball(self.scene, "ball", self.ball_radius, self.ball_mass,
+                                         color=(0.95, 0.5, 0.1, 1))
         zone_half = tuple(h + self.zone_margin for h in self.tray_outer_half)
         self.zone = build_zone_marker(self.scene, "target_zone", zone_half, (0.3, 0.65, 0.35, 1))
         self.item = self.tray
@@ -146,24 +146,14 @@ class PingPongTransportEnv(LiftTwoHandedTask):
             [[0.0, sign * y, TRAY_END_HEIGHT - 0.02]], device=self.device))).p for side, sign in SIDES.items()}
 
     def _get_obs_extra(self, info: dict):
-        obs = dict(left_tcp_pose=self.ee.tcp("left").raw_pose, right_tcp_pose=self.ee.tcp("right").raw_pose,
-                   left_grasped=info["left_grasped"], right_grasped=info["right_grasped"], carried=info["carried"])
-        if "state" in self.obs_mode:
-            walls = self.wall_points()
-            obs.update(tray_pose=self.tray.pose.raw_pose, ball_pos=self.ball.pose.p, ball_vel=self.ball.linear_velocity,
-                       zone_pos=self.zone.pose.p, tray_to_zone=self.zone.pose.p - self.tray.pose.p,
-                       left_tcp_to_wall=walls["left"] - self.ee.tcp("left").p,
-                       right_tcp_to_wall=walls["right"] - self.ee.tcp("right").p)
-        return obs
+        return self.two_hand_obs(info, self.wall_points(), "wall", dict(
+            tray_pose=self.tray.pose.raw_pose, ball_pos=self.ball.pose.p, ball_vel=self.ball.linear_velocity,
+            zone_pos=self.zone.pose.p, tray_to_zone=self.zone.pose.p - self.tray.pose.p))
 
     def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
         # reach and hold both end walls; lift level with both (kept once carried); then over the zone, down and
         # let go, all of it only while the ball is on the tray and the tray has never been aloft in fewer hands
-        walls = self.wall_points()
-        reward = torch.zeros(self.num_envs, device=self.device)
-        for side in SIDES:
-            reach = torch.linalg.norm(walls[side] - self.ee.tcp(side).p, dim=1)
-            reward += 0.5 * (1 - torch.tanh(5 * reach)) + 0.5 * info[f"{side}_grasped"]
+        reward = self.reach_and_hold_reward(self.wall_points(), info)
         both = info["left_grasped"] & info["right_grasped"]
         lift = (info["height"] / self.lift_height).clamp(0, 1) * info["is_level"]
         reward += 2 * torch.where(info["carried"], 1.0, both * lift)
@@ -186,12 +176,7 @@ def solve_ping_pong_transport(env, seed: int) -> dict:
     zone in lock-step, lower it onto the table, open and rise."""
     with DrivenSolver.episode(env, seed) as s:
         task: PingPongTransportEnv = env.unwrapped
-        n, device = task.num_envs, task.device
-        q = top_down_quat(DrivenSolver.neutral_yaw(yaw_of(task.tray.pose.q), np.pi), n, device)
-        above = torch.tensor([0.0, 0.0, APPROACH_HEIGHT], device=device)
-        grasps = [Grasp(f"{side}_arm", f"{side}_gripper", p, q, above) for side, p in task.wall_points().items()]
-        lift_together(s, grasps, LIFT)
-        carry_and_set_down(s, grasps, LIFT, task.zone.pose.p - task.tray.pose.p, SET_DOWN_GAP, above / 2,
-                           carry_step=CARRY_STEP)
+        top_down_carry(s, task.wall_points(), yaw_of(task.tray.pose.q), LIFT, task.zone.pose.p - task.tray.pose.p,
+                       SET_DOWN_GAP, carry_step=CARRY_STEP)
         s.hold_until_success()
         return s.info
