@@ -47,8 +47,8 @@ class PingPongTransportEnv(LiftTwoHandedTask):
     (episode memory `one_handed`: no throw, no one-armed carry or drop); the ball has never left the tray (its
     centre within the tray's inner rectangle and at most the rim's height plus `ball_radius` above the tray
     floor, on every control step; episode memory `dropped`); and now the tray rests on the table (its bottom
-    within `rest_tol` of the table) with its four corners inside the target zone, neither gripper holds it, and
-    the ball lies on the tray.
+    within `rest_tol` of the table) with its four corners inside the target zone (the tray's outline grown by
+    `zone_margin` on every side), neither gripper holds it, and the ball lies on the tray.
 
     **Level 2:** (against Level 1's LiftWideBox, the same two-gripper lift: 2 stages, grasp and lift, 47 steps
     mean, 15 degrees of tilt allowed): 4 stages, ~130 steps mean (grasp both end walls, lift, carry 25-36 cm,
