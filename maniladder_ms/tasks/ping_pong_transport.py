@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 import torch
 
-from mani_skill.utils.geometry.rotation_conversions import quaternion_apply
+from mani_skill.utils.geometry.rotation_conversions import quaternion_apply, quaternion_invert
 from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.envs import register_task
@@ -100,7 +100,8 @@ class PingPongTransportEnv(LiftTwoHandedTask):
     def ball_on_tray(self) -> torch.Tensor:
         """(num_envs,) bool: the ball's centre lies within the tray's inner rectangle and at most the rim's
         height plus the ball's radius above the tray floor (tray frame)."""
-        local = (self.tray.pose.inv() * self.ball.pose).p
+        tray = self.tray.pose  # closed form (Pose.inv() * Pose costs ~4x as much, twice a step)
+        local = quaternion_apply(quaternion_invert(tray.q), self.ball.pose.p - tray.p)
         inside = (local[:, 0].abs() <= TRAY_INNER_HALF[0]) & (local[:, 1].abs() <= TRAY_INNER_HALF[1])
         low = (local[:, 2] >= TRAY_BASE) & (local[:, 2] <= TRAY_BASE + self.rim_height + self.ball_radius)
         return inside & low
