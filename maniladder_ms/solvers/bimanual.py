@@ -11,9 +11,9 @@ import torch
 
 from mani_skill.utils.geometry.rotation_conversions import matrix_to_quaternion
 
-from maniladder_ms.agents.helpers import LEAP_SYNERGIES
+from maniladder_ms.agents.helpers import LEAP_SYNERGIES, top_down_quat
 
-from .driven import DrivenSolver
+from .driven import APPROACH_HEIGHT, DrivenSolver
 
 LIFT_STEP = 0.01  # metres per control step of a two-arm lift: both targets rise together
 PRESHAPE_STEPS = 5  # LEAP hands take their preshape once lined up (as DrivenSolver.pick)
@@ -127,3 +127,41 @@ def lift_together(s: DrivenSolver, grasps: list[Grasp], height: float):
     grasp_together(s, [g.ee for g in grasps])
     up = torch.tensor([0.0, 0.0, height], device=s.base.device)
     glide(s, {g.arm: (g.p, g.p + up, g.q) for g in grasps})
+
+
+SET_DOWN_STEP = 0.006  # metres per control step of a two-arm set-down
+RELEASE_WAIT_STEPS = 10  # control steps the opened grippers wait before rising
+
+
+def carry_and_set_down(s: DrivenSolver, grasps: list[Grasp], lift: float, shift: torch.Tensor, down: float,
+                       rise: torch.Tensor, carry_step: float = LIFT_STEP):
+    """After `lift_together(s, grasps, lift)`: carry the object horizontally by `shift` ((n, 3) world offset,
+    its z ignored) in lock-step, the targets advancing `carry_step` a control step; lower it until the grasp
+    points are `down` above where they were grasped; open every end effector, wait, and rise by `rise`
+    (world offset) together."""
+    shift = shift.clone()
+    shift[:, 2] = 0
+    device = s.base.device
+    up = torch.tensor([0.0, 0.0, lift], device=device)
+    low = torch.tensor([0.0, 0.0, down], device=device)
+    glide(s, {g.arm: (g.p + up, g.p + up + shift, g.q) for g in grasps}, step_length=carry_step)
+    glide(s, {g.arm: (g.p + up + shift, g.p + shift + low, g.q) for g in grasps}, step_length=SET_DOWN_STEP)
+    for g in grasps:
+        s.release(g.ee, steps=0)
+    for _ in range(RELEASE_WAIT_STEPS):
+        s.step()
+    glide(s, {g.arm: (g.p + shift + low, g.p + shift + low + rise, g.q) for g in grasps}, settle_steps=5)
+
+
+def top_down_carry(s: DrivenSolver, points: dict, yaw: torch.Tensor, lift: float, shift: torch.Tensor, down: float,
+                   carry_step: float = LIFT_STEP):
+    """Two grippers carry one object: each arm ("left", "right": `points` maps them to world grasp points)
+    takes its point top-down, fingers closing along `yaw` (either way round, whichever keeps the wrist
+    nearer its neutral yaw); both lift it by `lift`, carry it by `shift` and set it down
+    (`carry_and_set_down`), open and rise by half the approach height."""
+    device = s.base.device
+    q = top_down_quat(DrivenSolver.neutral_yaw(yaw, torch.pi), len(yaw), device)
+    above = torch.tensor([0.0, 0.0, APPROACH_HEIGHT], device=device)
+    grasps = [Grasp(f"{side}_arm", f"{side}_gripper", p, q, above) for side, p in points.items()]
+    lift_together(s, grasps, lift)
+    carry_and_set_down(s, grasps, lift, shift, down, above / 2, carry_step=carry_step)

@@ -71,11 +71,7 @@ class LiftBasketHandsEnv(LiftTwoHandedTask):
         return obs
 
     def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
-        handles = self.handle_centres()
-        reward = torch.zeros(self.num_envs, device=self.device)
-        for side in SIDES:
-            reach = torch.linalg.norm(handles[side] - self.ee.tcp(side).p, dim=1)
-            reward += 0.5 * (1 - torch.tanh(5 * reach)) + 0.5 * info[f"{side}_grasped"]
+        reward = self.reach_and_hold_reward(self.handle_centres(), info)
         both = (info["left_grasped"] & info["right_grasped"]).float()
         height = (self.basket.pose.p[:, 2] / self.lift_height).clamp(max=1)
         reward += 2 * both * height * info["is_level"]

@@ -9,14 +9,13 @@ import torch
 
 from mani_skill.utils.structs.pose import Pose
 
-from maniladder_ms.agents.helpers import top_down_quat
 from maniladder_ms.envs import register_task
 from maniladder_ms.geometry import yaw_of, yaw_quat
 from maniladder_ms.objects.basket import tilt
 from maniladder_ms.objects.pot import PotShape, build_pot, build_stove_plate
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
-from maniladder_ms.solvers.bimanual import Grasp, glide, lift_together
-from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver
+from maniladder_ms.solvers.bimanual import top_down_carry
+from maniladder_ms.solvers.driven import DrivenSolver
 
 from .lift_two_handed import LiftTwoHandedTask
 
@@ -98,15 +97,8 @@ class LiftPotToStoveEnv(LiftTwoHandedTask):
             self.memory.latch("carried", up & self._on_handles(LiftTwoHandedTask.evaluate(self)))
 
     def _get_obs_extra(self, info: dict):
-        obs = dict(left_tcp_pose=self.ee.tcp("left").raw_pose, right_tcp_pose=self.ee.tcp("right").raw_pose,
-                   left_grasped=info["left_grasped"], right_grasped=info["right_grasped"], carried=info["carried"])
-        if "state" in self.obs_mode:
-            handles = self.handle_centres()
-            obs.update(pot_pose=self.pot.pose.raw_pose, plate_pos=self.plate.pose.p,
-                       pot_to_plate=self.plate.pose.p - self.pot.pose.p,
-                       left_tcp_to_handle=handles["left"] - self.ee.tcp("left").p,
-                       right_tcp_to_handle=handles["right"] - self.ee.tcp("right").p)
-        return obs
+        return self.two_hand_obs(info, self.handle_centres(), "handle", dict(
+            pot_pose=self.pot.pose.raw_pose, plate_pos=self.plate.pose.p, pot_to_plate=self.plate.pose.p - self.pot.pose.p))
 
     def evaluate(self):
         info = LiftTwoHandedTask.evaluate(self)  # the lift: height, tilt, each gripper's hold
@@ -146,22 +138,7 @@ def solve_lift_pot_to_stove(env, seed: int) -> dict:
     plate in lock-step, lower it onto the plate, open and rise."""
     with DrivenSolver.episode(env, seed) as s:
         task: LiftPotToStoveEnv = env.unwrapped
-        n, device = task.num_envs, task.device
-        q = top_down_quat(DrivenSolver.neutral_yaw(yaw_of(task.pot.pose.q) - np.pi / 2, np.pi), n, device)
-        above = torch.tensor([0.0, 0.0, APPROACH_HEIGHT], device=device)
-        handles = task.handle_centres()
-        grasps = [Grasp(f"{side}_arm", f"{side}_gripper", p, q, above) for side, p in handles.items()]
-        lift_together(s, grasps, LIFT)
-        shift = task.plate.pose.p - task.pot.pose.p
-        shift[:, 2] = 0
-        up = torch.tensor([0.0, 0.0, LIFT], device=device)
-        down = torch.tensor([0.0, 0.0, task.plate_height + SET_DOWN_GAP], device=device)
-        glide(s, {g.arm: (g.p + up, g.p + up + shift, g.q) for g in grasps})
-        glide(s, {g.arm: (g.p + up + shift, g.p + shift + down, g.q) for g in grasps}, step_length=0.006)
-        for g in grasps:
-            s.release(g.ee, steps=0)
-        for _ in range(10):
-            s.step()
-        glide(s, {g.arm: (g.p + shift + down, g.p + shift + down + above / 2, g.q) for g in grasps}, settle_steps=5)
+        top_down_carry(s, task.handle_centres(), yaw_of(task.pot.pose.q) - np.pi / 2, LIFT,
+                       task.plate.pose.p - task.pot.pose.p, task.plate_height + SET_DOWN_GAP)
         s.hold_until_success()
         return s.info

@@ -33,3 +33,23 @@ class LiftTwoHandedTask(ManiLadderEnv):
         held = torch.stack([info[f"{side}_grasped"] for side in self.SIDES]).all(dim=0)
         info["success"] = info["is_lifted"] & info["is_level"] & held
         return info
+
+    def two_hand_obs(self, info: dict, points: dict, point_name: str, state: dict) -> dict:
+        """The observation the family's two-arm tasks share: each TCP's pose, each end effector's hold and the
+        memory `carried`; in state obs modes also `state` (the task's own entries, in order) and each TCP's
+        offset to its grasp point (`points`: side -> world point; keys `<side>_tcp_to_<point_name>`)."""
+        obs = {f"{side}_tcp_pose": self.ee.tcp(side).raw_pose for side in self.SIDES}
+        obs.update({f"{side}_grasped": info[f"{side}_grasped"] for side in self.SIDES}, carried=info["carried"])
+        if "state" in self.obs_mode:
+            obs.update(state)
+            obs.update({f"{side}_tcp_to_{point_name}": points[side] - self.ee.tcp(side).p for side in self.SIDES})
+        return obs
+
+    def reach_and_hold_reward(self, points: dict, info: dict) -> torch.Tensor:
+        """(num_envs,) in [0, 2]: per side, half for the TCP's nearness to its grasp point (`points`: side ->
+        world point), half for holding the object."""
+        reward = torch.zeros(self.num_envs, device=self.device)
+        for side in self.SIDES:
+            reach = torch.linalg.norm(points[side] - self.ee.tcp(side).p, dim=1)
+            reward += 0.5 * (1 - torch.tanh(5 * reach)) + 0.5 * info[f"{side}_grasped"]
+        return reward
