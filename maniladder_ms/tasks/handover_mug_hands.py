@@ -25,8 +25,7 @@ from maniladder_ms.objects.basket import tilt
 from maniladder_ms.objects.mug import MugShape, build_mug
 from maniladder_ms.objects.pot import build_stove_plate
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
-from maniladder_ms.solvers.bimanual import Grasp, glide, reach
-from maniladder_ms.tasks.handover_ball_hands import _Solver, roll_targets
+from maniladder_ms.solvers.bimanual import Grasp, HandoverSolver, glide, reach, roll_targets
 
 from .handover import HandoverTask
 
@@ -192,7 +191,7 @@ def solve_handover_mug_hands(env, seed: int) -> dict:
     along the handle), rolls palm-up on the way to MEET so the mug stands upright on its palm; the right comes down
     on the mug's upper part with a power grasp; the left opens and drops away; the right carries the mug over the
     coaster, lowers it onto it and lets go."""
-    with _Solver.episode(env, seed) as s:
+    with HandoverSolver.episode(env, seed) as s:
         task: HandoverMugHandsEnv = env.unwrapped
         dev, n = task.device, task.num_envs
         meet = torch.tensor([MEET], device=dev).expand(n, 3)
