@@ -10,7 +10,8 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-from mani_skill.utils.geometry.rotation_conversions import axis_angle_to_matrix, matrix_to_quaternion, quaternion_to_matrix
+from mani_skill.utils.geometry.rotation_conversions import (axis_angle_to_matrix, matrix_to_quaternion,
+                                                            quaternion_to_matrix)
 
 from maniladder_ms.agents.helpers import LEAP_SYNERGIES, top_down_quat
 

@@ -139,7 +139,7 @@ MEET = (-0.1, 0.02, 0.36)  # left TCP during the handover: high enough for the p
 TAKER_ROLL_OFFSET = (0.0, -0.2, -0.12)  # where the right turns palm-up: clear of the ball and the left hand
 
 
-# The giver holds the ball top-down with GIVER_SYNERGY (solvers/bimanual.py): its contacts (index tip, middle tip, thumb tip) all sit at or
+# The giver holds the ball top-down with GIVER_SYNERGY: its contacts (index tip, middle tip, thumb tip) all sit at or
 # above the ball's equator (measured in the ball frame: index +0.007, middle +0.015, thumb +0.031 m), so the lower
 # hemisphere is free for a palm-up taker. The swap that works: the taker's palm comes up under the ball with a gap,
 # the giver's joint targets are set to their MEASURED positions (its ~30 N squeeze drops to ~1 N with no finger
