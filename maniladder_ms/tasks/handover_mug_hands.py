@@ -2,11 +2,11 @@
 upright and hands it to the right hand, which sets it on a coaster.
 
 NOT BUILT YET (work in progress, helper/mughands): the task is not registered (the `register_task` line below is
-commented out) because its solver has not been swept: on seeds 100-104 it succeeds on 3 of 5 (100, 101, 103; 629-634
-steps). On all five the pick, the roll to palm-up, the hand-to-hand pass (both_held, then handed_over) and the carry
+commented out) because its solver has not been swept: on seeds 100-105 it succeeds on 4 of 6 (100, 101, 103, 105;
+629-635 steps). On all six the pick, the roll to palm-up, the hand-to-hand pass (both_held, then handed_over) and the carry
 work and the mug ends upright on the coaster, released; on 102 and 104 letting go pushes it off centre (centre_tol).
 See the solver section's notes. Re-register it once the solver passes 45 of seeds 100-149, and raise the catalog
-horizon (300) to the measured demo length (629-675 steps on seeds 100-104: ~700) with a YAML comment.
+horizon (300) to the measured demo length (629-675 steps on seeds 100-105: ~700) with a YAML comment.
 """
 
 from __future__ import annotations
@@ -170,7 +170,7 @@ class HandoverMugHandsEnv(HandoverTask):
 #   tip still pressing 20 N on the mug's -y side), then the fingers: 3.5 cm (2.1 cm with the hand moved 1.5 cm
 #   towards its thumb first): centre_tol is 2 cm.
 # - pressing the mug onto the coaster while letting go (the hand's target PLACE_PUSH = 1 cm into it), thumb first:
-#   it moves 1.4 cm (seed 100 solved). Seeds 100-104 with this solver: 3/5 solved (629-634 steps); 102 and 104
+#   it moves 1.4 cm (seed 100 solved). Seeds 100-105 with this solver: 4/6 solved (629-635 steps); 102 and 104
 #   (651, 675 steps) end upright on the coaster, released, but off centre: the release still pushes the mug.
 # Next: a release that leaves the mug where it stands (open the fingers while the hand moves away from the pressing
 # tip; a lighter relax of the squeeze first), then seeds 100-109 and the sweep (~40-200 s a seed on the loaded
