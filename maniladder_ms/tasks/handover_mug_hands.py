@@ -4,9 +4,9 @@ upright and hands it to the right hand, which sets it on a coaster.
 NOT BUILT YET (work in progress, helper/mughands): the task is not registered (the `register_task` line below is
 commented out) because its solver has not been swept: on seeds 100-105 it succeeds on 4 of 6 (100, 101, 103, 105;
 629-635 steps). On all six the pick, the roll to palm-up, the hand-to-hand pass (both_held, then handed_over) and
-the carry work and the mug ends upright on the coaster, released; on 102 and 104 letting go pushes it off centre (centre_tol).
-See the solver section's notes. Re-register it once the solver passes 45 of seeds 100-149, and raise the catalog
-horizon (300) to the measured demo length (629-675 steps on seeds 100-105: ~700) with a YAML comment.
+the carry work and the mug ends upright on the coaster, released; on 102 and 104 letting go pushes it off centre
+(centre_tol). See the solver section's notes. Re-register it once the solver passes 45 of seeds 100-149, and raise
+the catalog horizon (300) to the measured demo length (629-675 steps on seeds 100-105: ~700) with a YAML comment.
 """
 
 from __future__ import annotations
