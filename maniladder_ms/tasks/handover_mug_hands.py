@@ -5,8 +5,10 @@ NOT BUILT YET (work in progress, helper/mughands): the task is not registered (t
 commented out) because its solver has not been swept: on seeds 100-105 it succeeds on 4 of 6 (100, 101, 103, 105;
 629-635 steps). On all six the pick, the roll to palm-up, the hand-to-hand pass (both_held, then handed_over) and
 the carry work and the mug ends upright on the coaster, released; on 102 and 104 letting go pushes it off centre
-(centre_tol). See the solver section's notes. Re-register it once the solver passes 45 of seeds 100-149, and raise
-the catalog horizon (300) to the measured demo length (629-675 steps on seeds 100-105: ~700) with a YAML comment.
+(centre_tol). See the solver section's notes. With PLACE_BIAS (added last, see the notes) 102 and 104 were solved
+too; 100, 101, 103 and 105 were not re-run with it. Re-register it once the solver passes 45 of seeds 100-149, and
+raise the catalog horizon (300) to the measured demo length (629-675 steps on seeds 100-105: ~700) with a YAML
+comment.
 """
 
 from __future__ import annotations
@@ -172,6 +174,8 @@ class HandoverMugHandsEnv(HandoverTask):
 # - pressing the mug onto the coaster while letting go (the hand's target PLACE_PUSH = 1 cm into it), thumb first:
 #   it moves 1.4 cm (seed 100 solved). Seeds 100-105 with this solver: 4/6 solved (629-635 steps); 102 and 104
 #   (651, 675 steps) end upright on the coaster, released, but off centre: the release still pushes the mug.
+# - PLACE_BIAS (the mug set down 1.5 cm towards -x of the centre; the fingers' opening pushed it +2.1 cm on 102):
+#   102 and 104 solved (final offsets 1.9 cm and 0.4 cm; 613 and 638 steps); 100, 101, 103, 105 NOT re-run with it.
 # Next: a release that leaves the mug where it stands (open the fingers while the hand moves away from the pressing
 # tip; a lighter relax of the squeeze first), then seeds 100-109 and the sweep (~40-200 s a seed on the loaded
 # machine: the 50-seed sweep takes 1-2.5 h); the solver needs ~630-680 steps (horizon 300).
@@ -191,6 +195,9 @@ CARRY_STEP = 0.004  # metres a control step while the taker carries the mug
 PLACE_ABOVE = 0.03  # the tilt is corrected again with the mug's bottom this far above the coaster
 PLACE_PUSH = 0.01  # the hand's target: the mug's bottom this far into the coaster (pressed onto it while opening)
 RELEASE_STEPS = 20  # the taker's thumb, then its fingers, open over this many steps each
+# the fingers opening push the standing mug 1.4-3.5 cm towards world +x (seeds 100, 102): set it down this far
+# towards -x of the coaster's centre
+PLACE_BIAS = 0.015
 
 
 def upright_quat(task, q: torch.Tensor) -> torch.Tensor:
@@ -241,6 +248,7 @@ def solve_handover_mug_hands(env, seed: int) -> dict:
 
         def place_tcp(gap: float) -> torch.Tensor:  # the TCP that puts the mug's bottom centre `gap` over the coaster
             p = task.coaster.pose.p + s.tcp("right_arm").p - task.mug.pose.p
+            p[:, 0] -= PLACE_BIAS
             p[:, 2] += COASTER_HEIGHT + gap
             return p
 
