@@ -7,9 +7,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
 import torch
 
-from mani_skill.utils.geometry.rotation_conversions import matrix_to_quaternion
+from mani_skill.utils.geometry.rotation_conversions import (axis_angle_to_matrix, matrix_to_quaternion,
+                                                            quaternion_to_matrix)
 
 from maniladder_ms.agents.helpers import LEAP_SYNERGIES, top_down_quat
 
@@ -18,6 +20,11 @@ from .driven import APPROACH_HEIGHT, DrivenSolver
 LIFT_STEP = 0.01  # metres per control step of a two-arm lift: both targets rise together
 PRESHAPE_STEPS = 5  # LEAP hands take their preshape once lined up (as DrivenSolver.pick)
 HAND_RAMP_STEPS, HAND_HOLD_STEPS = 40, 8  # Driver.close_hand's slow closing ramp, for several hands at once
+# a LEAP giver's grip for a hand-to-hand pass (HandoverBallHands, HandoverMugHands): fingers further round at the
+# knuckle (j1 2.1), less at PIP/DIP, than "power". Holding a tennis ball 100 steps at the meeting point after the
+# carry (seeds 100-109): power 5/10, [0,1.8,0.6,0.4] 7/10, this 10/10; it also keeps the ball through the roll to
+# palm-up (4/4) where power drops it at 30-60 degrees of tilt
+GIVER_SYNERGY = [0, 2.1, 0.3, 0.2] * 3 + [1.6, 0.6, 0.8, 0.8]
 
 
 @dataclass
@@ -165,3 +172,48 @@ def top_down_carry(s: DrivenSolver, points: dict, yaw: torch.Tensor, lift: float
     grasps = [Grasp(f"{side}_arm", f"{side}_gripper", p, q, above) for side, p in points.items()]
     lift_together(s, grasps, lift)
     carry_and_set_down(s, grasps, lift, shift, down, above / 2, carry_step=carry_step)
+
+
+class HandoverSolver(DrivenSolver):
+    """DrivenSolver for LEAP hand-to-hand passes: the left hand (the giver) grasps with `GIVER_SYNERGY`; one arm
+    can run along a target sequence in the background (`background`: an iterator of {arm: (p, q)}, one item a
+    control step) while the solver's phases move the other arm; `move` then waits only for the arms it was given."""
+
+    background = None
+
+    def grasp(self, ee_part: str):
+        if ee_part == "left_hand":
+            self.close_hand(ee_part, GIVER_SYNERGY)
+        else:
+            super().grasp(ee_part)
+
+    def step(self, targets: dict | None = None, base_vel=None):
+        if self.background is not None:
+            try:
+                self.arm_targets.update(next(self.background))
+            except StopIteration:
+                self.background = None
+        return super().step(targets, base_vel)
+
+    def move(self, targets: dict, max_steps: int = 60, pos_tol: float = 0.005, rot_tol: float = 0.03):
+        for _ in range(max_steps):
+            errs = self.step(targets)
+            if all(bool((errs[a][0] < pos_tol).all() and (errs[a][1] < rot_tol).all()) for a in targets):
+                break
+        return self.last
+
+
+def roll_targets(s: DrivenSolver, arm: str, yaw: float, roll_sign: float, end: torch.Tensor, waypoints: int,
+                 steps_per_waypoint: int):
+    """A background sequence turning a top-down hand (yaw `yaw`) palm-up: `waypoints` equal rolls about its
+    TCP y axis (sense `roll_sign`) while its TCP moves in a straight line to `end`, `steps_per_waypoint`
+    control steps each, so the arm's differential IK follows (one 180-degree target it does not reach)."""
+    n = s.base.num_envs
+    r0 = quaternion_to_matrix(top_down_quat(yaw, n, device=s.base.device))
+    axis = r0[:, :, 1]
+    p0 = s.tcp(arm).p.clone()
+    for k in range(1, waypoints + 1):
+        t = k / waypoints
+        rk = axis_angle_to_matrix(axis * roll_sign * np.pi * t) @ r0
+        for _ in range(steps_per_waypoint):
+            yield {arm: (p0 + (end - p0) * t, matrix_to_quaternion(rk))}

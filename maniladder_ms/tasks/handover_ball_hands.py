@@ -10,14 +10,13 @@ import sapien.physx as physx
 import sapien.render
 import torch
 
-from mani_skill.utils.geometry.rotation_conversions import axis_angle_to_matrix, matrix_to_quaternion, quaternion_to_matrix
+from mani_skill.utils.geometry.rotation_conversions import quaternion_to_matrix
 from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.agents.helpers import LEAP_SYNERGIES, top_down_quat
 from maniladder_ms.envs import register_task
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
-from maniladder_ms.solvers.bimanual import glide
-from maniladder_ms.solvers.driven import DrivenSolver
+from maniladder_ms.solvers.bimanual import HandoverSolver, glide, roll_targets
 
 from .handover import HandoverTask
 
@@ -131,10 +130,6 @@ class HandoverBallHandsEnv(HandoverTask):
 # Measured alternatives (git history of wip/handover_ball_hands*.md): the right taking a top-down grasp of a ball
 # the left holds palm-up, 5/50; the left letting go onto a flat palm-up right hand first, 0-1/10.
 # ----------------------------------------------------------------------------------------------------
-# the giver's grip: fingers further round at the knuckle (j1 2.1), less at PIP/DIP, than "power". Holding the ball
-# 100 steps at MEET after the carry (seeds 100-109): power 5/10, [0,1.8,0.6,0.4] 7/10, this 10/10; it also keeps
-# the ball through the roll to palm-up (4/4) where power drops it at 30-60 degrees of tilt
-GIVER_SYNERGY = [0, 2.1, 0.3, 0.2] * 3 + [1.6, 0.6, 0.8, 0.8]
 # palm-up by rolling in 12 waypoints of pi/12 about a TCP axis, 8 servo steps each (one 180-degree target and a
 # joint-space path servoed one waypoint a step both fail to get there)
 TAKER_ROLL_WAYPOINTS = 12
@@ -142,51 +137,6 @@ ROLL_STEPS = 8
 # roll the right palm-up in the background while the left picks
 MEET = (-0.1, 0.02, 0.36)  # left TCP during the handover: high enough for the palm-up right wrist (0.256 m below)
 TAKER_ROLL_OFFSET = (0.0, -0.2, -0.12)  # where the right turns palm-up: clear of the ball and the left hand
-
-
-class _Solver(DrivenSolver):
-    """DrivenSolver that can run one arm along a target sequence in the background (`background`: an
-    iterator of {arm: (p, q)}, one item a control step) while the solver's phases move the other arm;
-    `move` then waits only for the arms it was given."""
-
-    background = None
-
-    def grasp(self, ee_part: str):
-        if ee_part == "left_hand":
-            self.close_hand(ee_part, GIVER_SYNERGY)
-        else:
-            super().grasp(ee_part)
-
-    def step(self, targets: dict | None = None, base_vel=None):
-        if self.background is not None:
-            try:
-                self.arm_targets.update(next(self.background))
-            except StopIteration:
-                self.background = None
-        return super().step(targets, base_vel)
-
-    def move(self, targets: dict, max_steps: int = 60, pos_tol: float = 0.005, rot_tol: float = 0.03):
-        for _ in range(max_steps):
-            errs = self.step(targets)
-            if all(bool((errs[a][0] < pos_tol).all() and (errs[a][1] < rot_tol).all()) for a in targets):
-                break
-        return self.last
-
-
-def roll_targets(s: DrivenSolver, arm: str, yaw: float, roll_sign: float, end: torch.Tensor, waypoints: int,
-                 steps_per_waypoint: int):
-    """A background sequence turning a top-down hand (yaw `yaw`) palm-up: `waypoints` equal rolls about its
-    TCP y axis (sense `roll_sign`) while its TCP moves in a straight line to `end`, `steps_per_waypoint`
-    control steps each, so the arm's differential IK follows (one 180-degree target it does not reach)."""
-    n = s.base.num_envs
-    r0 = quaternion_to_matrix(top_down_quat(yaw, n, device=s.base.device))
-    axis = r0[:, :, 1]
-    p0 = s.tcp(arm).p.clone()
-    for k in range(1, waypoints + 1):
-        t = k / waypoints
-        rk = axis_angle_to_matrix(axis * roll_sign * np.pi * t) @ r0
-        for _ in range(steps_per_waypoint):
-            yield {arm: (p0 + (end - p0) * t, matrix_to_quaternion(rk))}
 
 
 # The giver holds the ball top-down with GIVER_SYNERGY: its contacts (index tip, middle tip, thumb tip) all sit at or
@@ -221,7 +171,7 @@ def solve_handover_ball_cradle(env, seed: int) -> dict:
     """The left picks top-down (GIVER_SYNERGY) and carries the ball to MEET while the right rolls palm-up in the
     background; the right comes up under the ball (a 4.5 mm gap) and raises a low dish; the left relaxes its grip
     to where its joints are; then together the left opens and rises and the right closes "power" round the ball."""
-    with _Solver.episode(env, seed) as s:
+    with HandoverSolver.episode(env, seed) as s:
         task: HandoverBallHandsEnv = env.unwrapped
         dev, n = task.device, task.num_envs
         meet = torch.tensor([MEET], device=dev).expand(n, 3)
