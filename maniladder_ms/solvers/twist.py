@@ -63,6 +63,15 @@ def wind_up_target(s: DrivenSolver, arm: str, position: torch.Tensor, offset=Non
     return grip_target(position, tcp_yaw(s, arm) - torch.where(wound, 0.0, LEAD), offset)
 
 
+def rise_first(s: DrivenSolver, arm: str, target: torch.Tensor) -> torch.Tensor:
+    """This step's position target for a TCP going to `target` (n, 3) above a container: from below it
+    (the rest pose's TCP is level with a lid top or lower), straight up first, so the fingers do not
+    sweep into the container on the way."""
+    tcp = s.tcp(arm).p
+    rise = tcp[:, 2] < target[:, 2] - 0.02
+    return torch.where(rise[:, None], torch.cat([tcp[:, :2], target[:, 2:]], dim=1), target)
+
+
 def is_wound_up(s: DrivenSolver, arm: str) -> bool:
     return bool((_j7(s, arm) >= J7_LIMIT - J7_MARGIN).all())
 

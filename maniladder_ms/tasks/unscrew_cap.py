@@ -1,4 +1,4 @@
-"""The UnscrewCap family's rule (OpenJarBimanual; the catalog's OpenJarHands, UnscrewCapHand and
+"""The UnscrewCap family's rule (OpenJarBimanual, UnscrewCapHand; the catalog's OpenJarHands and
 TwistOpenBottleHands are not built yet):
 turn a screw lid or cap (`objects.jar`, its thread a revolute joint with friction) off its thread, the
 container held by another end effector (or clamped to the table).
