@@ -18,6 +18,11 @@ the robot's hands, whatever the embodiment (robosuite's `_check_grasp(gripper, o
 particle, or a list of them (held / touched if any is). `side=None` asks "any end effector" for `holds`
 / `touches` / `is_open` (all of them for `is_open`) and "the only one" for `tcp`. All answers are
 (num_envs,) bool tensors, batched over sub-scenes.
+
+Contact answers are cached per (question, object, side) until `new_state()`, which the env calls after
+every physics step, reset and state restore (`ManiLadderEnv`): a task's memory update and `evaluate` of
+one control step, which both ask, share one contact pass (a pass over a LEAP hand's links costs about
+as much as the rest of a control step on the CPU).
 """
 
 from __future__ import annotations
@@ -201,6 +206,22 @@ class EndEffectors:
             else:
                 raise ValueError(f"agent {agent.uid!r}: no known end effector (gripper or LEAP hand) for side {side!r}")
         self.sides: tuple[str, ...] = tuple(self._by_side)
+        self._cache: dict = {}
+
+    def new_state(self):
+        """Forget the cached contact answers: the scene has stepped or its state was set."""
+        self._cache.clear()
+
+    def _contact(self, question: str, obj, side: Optional[str]) -> torch.Tensor:
+        """`holds` / `touches` (`question`) of `side` (None: any), each side's answer cached (`new_state`)."""
+        out = None
+        for s in (self.sides if side is None else (side,)):
+            key = (question, s, tuple(id(o) for o in _as_list(obj)))
+            if key not in self._cache:
+                self._cache[key] = getattr(self[s], question)(self.scene, obj)
+            out = self._cache[key].clone() if out is None else out | self._cache[key]  # clone: callers may
+            # change their answer in place
+        return out
 
     def __getitem__(self, side: str) -> _Effector:
         if side not in self._by_side:
@@ -236,11 +257,11 @@ class EndEffectors:
 
     def holds(self, obj, side: Optional[str] = None) -> torch.Tensor:
         """(num_envs,) bool: `obj` (or any of a list) is held by `side` (None: by any end effector)."""
-        return self._each(side, lambda e: e.holds(self.scene, obj))
+        return self._contact("holds", obj, side)
 
     def touches(self, obj, side: Optional[str] = None) -> torch.Tensor:
         """(num_envs,) bool: `side` (None: any end effector) presses on `obj` (or any of a list)."""
-        return self._each(side, lambda e: e.touches(self.scene, obj))
+        return self._contact("touches", obj, side)
 
     def is_open(self, side: Optional[str] = None) -> torch.Tensor:
         """(num_envs,) bool: `side` is open (None: every end effector is)."""

@@ -221,11 +221,16 @@ class ManiLadderEnv(BaseEnv):
             self.agent.robot.set_pose(ROBOT_BASE_POSE)
             self.ladder_scene.initialize(env_idx, keep_out=self.TASK_REGION)
             self.memory.reset(env_idx)
+            self.ee.new_state()
 
     # ---- episode memory and state -----------------------------------------------------------------
     def _update_memory(self):
         """Update `self.memory` from the scene; called once after every control step. Tasks whose rule
         reads history override it (`self.memory.latch(...)`, `count`, `store`)."""
+
+    def _after_simulation_step(self):
+        super()._after_simulation_step()
+        self.ee.new_state()  # contacts and poses changed: `ee`'s cached contact answers are stale
 
     def _after_control_step(self):
         super()._after_control_step()
@@ -244,6 +249,7 @@ class ManiLadderEnv(BaseEnv):
 
     def set_state_dict(self, state: dict, env_idx: torch.Tensor = None):
         super().set_state_dict(state, env_idx)
+        self.ee.new_state()
         idx = torch.arange(self.num_envs, device=self.device) if env_idx is None else env_idx
         for key, _, setter in self._extra_state_fields():
             if key in state:  # states recorded before a field existed leave it as it is

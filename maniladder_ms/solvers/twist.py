@@ -13,7 +13,7 @@ from __future__ import annotations
 import torch
 
 from maniladder_ms.agents.helpers import top_down_quat
-from mani_skill.utils.geometry.rotation_conversions import quaternion_to_matrix
+from mani_skill.utils.geometry.rotation_conversions import quaternion_apply, quaternion_to_matrix
 
 from .driven import DrivenSolver
 
@@ -36,23 +36,40 @@ def _j7(s: DrivenSolver, arm: str) -> torch.Tensor:
     return s.agent.robot.get_qpos()[:, names.index(f"{prefix}panda_joint7")]
 
 
-def turn_wrist(s: DrivenSolver, arm: str, position, direction: int, stop, max_steps: int):
-    """Turn a top-down TCP about the vertical at `position()` (n, 3), counter-clockwise from above for
-    `direction` +1, as fast as the controller goes, until `stop()` (a bool) or `max_steps`."""
+def grip_target(position: torch.Tensor, yaw: torch.Tensor, offset=None):
+    """(p, q) of a top-down TCP at yaw `yaw` (n,) whose grip point, `offset` (3,) in the TCP frame (None: the
+    TCP itself), is at `position` (n, 3): turning the yaw swings the TCP round the grip point."""
+    q = top_down_quat(yaw, position.shape[0], position.device)
+    if offset is None:
+        return position, q
+    return position - quaternion_apply(q, torch.as_tensor(offset, device=position.device).expand_as(position)), q
+
+
+def turn_wrist(s: DrivenSolver, arm: str, position, direction: int, stop, max_steps: int, offset=None):
+    """Turn a top-down TCP about the vertical through its grip point (`offset`, see `grip_target`) held at
+    `position()` (n, 3), counter-clockwise from above for `direction` +1, as fast as the controller goes,
+    until `stop()` (a bool) or `max_steps`."""
     for _ in range(max_steps):
         if stop():
             return
-        yaw = tcp_yaw(s, arm) + direction * LEAD
-        s.step({arm: (position(), top_down_quat(yaw, s.base.num_envs, s.base.device))})
+        s.step({arm: grip_target(position(), tcp_yaw(s, arm) + direction * LEAD, offset)})
 
 
-def wind_up_target(s: DrivenSolver, arm: str, position: torch.Tensor):
-    """This control step's target (p, q) of a top-down TCP that goes to `position` while its wrist turns
-    clockwise (from above) to the start of joint 7's range, where a stroke begins; call it each step (it
-    can run beside other arms' moves)."""
+def wind_up_target(s: DrivenSolver, arm: str, position: torch.Tensor, offset=None):
+    """This control step's target (p, q) of a top-down TCP whose grip point (`offset`, see `grip_target`)
+    goes to `position` while its wrist turns clockwise (from above) to the start of joint 7's range, where
+    a stroke begins; call it each step (it can run beside other arms' moves)."""
     wound = _j7(s, arm) >= J7_LIMIT - J7_MARGIN
-    yaw = tcp_yaw(s, arm) - torch.where(wound, 0.0, LEAD)
-    return position, top_down_quat(yaw, s.base.num_envs, s.base.device)
+    return grip_target(position, tcp_yaw(s, arm) - torch.where(wound, 0.0, LEAD), offset)
+
+
+def rise_first(s: DrivenSolver, arm: str, target: torch.Tensor) -> torch.Tensor:
+    """This step's position target for a TCP going to `target` (n, 3) above a container: from below it
+    (the rest pose's TCP is level with a lid top or lower), straight up first, so the fingers do not
+    sweep into the container on the way."""
+    tcp = s.tcp(arm).p
+    rise = tcp[:, 2] < target[:, 2] - 0.02
+    return torch.where(rise[:, None], torch.cat([tcp[:, :2], target[:, 2:]], dim=1), target)
 
 
 def is_wound_up(s: DrivenSolver, arm: str) -> bool:
@@ -68,9 +85,15 @@ def lid_points(task):
     return (lambda: task.lid_top() - down), (lambda: task.lid_top() + up)
 
 
-def unscrew(s: DrivenSolver, task, arm: str, ee: str, max_strokes: int = 4, stroke_steps: int = 200):
+def unscrew(s: DrivenSolver, task, arm: str, ee: str, max_strokes: int = 4, stroke_steps: int = 200,
+            offset=None, synergy: str | None = None, ramp_steps: int = 40, preshape: str | None = None,
+            follow: float = 1.0):
     """Unscrew `task.jar`'s lid (UnscrewCapTask) in strokes with `arm` / `ee` (see the module docstring);
-    the hand winds up first unless it already has (`wind_up_target`)."""
+    the hand winds up first unless it already has (`wind_up_target`). `offset`: the grip point in the TCP
+    frame (`grip_target`; None: the TCP); `synergy`: the LEAP grasp that grips the lid, closed over
+    `ramp_steps` (None: `DrivenSolver.grasp`), from the hand posture `preshape` taken above the lid;
+    `follow`: the share of the wrist's turn the lid takes (the rest slips), which sets how far the open
+    hand turns back for the rest of the turn."""
     release = float(torch.deg2rad(torch.tensor(float(task.release_angle))))
     grip_point, above = lid_points(task)
 
@@ -81,18 +104,22 @@ def unscrew(s: DrivenSolver, task, arm: str, ee: str, max_strokes: int = 4, stro
     for _ in range(80):
         if is_wound_up(s, arm):
             break
-        s.step({arm: wind_up_target(s, arm, above())})
+        s.step({arm: wind_up_target(s, arm, above(), offset)})
     for _ in range(max_strokes):
-        q = top_down_quat(tcp_yaw(s, arm), task.num_envs, task.device)
-        s.move({arm: (grip_point(), q)}, max_steps=30, pos_tol=0.003)
-        s.grasp(ee)
+        if preshape is not None:
+            s.set_ee(ee, preshape, steps=5)
+        s.move({arm: grip_target(grip_point(), tcp_yaw(s, arm), offset)}, max_steps=30, pos_tol=0.003)
+        if synergy is None:
+            s.grasp(ee)
+        else:
+            s.close_hand(ee, synergy, ramp_steps=ramp_steps)
         turn_wrist(s, arm, grip_point, 1, lambda: done() or bool((_j7(s, arm) <= -J7_LIMIT + J7_MARGIN).all()),
-                   max_steps=stroke_steps)
+                   max_steps=stroke_steps, offset=offset)
         if done():
             return
         s.release(ee, steps=5)
         # turn back as far as the rest of the turn needs (or the wrist allows)
-        back_to = _j7(s, arm) + (release - task.memory["held_turn"][:, 0] + BACK_MARGIN)
+        back_to = _j7(s, arm) + ((release - task.memory["held_turn"][:, 0]) / follow + BACK_MARGIN)
         turn_wrist(s, arm, above, -1,
                    lambda: bool(((_j7(s, arm) >= back_to) | (_j7(s, arm) >= J7_LIMIT - J7_MARGIN)).all()),
-                   max_steps=stroke_steps)
+                   max_steps=stroke_steps, offset=offset)

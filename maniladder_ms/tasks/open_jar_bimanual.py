@@ -9,7 +9,7 @@ from maniladder_ms.envs import register_task
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.bimanual import Grasp, tcp_quat
 from maniladder_ms.solvers.driven import DrivenSolver
-from maniladder_ms.solvers.twist import is_wound_up, lid_points, unscrew, wind_up_target
+from maniladder_ms.solvers.twist import is_wound_up, rise_first, unscrew, wind_up_target
 
 from .unscrew_cap import UnscrewCapTask
 
@@ -67,11 +67,8 @@ def solve_open_jar_bimanual(env, seed: int) -> dict:
         hold = Grasp("left_arm", "left_gripper", hold_p, tcp_quat(pointing, closing),
                      -LEFT_APPROACH * pointing)
         # the left lines up beside the jar while the right goes above the lid and winds its wrist up
-        def high():  # above the lid; from the rest pose (level with the lid top) straight up first
-            target = task.lid_top() + torch.tensor([0.0, 0.0, RIGHT_CLEARANCE], device=device)
-            tcp = s.tcp("right_arm").p
-            rise = tcp[:, 2] < target[:, 2] - 0.02
-            return torch.where(rise[:, None], torch.cat([tcp[:, :2], target[:, 2:]], dim=1), target)
+        def high():  # above the lid (`rise_first`: the rest pose's hand is level with the lid top)
+            return rise_first(s, "right_arm", task.lid_top() + torch.tensor([0.0, 0.0, RIGHT_CLEARANCE], device=device))
         for _ in range(LINE_UP_STEPS):
             errs = s.step({"left_arm": hold.lined_up, "right_arm": wind_up_target(s, "right_arm", high())})
             ep, er = errs["left_arm"]

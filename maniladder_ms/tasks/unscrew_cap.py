@@ -1,4 +1,4 @@
-"""The UnscrewCap family's rule (OpenJarBimanual; the catalog's OpenJarHands, UnscrewCapHand and
+"""The UnscrewCap family's rule (OpenJarBimanual, UnscrewCapHand; the catalog's OpenJarHands and
 TwistOpenBottleHands are not built yet):
 turn a screw lid or cap (`objects.jar`, its thread a revolute joint with friction) off its thread, the
 container held by another end effector (or clamped to the table).
@@ -19,12 +19,6 @@ from mani_skill.utils.structs.pose import Pose
 from maniladder_ms.envs import ManiLadderEnv
 from maniladder_ms.geometry import yaw_quat
 from maniladder_ms.objects.jar import JarShape, build_screw_jar, screw_angle
-
-
-# m beyond an object's extent from its centre within which a TCP can hold it (a finger reaches ~6 cm from the
-# TCP of a gripper or a LEAP hand's power grasp): farther, `ee.holds` is not asked (a contact query a side and
-# object costs as much as the rest of the control step)
-HOLD_REACH = 0.12
 
 
 class UnscrewCapTask(ManiLadderEnv):
@@ -49,7 +43,6 @@ class UnscrewCapTask(ManiLadderEnv):
     # (xmin, xmax, ymin, ymax) of the container's centre at reset, uniform
     JAR_REGION = (-0.12, -0.04, -0.05, 0.05)
     body_color, lid_color = (0.78, 0.86, 0.9, 1), (0.8, 0.2, 0.15, 1)
-    _step_grips = None
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -77,33 +70,13 @@ class UnscrewCapTask(ManiLadderEnv):
         up = torch.tensor([[0.0, 0.0, self.jar_shape.height]], device=self.device)
         return (self.jar.pose * Pose.create_from_pq(up)).p
 
-    def _near(self, point: torch.Tensor, side: str, reach: float) -> torch.Tensor:
-        return torch.linalg.norm(self.ee.tcp(side).p - point, dim=1) <= reach
-
-    def _holds_near(self, obj, side: str, near: torch.Tensor) -> torch.Tensor:
-        """`ee.holds(obj, side)`, the contact query skipped where the TCP is too far for any finger to press."""
-        return self.ee.holds(obj, side) & near if bool(near.any()) else near
-
-    def _grips(self) -> dict[str, torch.Tensor]:
-        """Per side, (lid held, body held) as (num_envs,) bools (computed once a control step: the memory
-        update and `evaluate` of one step share them)."""
-        if self._step_grips is not None:
-            grips, self._step_grips = self._step_grips, None
-            return grips
-        shape = self.jar_shape
-        lid_centre = self.lid.pose.p
-        body_centre = self.jar.pose * Pose.create_from_pq(
-            torch.tensor([[0.0, 0.0, shape.body_height / 2]], device=self.device))
-        lid_reach = max(shape.lid_radius, shape.lid_height) + HOLD_REACH
-        body_reach = float(np.hypot(shape.body_radius, shape.body_height / 2)) + HOLD_REACH
+    def _grips(self) -> dict[str, tuple[torch.Tensor, torch.Tensor]]:
+        """Per side, (lid held, body held) as (num_envs,) bools (`ee.holds`, whose answers the memory update
+        and `evaluate` of one control step share; a clamped body is never asked)."""
         out = {}
         for side in self.ee.sides:
-            lid = self._holds_near(self.lid, side, self._near(lid_centre, side, lid_reach))
-            if self.CLAMPED:
-                body = torch.zeros_like(lid)
-            else:
-                body = self._holds_near(self.body, side, self._near(body_centre.p, side, body_reach))
-            out[side] = (lid, body)
+            lid = self.ee.holds(self.lid, side)
+            out[side] = (lid, torch.zeros_like(lid) if self.CLAMPED else self.ee.holds(self.body, side))
         return out
 
     def _twisting(self, grips: dict) -> torch.Tensor:
@@ -121,10 +94,7 @@ class UnscrewCapTask(ManiLadderEnv):
     def _update_memory(self):
         super()._update_memory()
         angle = screw_angle(self.jar)
-        self._step_grips = None
-        grips = self._grips()
-        self._step_grips = grips  # for this step's `evaluate`, which follows
-        held = self._twisting(grips)
+        held = self._twisting(self._grips())
         counted = held | (self.memory["last_held"][:, 0] > 0.5)
         delta = angle - self.memory["last_angle"][:, 0]
         self.memory.store("held_turn", self.memory["held_turn"] + torch.where(counted, delta, 0.0)[:, None])
