@@ -215,12 +215,13 @@ class EndEffectors:
     def _contact(self, question: str, obj, side: Optional[str]) -> torch.Tensor:
         """`holds` / `touches` (`question`) of `side` (None: any), each side's answer cached (`new_state`)."""
         out = None
+        objs = tuple(_as_list(obj))
         for s in (self.sides if side is None else (side,)):
-            key = (question, s, tuple(id(o) for o in _as_list(obj)))
-            if key not in self._cache:
-                self._cache[key] = getattr(self[s], question)(self.scene, obj)
-            out = self._cache[key].clone() if out is None else out | self._cache[key]  # clone: callers may
-            # change their answer in place
+            key = (question, s, tuple(id(o) for o in objs))
+            hit = self._cache.get(key)
+            if hit is None:  # the entry keeps its objects alive, so no other object can take their ids meanwhile
+                hit = self._cache[key] = (objs, getattr(self[s], question)(self.scene, obj))
+            out = hit[1].clone() if out is None else out | hit[1]  # clone: callers may change their answer in place
         return out
 
     def __getitem__(self, side: str) -> _Effector:
