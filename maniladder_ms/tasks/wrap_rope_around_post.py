@@ -32,8 +32,9 @@ class WrapRopeAroundPostEnv(rope.RopeTask, ManiLadderEnv):
       [0.0, 0.06], y uniform in [-0.04, 0.04];
     - the rope (48 cm, 24 capsules of 1.6 cm diameter) is anchored at its first tip,
       which lies at a distance uniform in [0.08, 0.11] m from the post axis, on a random side (+y or -y)
-      at a bearing within +-20 degrees (uniform) of that side; from there it lies flat towards the robot,
-      its first capsule heading within +-15 degrees (uniform) of -x, in a gentle S (the in-plane turn
+      at a bearing within +-20 degrees (uniform) of that side; from there it lies flat towards the robot
+      and outwards, its first capsule heading 35-55 degrees (uniform) from that side towards -x (the free
+      end 0.45-0.6 m from the arm's base), in a gentle S (the in-plane turn
       between capsules k and k + 1 is amp * sin(2 pi (k + 1) / 24 + phase), amp uniform in [0, 0.15]
       rad, phase uniform).
 
@@ -83,7 +84,7 @@ class WrapRopeAroundPostEnv(rope.RopeTask, ManiLadderEnv):
             bearing = side * (np.pi / 2 + (torch.rand(b) * 2 - 1) * np.deg2rad(20))
             distance = 0.08 + torch.rand(b) * 0.03
             tip = post[:, :2] + distance[:, None] * torch.stack([torch.cos(bearing), torch.sin(bearing)], dim=1)
-            heading = np.pi + (torch.rand(b) * 2 - 1) * np.deg2rad(15)
+            heading = side * (np.pi / 2 + np.deg2rad(35) + torch.rand(b) * np.deg2rad(20))
             turns = rope.wavy_turns(b, self.rope_config.segments, 0.15)
             self.rope.lay_flat(tip, heading, turns, from_tip=True)
             first = self.rope.links[0].pose
