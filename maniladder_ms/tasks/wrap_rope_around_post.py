@@ -45,8 +45,8 @@ class WrapRopeAroundPostEnv(rope.RopeTask, ManiLadderEnv):
     `ee.touches`), so the wrap holds by itself.
 
     **Level 2:** (against Level 1's DragRopeToGoal: 2 stages, grasp and one straight drag, 40 cm of rope
-    into a 22 cm zone): 4 stages (grasp the free end; carry it round a closed path of more than one turn,
-    1.25 turns, about a post of 3 cm diameter; lay it down; release); the TCP circles 6.5 cm from the post
+    into a 22 cm zone): 4 stages (grasp the free end; carry it round a post of 3 cm diameter until the
+    rope winds 1.2 turns, most of a full circle of the hand; lay it down; release); the TCP circles 6.5 cm from the post
     axis at a fixed 3 cm height, between the rope lying on the table (its top 1.6 cm up) and the post's
     5 cm top (the hand's body clears it by 1.7 cm, the closed fingers' outer ends pass 1.6 cm from its
     side), and the rope has to cross over its own standing part to close the turn; the winding is measured
