@@ -85,6 +85,32 @@ def test_rope_metrics_on_constructed_shapes():
     assert not rope.is_knotted(straight[0].numpy())
 
 
+def test_winding_number_of_a_rope_laid_once_around_a_post():
+    """A rope tied down 11 cm from a post, running straight to the post, once round it (radius 2.3 cm: post
+    plus rope radius) and out again beside its standing part: winding number 1 about the post, -1 laid the
+    other way round, ~0 about an axis outside the loop; batched, one axis per env."""
+    r, d = 0.023, 0.11
+    anchor_angle = np.pi / 2
+    tangent = anchor_angle - np.arccos(r / d)  # where the straight standing part touches the post
+    standing = np.linspace([0, d], [r * np.cos(tangent), r * np.sin(tangent)], 12)
+    arc = tangent - np.linspace(0, 2 * np.pi - 2 * (anchor_angle - tangent), 30)[1:]  # clockwise round the post
+    wrap = np.stack([r * np.cos(arc), r * np.sin(arc)], axis=1)
+    leave = arc[-1]  # leaves the post along the tangent, back out to the anchor's bearing on the far side
+    out = wrap[-1] + np.linspace(0, 1, 8)[1:, None] * d * np.array([np.sin(leave), -np.cos(leave)])
+    xy = np.concatenate([standing, wrap, out])
+    laid = np.concatenate([xy, np.full((len(xy), 1), 0.008)], axis=1)
+    mirrored = laid * np.array([-1, 1, 1])
+    points = torch.as_tensor(np.stack([laid, mirrored, laid]), dtype=torch.float32)
+    axes = torch.tensor([[0.0, 0.0], [0.0, 0.0], [0.3, 0.0]])
+    turns = rope.winding_number(points, axes)
+    assert turns[0] == pytest.approx(-1.0, abs=0.02)
+    assert turns[1] == pytest.approx(1.0, abs=0.02)
+    assert abs(turns[2]) < 0.1
+    # the same rope only laid beside the post (straight past it) does not wind once
+    beside = _polyline([[x, 0.03, 0.008] for x in np.linspace(-0.2, 0.2, 22)])
+    assert abs(rope.winding_number(beside, torch.zeros(2))[0]) < 0.5
+
+
 def test_rope_built_straight_is_straight():
     env = _make("rope")
     try:

@@ -115,16 +115,16 @@ class Rope:
         self.articulation.set_root_linear_velocity(torch.zeros(bend.shape[0], 3, device=bend.device))
         self.articulation.set_root_angular_velocity(torch.zeros(bend.shape[0], 3, device=bend.device))
 
-    def lay_flat(self, middle: torch.Tensor, heading: torch.Tensor, turns: torch.Tensor):
+    def lay_flat(self, middle: torch.Tensor, heading: torch.Tensor, turns: torch.Tensor, from_tip: bool = False):
         """Lay the rope flat on the table (z = radius), at rest, curved in the table's plane: `turns`
         [B, segments - 1] are the in-plane bend angles (rad, counter-clockwise) between consecutive
         capsules, `heading` [B] the yaw of the first capsule; the mean of the capsule centres lands on the
-        xy of `middle` [B, 2 or 3]."""
+        xy of `middle` [B, 2 or 3] (`from_tip`: the first tip lands there instead, as for an anchored rope)."""
         b, n = turns.shape[0], self.config.segments
         yaw = heading[:, None] + torch.cat([torch.zeros(b, 1, device=turns.device), turns.cumsum(dim=1)], dim=1)
         step = torch.stack([torch.cos(yaw), torch.sin(yaw)], dim=-1) * (self.config.segment_length / 2)
         centres = torch.cat([torch.zeros(b, 1, 2, device=turns.device), (step[:, :-1] + step[:, 1:]).cumsum(dim=1)], dim=1)
-        first = middle[:, :2] - centres.mean(dim=1)
+        first = middle[:, :2] + (step[:, 0] if from_tip else -centres.mean(dim=1))
         root = torch.cat([first, torch.full((b, 1), self.config.radius, device=turns.device)], dim=1)
         bend = torch.zeros(b, 2 * (n - 1), device=turns.device)
         bend[:, 0::2] = turns
@@ -133,9 +133,11 @@ class Rope:
 
 class RopeTask:
     """Mixin for a task env (before `ManiLadderEnv` in its bases) with one rope `self.rope` built from its
-    `rope_config` in `_load_scene`, and `grasp_segment`: the capsule a grasp near the middle takes."""
+    `rope_config` in `_load_scene` (`rope_anchored`: its first capsule fixed in place, a cable tied down at
+    one end), and `grasp_segment`: the capsule a grasp near the middle takes."""
 
     rope_config = RopeConfig()
+    rope_anchored = False
 
     @property
     def grasp_segment(self) -> int:
@@ -143,7 +145,7 @@ class RopeTask:
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
-        self.rope = build_rope(self.scene, "rope", self.rope_config)
+        self.rope = build_rope(self.scene, "rope", self.rope_config, fix_first_end=self.rope_anchored)
 
 
 class RopeBetweenArmsTask(RopeTask):

@@ -67,8 +67,9 @@ def open_box_parts(inner_half_size: tuple[float, float], wall_height: float, wal
 
 
 def build_upright_cylinder(scene: ManiSkillScene, name: str, radius: float, half_height: float, density: float,
-                           color) -> "Actor":
-    """A cylinder standing on z = 0 (a can, a peg, a weight); its origin is its centre."""
+                           color, kinematic: bool = False) -> "Actor":
+    """A cylinder standing on z = 0 (a can, a peg, a weight); its origin is its centre. `kinematic`: a fixture
+    (a post fixed to the table)."""
     builder = scene.create_actor_builder()
     upright = sapien.Pose(q=[np.cos(np.pi / 4), 0, np.sin(np.pi / 4), 0])  # SAPIEN cylinders lie along x
     builder.add_cylinder_collision(upright, radius=radius, half_length=half_height, density=density)
@@ -76,7 +77,7 @@ def build_upright_cylinder(scene: ManiSkillScene, name: str, radius: float, half
         material = sapien.render.RenderMaterial(base_color=list(color), roughness=0.5)
         builder.add_cylinder_visual(upright, radius=radius, half_length=half_height, material=material)
     builder.initial_pose = sapien.Pose(p=[0, 0, half_height])
-    return builder.build(name=name)
+    return builder.build_kinematic(name=name) if kinematic else builder.build(name=name)
 
 
 def build_flat_box(scene: ManiSkillScene, name: str, half_size, color, density: float = WOOD_DENSITY,
