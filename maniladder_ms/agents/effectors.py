@@ -212,17 +212,13 @@ class EndEffectors:
         """Forget the cached contact answers: the scene has stepped or its state was set."""
         self._cache.clear()
 
-    def _contact(self, question: str, obj, side: Optional[str]) -> torch.Tensor:
-        """`holds` / `touches` (`question`) of `side` (None: any), each side's answer cached (`new_state`)."""
-        out = None
+    def _cached(self, question: str, obj, side: str) -> torch.Tensor:
+        """`side`'s answer to `holds` / `touches` (`question`) for `obj`, computed once until `new_state`."""
         objs = tuple(_as_list(obj))
-        for s in (self.sides if side is None else (side,)):
-            key = (question, s, tuple(id(o) for o in objs))
-            hit = self._cache.get(key)
-            if hit is None:  # the entry keeps its objects alive, so no other object can take their ids meanwhile
-                hit = self._cache[key] = (objs, getattr(self[s], question)(self.scene, obj))
-            out = hit[1].clone() if out is None else out | hit[1]  # clone: callers may change their answer in place
-        return out
+        key = (question, side, tuple(id(o) for o in objs))
+        if key not in self._cache:  # the entry keeps its objects alive, so no other object can take their ids meanwhile
+            self._cache[key] = (objs, getattr(self[side], question)(self.scene, obj))
+        return self._cache[key][1]
 
     def __getitem__(self, side: str) -> _Effector:
         if side not in self._by_side:
@@ -252,18 +248,19 @@ class EndEffectors:
         sides: Sequence[str] = self.sides if side is None else (side,)
         out = None
         for s in sides:
-            flag = fn(self[s])
+            flag = fn(s)
             out = flag if out is None else reduce(out, flag)
         return out
 
     def holds(self, obj, side: Optional[str] = None) -> torch.Tensor:
         """(num_envs,) bool: `obj` (or any of a list) is held by `side` (None: by any end effector)."""
-        return self._contact("holds", obj, side)
+        # a copy of the cached answer: callers may change theirs in place
+        return self._each(side, lambda s: self._cached("holds", obj, s)).clone()
 
     def touches(self, obj, side: Optional[str] = None) -> torch.Tensor:
         """(num_envs,) bool: `side` (None: any end effector) presses on `obj` (or any of a list)."""
-        return self._contact("touches", obj, side)
+        return self._each(side, lambda s: self._cached("touches", obj, s)).clone()
 
     def is_open(self, side: Optional[str] = None) -> torch.Tensor:
         """(num_envs,) bool: `side` is open (None: every end effector is)."""
-        return self._each(side, lambda e: e.is_open(), reduce=torch.Tensor.__and__)
+        return self._each(side, lambda s: self[s].is_open(), reduce=torch.Tensor.__and__)
