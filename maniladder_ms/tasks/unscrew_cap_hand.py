@@ -57,12 +57,13 @@ RAMP_STEPS = 20  # control steps the power grasp closes over (half the default: 
 # joint 7 on seed 104): the open hand turns back for the rest of the turn over this, a margin below it
 FOLLOW = 0.7
 CLEARANCE = 0.1  # m above the cap top where the hand winds its wrist up (it rises from the rest pose first)
+WIND_UP_STEPS = 80  # at most this many control steps to get above the cap with the wrist wound up
 
 
 @register_solver("UnscrewCapHand", control_modes=TCP_DELTA_MODES)
 def solve_unscrew_cap_hand(env, seed: int) -> dict:
-    """Rise, go above the cap winding the wrist up, then twist strokes with the index-thumb pinch
-    (`solvers.twist.unscrew`) until the cap is off."""
+    """Rise, go above the cap winding the wrist up, then twist strokes with the power grasp (`solvers.twist.unscrew`)
+    until the cap is off."""
     with DrivenSolver.episode(env, seed) as s:
         task: UnscrewCapHandEnv = env.unwrapped
         device = task.device
@@ -70,7 +71,7 @@ def solve_unscrew_cap_hand(env, seed: int) -> dict:
         def high():  # above the cap (`rise_first`: the rest pose's hand is below the cap top)
             return rise_first(s, "arm", task.lid_top() + torch.tensor([0.0, 0.0, CLEARANCE], device=device))
 
-        for _ in range(80):
+        for _ in range(WIND_UP_STEPS):
             errs = s.step({"arm": wind_up_target(s, "arm", high(), GRIP_OFFSET)})
             ep, _ = errs["arm"]
             if bool((ep < 0.01).all()) and is_wound_up(s, "arm"):

@@ -92,10 +92,6 @@ class WrapRopeAroundPostEnv(rope.RopeTask, ManiLadderEnv):
             clamp_at[:, 2] = 2 * self.rope_config.radius + ANCHOR_HALF[2]
             self.anchor.set_pose(Pose.create_from_pq(clamp_at, first.q))
 
-    def turns(self) -> torch.Tensor:
-        """Winding number of the rope about the post axis (counter-clockwise positive), [B]."""
-        return rope.winding_number(self.rope.points(), self.post.pose.p[:, :2])
-
     def _get_obs_extra(self, info: dict):
         obs = dict(tcp_pose=self.ee.tcp().raw_pose, is_grasped=info["is_grasped"])
         if "state" in self.obs_mode:
@@ -152,7 +148,7 @@ def solve_wrap_rope_around_post(env, seed: int) -> dict:
         grasp = link.pose.p.clone()
         grasp[:, 2] = cfg.radius + GRASP_CLEARANCE
         s.pick("arm", "gripper", grasp, yaw, lift=CARRY_Z - cfg.radius)
-        q = top_down_q = s.tcp("arm").q
+        q = s.tcp("arm").q  # top-down, fingers across the capsule: kept all the way round
         post = task.post.pose.p[:, :2]
         # the winding so far, anchor to the grasped capsule, and the sense to continue it
         wound = rope.winding_number(task.rope.points()[:, :g + 2], post)
@@ -168,11 +164,11 @@ def solve_wrap_rope_around_post(env, seed: int) -> dict:
         s.move({"arm": (on_circle(start), q)}, max_steps=60, pos_tol=0.01)
         steps = int(np.ceil(float(sweep.abs().max()) * CIRCLE_RADIUS / ARC_STEP))
         for k in range(1, steps + 1):
-            s.step({"arm": (on_circle(start + sweep * k / steps), top_down_q)})
+            s.step({"arm": (on_circle(start + sweep * k / steps), q)})
         end = on_circle(start + sweep)
         s.move({"arm": (end, q)}, max_steps=15, pos_tol=0.005)
         lowered = end.clone()
-        lowered[:, 2] = cfg.radius + 0.004
+        lowered[:, 2] = cfg.radius + GRASP_CLEARANCE  # back down to the height it was grasped at
         s.move({"arm": (lowered, q)}, max_steps=15, pos_tol=0.004)
         s.release("gripper")
         s.move({"arm": (s.above(lowered, 0.1), q)}, max_steps=20)
