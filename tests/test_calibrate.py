@@ -99,6 +99,13 @@ def test_calibrate_resumes_after_a_kill(tmp_path):
         calibrate(["PickPlacePen"], work, out, demos_dir=REPO / "demos", config=dataclasses.replace(TINY, train_steps=8),
                   protocol=TINY_PROTOCOL, progress=False)
 
+    # more evaluation episodes on the same work folder: the evaluation resumes and adds them; nothing retrains
+    more = dataclasses.replace(TINY_PROTOCOL, episodes=2)
+    calibrate(["PickPlacePen"], work, out, demos_dir=REPO / "demos", config=TINY, protocol=more, progress=False)
+    assert {p.name: p.stat().st_mtime_ns for p in [task_dir / "features.npz", *task_dir.glob("checkpoint_*.pt")]} == kept
+    assert json.loads((out / "PickPlacePen.json").read_text())["episodes"] == 2
+    assert json.loads((task_dir / "settings.json").read_text())["calibration"]["episodes"] == 2
+
     # `maniladder report` shows a calibration folder
     from maniladder_ms.cli import main
 

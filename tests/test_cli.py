@@ -7,7 +7,10 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 from PIL import Image
+
+from conftest import sampled_tasks
 
 import maniladder_ms
 
@@ -127,3 +130,19 @@ def test_wheel_install_carries_the_catalog(tmp_path):
     assert out[0].startswith(str(target)) and out[1] == "112"
     assert (target / "maniladder_ms" / "data" / "agents" / "ml_panda_leap.urdf").is_file()
     assert (target / "bin" / "maniladder").exists()
+
+
+BUILT = [t.id for t in maniladder_ms.default_catalog().filter(implemented=True)]
+
+
+@pytest.mark.parametrize("task", sampled_tasks(BUILT, k=2))
+def test_quickstart_records_a_video_per_task_and_seed(task, tmp_path):
+    """The README's quickstart, as printed, on any built task: its video is recorded in the control mode the
+    task's solver drives and named after the task and seed; a second run does not overwrite it unasked."""
+    cmd = [sys.executable, str(REPO / "examples" / "quickstart.py"), task, "--episodes", "1", "--video", str(tmp_path)]
+    run = subprocess.run(cmd, cwd=REPO, capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr[-3000:]
+    video = tmp_path / f"{task}_seed0.mp4"
+    assert video.stat().st_size > 0 and [p.name for p in tmp_path.iterdir()] == [video.name]
+    again = subprocess.run(cmd, cwd=REPO, capture_output=True, text=True)
+    assert again.returncode != 0 and "pass --overwrite" in again.stderr

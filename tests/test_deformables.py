@@ -139,7 +139,7 @@ def test_panda_picks_up_a_rope_end():
         with PandaSolver.episode(env, seed=0) as robot:
             r = env.unwrapped.rope
             first = r.links[0].pose
-            axis = rope._x_axis(first.q)[0].numpy()
+            axis = rope.segment_axis(first.q)[0].numpy()
             yaw = robot.closest_grasp_yaw(float(np.arctan2(axis[1], axis[0])) + np.pi / 2)
             grip_at = r.links[1].pose.p[0].numpy()  # the second capsule's middle, clear of the joints
             robot.pick(robot.top_down_pose([grip_at[0], grip_at[1], r.config.radius], yaw), lift_height=0.15)

@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 import gymnasium as gym
+import pytest
 from mani_skill.utils.registration import REGISTERED_ENVS
 
 import maniladder_ms
@@ -81,3 +82,14 @@ def test_a_broken_task_module_breaks_only_its_task(tmp_path):
     assert error == ("task FlipPancake: importing maniladder_ms/tasks/flip_pancake.py failed: "
                      "RuntimeError: half-written")
     assert other == "PickPlacePenEnv"
+
+
+def test_gym_make_of_an_unbuilt_catalog_task_says_not_implemented():
+    """A catalog task no module builds yet: gym.make names it as not implemented (gymnasium would otherwise
+    answer "Did you mean" another task), and it does not count as implemented."""
+    unbuilt = [s for s in maniladder_ms.default_catalog() if not s.implemented]
+    assert unbuilt, "every catalog task is built: nothing to check"
+    for spec in unbuilt:
+        assert spec.env_id in gym.registry and spec.env_id not in REGISTERED_ENVS
+    with pytest.raises(maniladder_ms.TaskNotImplementedError, match="not implemented yet"):
+        gym.make(unbuilt[0].env_id)

@@ -103,8 +103,8 @@ class Rope:
         p = pose.p.reshape(n, -1, 3).transpose(0, 1)
         q = pose.q.reshape(n, -1, 4).transpose(0, 1)
         half = self.config.segment_length / 2
-        tip0 = p[:, 0] - half * _x_axis(q[:, 0])
-        tip1 = p[:, -1] + half * _x_axis(q[:, -1])
+        tip0 = p[:, 0] - half * segment_axis(q[:, 0])
+        tip1 = p[:, -1] + half * segment_axis(q[:, -1])
         return torch.cat([tip0[:, None], p, tip1[:, None]], dim=1)
 
     def set_shape(self, root_pose, bend: torch.Tensor):
@@ -225,10 +225,17 @@ def wavy_turns(batch: int, segments: int, max_amp: float) -> torch.Tensor:
     return amp * torch.sin(2 * np.pi * k / segments + torch.rand(batch, 1) * 2 * np.pi)
 
 
-def _x_axis(q: torch.Tensor) -> torch.Tensor:
-    """First column of the rotation of wxyz quaternions q [B, 4]."""
+def segment_axis(q: torch.Tensor) -> torch.Tensor:
+    """A capsule's long axis in the world, [B, 3], from its link's wxyz quaternions q [B, 4] (capsules lie
+    along their link's local x: the first column of the rotation)."""
     w, x, y, z = q.unbind(-1)
     return torch.stack([1 - 2 * (y * y + z * z), 2 * (x * y + w * z), 2 * (x * z - w * y)], dim=-1)
+
+
+def segment_yaw(q: torch.Tensor) -> torch.Tensor:
+    """The heading of a capsule's long axis in the table plane, [B] radians (what a top-down grasp of it aligns to)."""
+    axis = segment_axis(q)
+    return torch.atan2(axis[..., 1], axis[..., 0])
 
 
 def build_rope(scene: ManiSkillScene, name: str, config: RopeConfig = RopeConfig(), fix_first_end: bool = False,

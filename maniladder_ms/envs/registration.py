@@ -90,6 +90,23 @@ def register_lazy(task_id: str, module: str, path: str, error: str | None = None
     )
 
 
+def _refuse_unbuilt(task_id: str, **kwargs):
+    import maniladder_ms
+
+    spec = default_catalog().get(task_id)
+    raise maniladder_ms.TaskNotImplementedError(
+        f"{spec.env_id}: task {spec.id} ({spec.suite}) is in the catalog but not implemented yet; "
+        "`maniladder list --implemented` shows the ones that are")
+
+
+def register_unbuilt(task_id: str):
+    """Put a catalog task that no module builds yet in gymnasium's registry only, with an entry point that
+    raises `TaskNotImplementedError`: `gym.make` then says "not implemented yet" rather than suggesting
+    another task. ManiSkill's `REGISTERED_ENVS` (what `TaskSpec.implemented` reads) does not get it."""
+    spec = default_catalog().get(task_id)
+    gym.register(spec.env_id, entry_point=partial(_refuse_unbuilt, task_id), disable_env_checker=True)
+
+
 # task ids registered by a module's import rather than found by the scan (tests/test_registry.py: none)
 UNSCANNED: set[str] = set()
 

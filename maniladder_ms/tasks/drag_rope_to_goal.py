@@ -120,9 +120,8 @@ def solve_drag_rope_to_goal(env, seed: int) -> dict:
     with PandaSolver.episode(env, seed) as robot:
         task: DragRopeToGoalEnv = env.unwrapped
         link = task.rope.links[task.grasp_segment]
-        axis = rope._x_axis(link.pose.q)[0].cpu().numpy()
         grip_at = link.pose.p[0].cpu().numpy()
-        yaw = robot.closest_grasp_yaw(float(np.arctan2(axis[1], axis[0])) + np.pi / 2)
+        yaw = robot.closest_grasp_yaw(float(rope.segment_yaw(link.pose.q)[0]) + np.pi / 2)
         grasp = robot.top_down_pose([grip_at[0], grip_at[1], task.rope_config.radius], yaw)
         robot.pick(grasp, lift_height=DRAG_HEIGHT)
         zone = task.zone.pose.p[0].cpu().numpy()

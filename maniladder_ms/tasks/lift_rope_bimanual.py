@@ -86,8 +86,7 @@ def solve_lift_rope_bimanual(env, seed: int) -> dict:
         grasps = []
         for side in SIDES:
             link = links[side]
-            axis = rope._x_axis(link.pose.q)
-            yaw = DrivenSolver.neutral_yaw(torch.atan2(axis[:, 1], axis[:, 0]), np.pi)
+            yaw = DrivenSolver.neutral_yaw(rope.segment_yaw(link.pose.q), np.pi)
             p = link.pose.p.clone()
             p[:, 2] = task.rope_config.radius + GRASP_CLEARANCE
             grasps.append(Grasp(f"{side}_arm", f"{side}_gripper", p, top_down_quat(yaw, n, device), above))

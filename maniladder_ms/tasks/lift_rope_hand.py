@@ -85,10 +85,9 @@ def pinch_and_lift(s: DrivenSolver, task: LiftRopeHandEnv):
     """Take the middle capsule top-down between the straight index and middle fingers (fingers along the
     rope, tips spread), swing the two fingers together (the "scissor" pinch) and lift `LIFT` slowly."""
     link = task.rope.links[task.grasp_segment]
-    axis = rope._x_axis(link.pose.q)
     centre = link.pose.p.clone()
     centre[:, 2] = task.rope_config.radius
-    tcp, q = DrivenSolver.scissor_pose(centre, torch.atan2(axis[:, 1], axis[:, 0]))
+    tcp, q = DrivenSolver.scissor_pose(centre, rope.segment_yaw(link.pose.q))
     s.set_ee("hand", "scissor_open", steps=1)
     s.move({"arm": (s.above(tcp, APPROACH_HEIGHT), q)}, max_steps=60)
     s.move({"arm": (tcp, q)}, max_steps=40, pos_tol=0.003)

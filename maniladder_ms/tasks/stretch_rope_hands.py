@@ -84,11 +84,10 @@ def solve_stretch_rope_hands(env, seed: int) -> dict:
         grasps, centres = [], {}
         for side in SIDES:
             link = links[side]
-            axis = rope._x_axis(link.pose.q)
             centre = link.pose.p.clone()
             centre[:, 2] = task.rope_config.radius
             centres[side] = centre
-            p, q = DrivenSolver.scissor_pose(centre, torch.atan2(axis[:, 1], axis[:, 0]), mirror=side == "left")
+            p, q = DrivenSolver.scissor_pose(centre, rope.segment_yaw(link.pose.q), mirror=side == "left")
             grasps.append(Grasp(f"{side}_arm", f"{side}_hand", p, q, above))
         for g in grasps:
             s.set_ee(g.ee, "scissor_open", steps=0)

@@ -143,8 +143,7 @@ def solve_wrap_rope_around_post(env, seed: int) -> dict:
         cfg = task.rope_config
         g = cfg.segments - 1 - GRASP_FROM_END
         link = task.rope.links[g]
-        axis = rope._x_axis(link.pose.q)
-        yaw = DrivenSolver.neutral_yaw(torch.atan2(axis[:, 1], axis[:, 0]), np.pi)  # fingers across the capsule
+        yaw = DrivenSolver.neutral_yaw(rope.segment_yaw(link.pose.q), np.pi)  # fingers across the capsule
         grasp = link.pose.p.clone()
         grasp[:, 2] = cfg.radius + GRASP_CLEARANCE
         s.pick("arm", "gripper", grasp, yaw, lift=CARRY_Z - cfg.radius)
