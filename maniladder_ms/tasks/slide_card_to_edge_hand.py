@@ -52,7 +52,7 @@ class SlideCardToEdgeHandEnv(PickThinCardTask):
     least `lift_height` above the stand's top and the hand holds it.
 
     **Level 2:** against Level 1's SX tasks (one grasp of an object standing free, e.g. LiftBottleHand: 2
-    stages, power grasp and lift, ~60 steps): a non-prehensile stage first (press a 2 mm card with one
+    stages, power grasp and lift, ~80 steps): a non-prehensile stage first (press a 2 mm card with one
     fingertip and slide it 7-11 cm, the fingertip's friction against the stand's, without lifting or turning
     it away, to a 3-5 cm overhang), then a grasp that exists only because of the slide: the palm lies on the
     card's end, placed within a ~2 cm window along the card (further out, the flexed finger housings hit
