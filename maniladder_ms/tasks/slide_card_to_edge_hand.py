@@ -5,9 +5,11 @@ round the card's end and back up under it, and lift it.
 How the grasp came about (the earlier tries, for whoever changes it): the fingers of a "power" grasp with the
 tcp just below the card, beyond its end, come back at the card's own level and push its end back (the curled
 fingertip boxes span 5.6 cm in z), and the thumb's swing brushes the card sideways; what works is the palm
-on the card (the card's end under the palm, behind the flexed MCP housings) and the fingers hooked first at
+on the card (the card's end under the palm, 2 mm ahead of the tcp) and the fingers hooked first at
 PIP / DIP in front of the card's end (the hook's lowest point stays 5 cm above the tcp, which lies ~1 mm
 above the table) and then swung down and back at the MCP joints, so their tips rise under the overhang.
+The clamp tolerates the card's end from 1.2 cm behind to 3 cm ahead of the tcp (`CLAMP_AHEAD`, seeds 100-103
+all lifted; 4.5 cm ahead: 2 of 4).
 """
 
 from __future__ import annotations
@@ -53,12 +55,11 @@ class SlideCardToEdgeHandEnv(PickThinCardTask):
 
     **Level 2:** against Level 1's SX tasks (one grasp of an object standing free, e.g. LiftBottleHand: 2
     stages, power grasp and lift, ~80 steps): a non-prehensile stage first (press a 2 mm card with one
-    fingertip and slide it 7-11 cm, the fingertip's friction against the stand's, without lifting or turning
-    it away, to a 3-5 cm overhang), then a grasp that exists only because of the slide: the palm lies on the
-    card's end, placed within a ~2 cm window along the card (further out, the flexed finger housings hit
-    the card's end; further in, the curled tips meet the stand's side), its thumb raised to its limit (else
-    it meets the stand's top), and the fingers curl down round the 2 mm edge and
-    back up under the overhang; 4 stages (press, slide, clamp, lift), ~120 steps.
+    fingertip, 2 mm into it, and slide it 7-11 cm by the fingertip's friction against the stand's, without
+    lifting or turning it away, to a 3-5 cm overhang), then a grasp that exists only because of the slide and
+    that no synergy closes: the palm laid on the card's end with the thumb raised out of the way, the index
+    and middle fingers hooked in front of the card's end and only then swung down and back round its 2 mm
+    edge and up under the overhang; 4 stages (press, slide, clamp, lift), ~120 steps.
     """
 
     max_dense_reward = 6
