@@ -1,18 +1,15 @@
 """SlideCardToEdgeHand (L2 rigid SX): slide a thin card lying on a low stand over the stand's edge with a
-fingertip, then hook the overhang between the curled fingers and the thumb and lift it.
+fingertip, then clamp the overhang between the palm (on the card) and the index and middle fingers curled
+round the card's end and back up under it, and lift it.
 
-UNFINISHED (not registered: the `@register_task` line is commented out, so nothing imports this module): the
-scene, the rule and the slide work; the grasp of the overhang does not yet. Where it stands (seed 0):
-- slide: the index fingertip ("point") pressing 1 mm into the card, closed loop on the card's far end, moves
-  the card 8 cm without slip to a 4.5 cm overhang (`slid_over_edge` latches); a 3 mm press (8.5 N) made
-  the arm lag and an open-loop ramp overshot (the card tipped off).
-- hook (`HOOK_THUMB` then `HOOK`, tcp just below the card beyond its end): the thumb sweep stays clear of the
-  stand with j13 = 0, but the curling fingers come back at the card's own level and push its end back (the
-  fingertip boxes span 5.6 cm in z when curled), and the thumb's dip link brushes the card sideways.
-- next to try: the palm on the card (the palm's underside 8.1 cm above the tcp, the card's end just past the
-  palm's front, 2.5 cm ahead of the tcp) and the fingers curled down round the card's end and back up under
-  it: palm + finger is an `ee.holds` grasp; their PIP joints then lie ~3.5 cm below the card, so the distal
-  segments swing up under it rather than into its end.
+How the grasp came about (the earlier tries, for whoever changes it): the fingers of a "power" grasp with the
+tcp just below the card, beyond its end, come back at the card's own level and push its end back (the curled
+fingertip boxes span 5.6 cm in z), and the thumb's swing brushes the card sideways; what works is the palm
+on the card (the card's end under the palm, 2 mm ahead of the tcp) and the fingers hooked first at
+PIP / DIP in front of the card's end (the hook's lowest point stays 5 cm above the tcp, which lies ~1 mm
+above the table) and then swung down and back at the MCP joints, so their tips rise under the overhang.
+The clamp tolerates the card's end from 1.2 cm behind to 3 cm ahead of the tcp (`CLAMP_AHEAD`, seeds 100-103
+all lifted; 4.5 cm ahead: 2 of 4).
 """
 
 from __future__ import annotations
@@ -25,7 +22,7 @@ import torch
 from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.agents.helpers import leap_fingertip, top_down_quat
-from maniladder_ms.envs import register_task  # noqa: F401  (the registration line is commented out)
+from maniladder_ms.envs import register_task
 from maniladder_ms.geometry import yaw_of, yaw_quat
 from maniladder_ms.objects.basket import tilt
 from maniladder_ms.objects.tabletop import build_flat_box
@@ -40,11 +37,11 @@ FLAT_TILT = np.deg2rad(10)  # the card "lies" on the stand: tilted less than thi
 LYING_TOL = 0.004  # m: ... within this of the stand's top
 
 
-# UNFINISHED, not registered (see the module docstring): @register_task("SlideCardToEdgeHand")
+@register_task("SlideCardToEdgeHand")
 class SlideCardToEdgeHandEnv(PickThinCardTask):
     """**Task:** a thin plastic card lies flat on a low stand (a box on the table), too thin for the fingers to
     get under it there. Press it with a fingertip and slide it over the stand's far edge until it sticks
-    out, then take the overhang between the fingers (curled under it) and the thumb (above it), and lift.
+    out, then take the overhang in the hand (fingers curled up under it, the palm on it), and lift.
 
     **Randomisation:** the stand (24 x 30 cm, `stand_height` tall) stands with its far edge (the one away
     from the robot) uniform in x in [-0.2, -0.14], its centre's y in [-0.08, 0.08]; the card
@@ -57,10 +54,12 @@ class SlideCardToEdgeHandEnv(PickThinCardTask):
     least `lift_height` above the stand's top and the hand holds it.
 
     **Level 2:** against Level 1's SX tasks (one grasp of an object standing free, e.g. LiftBottleHand: 2
-    stages, power grasp and lift, ~60 steps): a non-prehensile stage first (press and slide a 2 mm card
-    7-11 cm, the fingertip's friction against the stand's, without lifting or turning it away), then a
-    grasp that exists only because of the slide: the fingers curl under a 4-5 cm overhang whose edge lies
-    2 mm thick, between the stand's side and the thumb; 4 stages (press, slide, hook, lift).
+    stages, power grasp and lift, ~80 steps): a non-prehensile stage first (press a 2 mm card with one
+    fingertip, 2 mm into it, and slide it 7-11 cm by the fingertip's friction against the stand's, without
+    lifting or turning it away, to a 3-5 cm overhang), then a grasp that exists only because of the slide and
+    that no synergy closes: the palm laid on the card's end with the thumb raised out of the way, the index
+    and middle fingers hooked in front of the card's end and only then swung down and back round its 2 mm
+    edge and up under the overhang; 4 stages (press, slide, clamp, lift), ~120 steps.
     """
 
     max_dense_reward = 6
@@ -130,27 +129,42 @@ class SlideCardToEdgeHandEnv(PickThinCardTask):
         return reward
 
 
-PRESS_DEPTH = 0.001  # the index tip's target this far below the card's top: it presses the card on the stand
+# the press posture: "point" with the index swung back past straight down (MCP 2.0 rad): its tip ends 4.1 cm
+# behind the tcp instead of 1.7 cm ahead, and it presses the card's centre (was 2 cm behind it): the tcp stays
+# 7.8 cm further from the robot's base (with "point" 2 cm behind the centre, the top-down hand could not get
+# low enough over cards starting nearest the robot, their centres ~30 cm ahead of the base: 5 of seeds 100-149
+# failed; with the press at the centre the slide ends with the tip 1.5 cm short of the edge); the tilted
+# tip's lowest corner lies `TIP_LOW` below the centre of its end face (the tip's collision box, measured)
+POINT_BACK = np.array([0.0, 2.0, 0.0, 0.0, 0.0, 0.0, 1.6, 1.6, 0.0, 0.0, 1.6, 1.6, 0.0, 0.0, 0.0, 0.0])
+TIP_LOW = 0.0042
+PRESS_DEPTH = 0.002  # the index tip's target this far below the card's top: it presses the card on the stand
+# (1 mm left the tilted tip barely touching where the arm stops 1 mm short of its target)
 SLIDE_STEP = 0.01  # m the press point's target leads the finger by at most
 SLIDE_TOL = 0.002  # m: the slide stops once the card's far end is this near its goal
-PRESS_BACK = 0.02  # the press point this far behind the card's centre (along the card, away from the edge)
+PRESS_BACK = 0.0  # the press point this far behind the card's centre (along the card, away from the edge)
 OVERHANG = 0.045  # the card's far end this far beyond the edge when the slide stops
-HOOK_BACK = 0.005  # the tcp this far beyond the card's end (along the card)
-HOOK_SIDE = 0.02  # the card's centre line this far along the tcp's y axis: under the thumb, index and middle
-HOOK_BELOW = 0.013  # the tcp this far below the card's mid-plane
-# the hook's end posture: fingers as "power" but less curled at PIP / DIP (their tips end 4 cm back from where
-# they cross the card's plane, short of the stand's side); the thumb swung under the palm with its second joint
-# (j13) straight: through its whole sweep it stays above the tcp's level less 1.1 cm (j13 at power's 0.6 dips it
-# 2 cm lower halfway), and ends on the card's top, over the index and middle fingers' side
-HOOK = np.array([0.0, 1.5, 0.6, 0.2, 0.0, 1.5, 0.6, 0.2, 0.0, 1.5, 0.6, 0.2, 1.6, 0.0, 0.8, 0.8])
-HOOK_THUMB = np.concatenate([np.zeros(12), HOOK[12:]])  # the thumb alone, the fingers still open
+# the clamp: the palm lies on the card's end, the index and middle fingers curl down past the card's end and
+# back up under the overhang (tcp frame: x along the fingers, z down; the hand's geometry, open: the palm's
+# underside 8.1 cm above the tcp, its front 1.7 cm ahead of it; the fingers' MCP housings, flexed down, reach
+# back to 0.7 cm ahead of the tcp)
+PALM_ABOVE = 0.081  # the palm's underside this far above the tcp
+CLAMP_AHEAD = 0.002  # the card's end this far ahead of the tcp (under the palm, behind the flexed MCP housings)
+CLAMP_SIDE = 0.007  # the card's centre line this far along the tcp's y axis: under the index and middle fingers
+CLAMP_PRESS = 0.002  # the palm's target this far into the card
+# the thumb raised (j12 near its lower limit, -0.349): open, its links reach 4 mm below the palm's underside, over
+# the stand, and would hold the palm off the card; the ring finger (beside the card) stays straight
+THUMB_UP = [-0.34, 0.0, 0.0, 0.0]
+HOOK_CURL = np.array([0.0, 0.0, 1.57, 1.57, 0.0, 0.0, 1.57, 1.57, 0.0, 0.0, 0.0, 0.0, *THUMB_UP])  # hooks at the front
+CLAMP = np.array([0.0, 1.57, 1.57, 1.57, 0.0, 1.57, 1.57, 1.57, 0.0, 0.0, 0.0, 0.0, *THUMB_UP])  # swung under
+OPEN_THUMB_UP = np.array([0.0] * 12 + THUMB_UP)
 
 
 @register_solver("SlideCardToEdgeHand", control_modes=TCP_DELTA_MODES)
 def solve_slide_card_to_edge_hand(env, seed: int) -> dict:
-    """Point the index finger down, press it on the card's middle and slide the card out along +x until its
-    far end overhangs the edge; lift the finger, hold the hand over the overhang with the fingers pointing
-    past its end, close the power grasp (the fingers curl under the overhang, the thumb comes down on it),
+    """Point the index finger down (swung back under the palm), press it on the card's middle and slide the card out along +x until its
+    far end overhangs the edge; lift the finger; lay the open hand (thumb raised) with its palm on the card's
+    end, the index and middle fingers over the overhang; hook them at PIP / DIP in front of the card's end,
+    then swing them down and back at the MCP joints until their tips press the overhang against the palm;
     lift."""
     with DrivenSolver.episode(env, seed) as s:
         task: SlideCardToEdgeHandEnv = env.unwrapped
@@ -159,10 +173,10 @@ def solve_slide_card_to_edge_hand(env, seed: int) -> dict:
         q = top_down_quat(yaw, n, device=device)
         axis = torch.stack([torch.cos(yaw), torch.sin(yaw), torch.zeros_like(yaw)], dim=1)
         up = torch.tensor([0.0, 0.0, 1.0], device=device)
-        s.set_ee("hand", "point", steps=1)
+        s.set_ee("hand", POINT_BACK, steps=1)
         card_top = task.card.pose.p + up * task.card_thickness / 2 - axis * PRESS_BACK
         s.move({"arm": (s.above(card_top, APPROACH_HEIGHT), q)}, max_steps=40)
-        tip_offset = leap_fingertip(task.agent) - task.ee.tcp().p
+        tip_offset = leap_fingertip(task.agent) - task.ee.tcp().p - up * TIP_LOW
         s.move({"arm": (s.above(card_top, 0.02) - tip_offset, q)}, max_steps=30, pos_tol=0.003)
         press = card_top - up * PRESS_DEPTH - tip_offset
         s.move({"arm": (press, q)}, max_steps=15, pos_tol=0.002)
@@ -178,16 +192,17 @@ def solve_slide_card_to_edge_hand(env, seed: int) -> dict:
             target[:, 0] = s.tcp("arm").p[:, 0] + lack.clamp(0, SLIDE_STEP)
             s.step({"arm": (target, q)})
         s.move({"arm": (s.above(s.tcp("arm").p, 0.04), q)}, max_steps=15, pos_tol=0.005)
-        # the hook: the open hand over the overhang, its fingers pointing past the card's end, the card under
-        # the middle and ring fingers, the tcp just below the card; the thumb swings over the card first,
-        # then the fingers curl down past its end and back up under it, pressing it against the thumb
-        s.set_ee("hand", "open", steps=3)
+        # the clamp: the open hand (thumb raised) comes down with its palm on the card's end; the index and
+        # middle fingers hook at their PIP / DIP joints in front of the card's end, then swing down and back at
+        # their MCP joints, their tips coming up under the overhang and pressing it against the palm
+        s.set_ee("hand", OPEN_THUMB_UP, steps=3)
         side = torch.stack([torch.sin(yaw), -torch.cos(yaw), torch.zeros_like(yaw)], dim=1)  # the tcp's y axis
-        hook = far_end() + axis * HOOK_BACK - side * HOOK_SIDE - up * HOOK_BELOW
-        s.move({"arm": (s.above(hook, 0.06), q)}, max_steps=30, pos_tol=0.004)
-        s.move({"arm": (hook, q)}, max_steps=30, pos_tol=0.002)
-        s.close_hand("hand", HOOK_THUMB, ramp_steps=20, hold_steps=2)
-        s.close_hand("hand", HOOK, ramp_steps=30, hold_steps=8)
-        s.move({"arm": (s.above(hook, task.lift_height + 0.04), q)}, max_steps=40)
+        top = far_end() + up * task.card_thickness / 2
+        clamp = top - axis * CLAMP_AHEAD - side * CLAMP_SIDE - up * (PALM_ABOVE + CLAMP_PRESS)
+        s.move({"arm": (s.above(clamp, 0.03), q)}, max_steps=30, pos_tol=0.004)
+        s.move({"arm": (clamp, q)}, max_steps=30, pos_tol=0.002)
+        s.close_hand("hand", HOOK_CURL, ramp_steps=10, hold_steps=2)
+        s.close_hand("hand", CLAMP, ramp_steps=20, hold_steps=5)
+        s.move({"arm": (s.above(clamp, task.lift_height + 0.03), q)}, max_steps=40)
         s.hold_until_success()
         return s.info
