@@ -412,7 +412,8 @@ def packaged_instructions() -> tuple[str, dict]:
 
 
 def load_catalog(path: Optional[str | Path] = None, instructions: Optional[str | Path] = None) -> Catalog:
-    """Load and validate a catalog file with an instructions file; without either, the packaged one."""
+    """Load and validate a catalog file with an instructions file; without either, the packaged one (a catalog
+    of other tasks needs an instructions file of its own: every task, and only those, must have instructions)."""
     if path is None and instructions is None:
         return default_catalog()
     source, data = (str(path), _read_yaml(str(path))) if path is not None else _read_packaged(CATALOG_FILE)
