@@ -3,12 +3,20 @@
 `maniladder_ms/data/task_catalog.yaml` is the spec of every task (id, level, suite, embodiment,
 object class, skills, success rule intent, horizon, C_geom/C_proc/C_perc scores). It is validated
 on load; `list`, env metadata, evaluation reports and tests all read it through this module.
+
+`maniladder_ms/data/instructions.yaml` holds each task's language instruction: a canonical one and at least
+`MIN_PARAPHRASES` paraphrases, loaded into `TaskSpec.instruction` / `TaskSpec.paraphrases`. It is a file of
+its own, keyed by task id, rather than fields of the catalog rows: the rows are edited by whoever builds a
+task (params, rules), the instructions are written for all 112 tasks at once, and one file each keeps those
+edits apart. The loader holds the two files to each other: every catalog task has its instructions, and
+every instruction belongs to a catalog task.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import difflib
+import random
 import re
 import string
 from functools import lru_cache
@@ -37,6 +45,13 @@ SKILLS = (
 OBJECT_CLASSES = ("rigid", "articulated", "rope", "cloth", "clay", "liquid", "granular")
 SCORE_KEYS = ("C_geom", "C_proc", "C_perc")
 ENV_ID_FORMAT = "ManiLadder-{}-v1"
+CATALOG_FILE = "data/task_catalog.yaml"
+INSTRUCTIONS_FILE = "data/instructions.yaml"
+MIN_PARAPHRASES = 4
+MAX_INSTRUCTION_WORDS = 15  # the canonical instruction: a short sentence a person says to the robot
+# which instruction an episode gets (demos, evaluation): the canonical one, or one of the canonical and its
+# paraphrases drawn from the episode seed (`TaskSpec.instruction_for`)
+INSTRUCTION_MODES = ("canonical", "paraphrase")
 
 
 class CatalogError(ValueError):
@@ -72,6 +87,21 @@ class TaskSpec:
     params: dict = dataclasses.field(default_factory=dict)
     # `success` with `{param:unit}` placeholders, as written in the catalog; `success` is it rendered
     success_template: str = ""
+    # the language instruction (`instructions.yaml`): the canonical one and its paraphrases (same meaning)
+    instruction: str = ""
+    paraphrases: tuple[str, ...] = ()
+
+    @property
+    def instructions(self) -> tuple[str, ...]:
+        """The canonical instruction, then its paraphrases."""
+        return (self.instruction, *self.paraphrases)
+
+    def instruction_for(self, seed: int, mode: str = "canonical") -> str:
+        """The instruction an episode with `seed` gets: under "canonical" the canonical one; under "paraphrase"
+        one of `instructions` drawn from the task id and the seed (the same episode always gets the same text)."""
+        if check_instruction_mode(mode) == "canonical":
+            return self.instruction
+        return random.Random(f"{self.id}:{int(seed)}").choice(self.instructions)
 
     @property
     def implemented(self) -> bool:
@@ -83,8 +113,16 @@ class TaskSpec:
     def as_dict(self) -> dict:
         d = dataclasses.asdict(self)
         d["skills"] = list(self.skills)
+        d["paraphrases"] = list(self.paraphrases)
         d["implemented"] = self.implemented
         return d
+
+
+def check_instruction_mode(mode: str) -> str:
+    """`mode` if it is one of INSTRUCTION_MODES, else a ValueError naming them."""
+    if mode not in INSTRUCTION_MODES:
+        raise ValueError(f"unknown instruction mode {mode!r}; choose one of: {', '.join(INSTRUCTION_MODES)}")
+    return mode
 
 
 def snake_case(name: str) -> str:
@@ -133,13 +171,18 @@ def suite_name(level: int, object_property: str, embodiment: str) -> str:
 class Catalog:
     """Validated, read-only view of the task catalog."""
 
-    def __init__(self, data: dict, source: str = "<dict>"):
+    def __init__(self, data: dict, source: str = "<dict>", instructions: Optional[tuple[str, dict]] = None):
+        """`data`: the parsed catalog; `instructions`: (source, parsed instructions file), default the packaged one."""
         self.source = source
         self.version = data.get("version") if isinstance(data, dict) else None
-        self.tasks: tuple[TaskSpec, ...] = tuple(_parse_tasks(data, source))
+        tasks = tuple(_parse_tasks(data, source))
+        _validate_ladder(tasks, data, source)
+        instructions_source, instructions = instructions or packaged_instructions()
+        texts = parse_instructions(instructions, [t.id for t in tasks], instructions_source)
+        self.tasks: tuple[TaskSpec, ...] = tuple(
+            dataclasses.replace(t, instruction=texts[t.id][0], paraphrases=texts[t.id][1]) for t in tasks)
         self._by_id = {t.id: t for t in self.tasks}
         self.level_success_ranges = {int(k): tuple(v["success_range"]) for k, v in data["levels"].items()}
-        _validate_ladder(self.tasks, data, source)
 
     def __len__(self):
         return len(self.tasks)
@@ -297,22 +340,88 @@ def _validate_ladder(tasks: tuple[TaskSpec, ...], data: dict, source: str):
                 )
 
 
-def load_catalog(path: Optional[str | Path] = None) -> Catalog:
-    """Load and validate a catalog file; without a path, the packaged catalog."""
-    if path is None:
-        return default_catalog()
-    path = Path(path)
+def _normalized(text: str) -> str:
+    """An instruction as compared for duplicates: case, spacing and the final full stop do not count."""
+    return " ".join(text.casefold().rstrip(".!").split())
+
+
+def parse_instructions(data, task_ids: list[str], source: str) -> dict[str, tuple[str, tuple[str, ...]]]:
+    """{task id: (canonical instruction, paraphrases)} of a parsed instructions file, checked against the
+    catalog's task ids: each task has a canonical instruction of at most MAX_INSTRUCTION_WORDS words and at
+    least MIN_PARAPHRASES paraphrases, no two of its texts alike, no two tasks with the same canonical one,
+    and no entry for a task that is not in the catalog."""
+    if not isinstance(data, dict):
+        raise CatalogError(f"{source}: expected a mapping of task id -> {{instruction, paraphrases}}")
+    unknown = [k for k in data if k not in task_ids]
+    if unknown:
+        hints = [f"{k} (did you mean {', '.join(close)}?)" if (close := difflib.get_close_matches(str(k), task_ids, n=1))
+                 else str(k) for k in unknown]
+        raise CatalogError(f"{source}: instructions for task(s) not in the catalog: {', '.join(hints)}")
+    missing = [t for t in task_ids if t not in data]
+    if missing:
+        raise CatalogError(f"{source}: no instructions for catalog task(s) {', '.join(missing)}; every task needs "
+                           f"an instruction and at least {MIN_PARAPHRASES} paraphrases")
+    out, owner = {}, {}
+    for task_id in task_ids:
+        entry, where = data[task_id], f"{source}: {task_id}"
+        if not isinstance(entry, dict) or set(entry) != {"instruction", "paraphrases"}:
+            raise CatalogError(f"{where}: expected exactly the keys 'instruction' and 'paraphrases', got {entry!r}")
+        text, paraphrases = entry["instruction"], entry["paraphrases"]
+        if not isinstance(paraphrases, list):
+            raise CatalogError(f"{where}: paraphrases must be a list of sentences, got {paraphrases!r}")
+        bad = [t for t in [text, *paraphrases] if not isinstance(t, str) or not t.strip()]
+        if bad:
+            raise CatalogError(f"{where}: instructions must be non-empty strings, got {bad[0]!r}")
+        if len(text.split()) > MAX_INSTRUCTION_WORDS:
+            raise CatalogError(f"{where}: the instruction has {len(text.split())} words; keep it to "
+                               f"{MAX_INSTRUCTION_WORDS} (the paraphrases may be longer)")
+        if len(paraphrases) < MIN_PARAPHRASES:
+            raise CatalogError(f"{where}: {len(paraphrases)} paraphrase(s), expected at least {MIN_PARAPHRASES}")
+        seen: dict[str, str] = {}
+        for t in [text, *paraphrases]:
+            if _normalized(t) in seen:
+                raise CatalogError(f"{where}: duplicate instruction {t!r} (same as {seen[_normalized(t)]!r})")
+            seen[_normalized(t)] = t
+        if _normalized(text) in owner:
+            raise CatalogError(f"{where}: the same instruction as {owner[_normalized(text)]}: {text!r}")
+        owner[_normalized(text)] = task_id
+        out[task_id] = (text.strip(), tuple(p.strip() for p in paraphrases))
+    return out
+
+
+def _read_yaml(source: str, text: Optional[str] = None):
+    """The parsed YAML file `source` (or `text`, read from there)."""
     try:
-        data = yaml.safe_load(path.read_text())
+        # libyaml's parser where PyYAML has it: the same data, ~10x faster than the pure-Python one (0.06 s
+        # against 0.6 s at 112 rows), and `import maniladder_ms` loads the catalog to register the tasks
+        return yaml.load(Path(source).read_text() if text is None else text,
+                         Loader=getattr(yaml, "CSafeLoader", yaml.SafeLoader))
     except yaml.YAMLError as e:
-        raise CatalogError(f"{path}: not valid YAML: {e}") from e
-    return Catalog(data, source=str(path))
+        raise CatalogError(f"{source}: not valid YAML: {e}") from e
+
+
+def _read_packaged(name: str):
+    """(source label, parsed data) of a packaged data file."""
+    return f"maniladder_ms/{name}", _read_yaml(f"maniladder_ms/{name}", resources.files("maniladder_ms").joinpath(name).read_text())
+
+
+@lru_cache(maxsize=1)
+def packaged_instructions() -> tuple[str, dict]:
+    """(source label, parsed data) of the packaged instructions file (checked against a catalog when one is built)."""
+    return _read_packaged(INSTRUCTIONS_FILE)
+
+
+def load_catalog(path: Optional[str | Path] = None, instructions: Optional[str | Path] = None) -> Catalog:
+    """Load and validate a catalog file with an instructions file; without either, the packaged one (a catalog
+    of other tasks needs an instructions file of its own: every task, and only those, must have instructions)."""
+    if path is None and instructions is None:
+        return default_catalog()
+    source, data = (str(path), _read_yaml(str(path))) if path is not None else _read_packaged(CATALOG_FILE)
+    texts = packaged_instructions() if instructions is None else (str(instructions), _read_yaml(str(instructions)))
+    return Catalog(data, source=source, instructions=texts)
 
 
 @lru_cache(maxsize=1)
 def default_catalog() -> Catalog:
-    text = resources.files("maniladder_ms").joinpath("data/task_catalog.yaml").read_text()
-    # libyaml's parser where PyYAML has it: the same data, ~10x faster than the pure-Python one (0.06 s
-    # against 0.6 s at 112 rows), and `import maniladder_ms` loads the catalog to register the tasks
-    return Catalog(yaml.load(text, Loader=getattr(yaml, "CSafeLoader", yaml.SafeLoader)),
-                   source="maniladder_ms/data/task_catalog.yaml")
+    source, data = _read_packaged(CATALOG_FILE)
+    return Catalog(data, source=source)

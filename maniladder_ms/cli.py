@@ -33,6 +33,12 @@ def cmd_list(args) -> int:
     if args.json:
         print(json.dumps([t.as_dict() for t in tasks], indent=2))
         return 0
+    if args.instructions:  # the canonical instruction instead of the metadata columns, to keep lines short
+        print_table(("", "task", "suite", "instruction"),
+                    [("*" if t.implemented else " ", t.id, t.suite, t.instruction) for t in tasks])
+        print(f"\n{len(tasks)} tasks, {sum(t.implemented for t in tasks)} implemented (*); "
+              "`maniladder show TASK` lists a task's paraphrases")
+        return 0
     header = ("", "task", "level", "suite", "object", "skills", "horizon", "Cg/Cp/Cv")
     rows = [
         ("*" if t.implemented else " ", t.id, str(t.level), t.suite, t.object_class, ",".join(t.skills),
@@ -75,7 +81,8 @@ def cmd_show(args) -> int:
 
     spec = _catalog().get(args.task)
     rows = [("task", f"{spec.id} ({spec.suite}, horizon {spec.horizon})"), ("family", spec.family),
-            ("description", spec.description), ("success", spec.success)]
+            ("description", spec.description), ("success", spec.success), ("instruction", spec.instruction)]
+    rows += [(f"paraphrase {i}", p) for i, p in enumerate(spec.paraphrases, 1)]
     rows += [(f"param {k}", str(v)) for k, v in spec.params.items()]
     if spec.implemented:
         from maniladder_ms.solvers import solver_for
@@ -197,9 +204,12 @@ def build_parser() -> argparse.ArgumentParser:
     ls.add_argument("--implemented", action="store_true", help="only implemented tasks")
     ls.add_argument("--json", action="store_true", help="machine-readable output")
     ls.add_argument("--summary", action="store_true", help="implemented vs catalog counts per level and suite")
+    ls.add_argument("--instructions", action="store_true",
+                    help="each task's canonical language instruction (--json always has them, with the paraphrases)")
     ls.set_defaults(func=cmd_list)
 
-    sh = sub.add_parser("show", help="a task's catalog row (family, params, rule), env class and solver, with their files")
+    sh = sub.add_parser("show", help="a task's catalog row (family, params, rule, instructions), env class and solver, "
+                                     "with their files")
     sh.add_argument("task")
     sh.set_defaults(func=cmd_show)
 

@@ -127,3 +127,68 @@ def test_success_text_is_rendered_from_params():
         render_success("within {tol:cm}", {}, "row X")
     with pytest.raises(CatalogError, match="unknown unit"):
         render_success("within {tol:furlong}", dict(tol=1))
+
+
+# ---- language instructions (maniladder_ms/data/instructions.yaml) ---------------------------------------------
+
+
+def test_every_task_has_an_instruction_and_paraphrases(catalog):
+    from maniladder_ms.catalog import MAX_INSTRUCTION_WORDS, MIN_PARAPHRASES
+
+    canonical = set()
+    for t in catalog:
+        texts = t.instructions
+        assert t.instruction and len(t.instruction.split()) <= MAX_INSTRUCTION_WORDS, t.id
+        assert len(t.paraphrases) >= MIN_PARAPHRASES, t.id
+        assert len({x.casefold().rstrip(".") for x in texts}) == len(texts), f"{t.id}: alike texts"
+        # what a person says: no success-rule numbers (counts are spelled out: "six blocks")
+        assert not any(ch.isdigit() for x in texts for ch in x), f"{t.id}: a number in an instruction"
+        canonical.add(t.instruction.casefold())
+    assert len(canonical) == len(catalog)  # an instruction names one task
+
+
+def _instructions_file(tmp_path, edit):
+    data = copy.deepcopy(yaml.safe_load((Path(maniladder_ms.__file__).parent / "data" / "instructions.yaml").read_text()))
+    edit(data)
+    path = tmp_path / "instructions.yaml"
+    path.write_text(yaml.safe_dump(data, sort_keys=False))
+    return path
+
+
+BAD_INSTRUCTIONS = {
+    r"no instructions for catalog task\(s\) HangMug": lambda d: d.pop("HangMug"),
+    r"PickPlacePen: 3 paraphrase\(s\), expected at least 4": lambda d: d["PickPlacePen"]["paraphrases"].pop(),
+    r"PickPlacePen: duplicate instruction": lambda d: d["PickPlacePen"]["paraphrases"].append("pick up the pen and  put it in the tray"),
+    r"not in the catalog: PickPlacePencil \(did you mean PickPlacePen\?\)": lambda d: d.update(
+        PickPlacePencil=dict(d["PickPlacePen"])),
+    r"HangMug: the instruction has 16 words": lambda d: d["HangMug"].update(instruction=" ".join(["word"] * 16)),
+    r"HangMug: the same instruction as PickPlacePen": lambda d: d["HangMug"].update(
+        instruction=d["PickPlacePen"]["instruction"]),
+    r"HangMug: expected exactly the keys": lambda d: d["HangMug"].pop("paraphrases"),
+    r"HangMug: instructions must be non-empty strings": lambda d: d["HangMug"]["paraphrases"].append(" "),
+}
+
+
+@pytest.mark.parametrize("message", list(BAD_INSTRUCTIONS))
+def test_broken_instructions_fail_loudly(tmp_path, message):
+    with pytest.raises(CatalogError, match=message):
+        load_catalog(instructions=_instructions_file(tmp_path, BAD_INSTRUCTIONS[message]))
+
+
+def test_good_instructions_file_loads_beside_the_packaged_catalog(tmp_path):
+    path = _instructions_file(tmp_path, lambda d: d["PickPlacePen"].update(instruction="Tidy the pen away."))
+    cat = load_catalog(instructions=path)
+    assert cat.get("PickPlacePen").instruction == "Tidy the pen away." and len(cat) == 112
+
+
+def test_paraphrase_draw_is_deterministic_and_covers_every_variant(catalog):
+    from maniladder_ms.evaluation import eval_seed
+
+    seeds = [eval_seed(0, k) for k in range(100)]
+    for t in (catalog.get("PickPlacePen"), catalog.get("TieKnotHands")):
+        drawn = [t.instruction_for(s, "paraphrase") for s in seeds]
+        assert drawn == [t.instruction_for(s, "paraphrase") for s in seeds]  # same seed, same text
+        assert set(drawn) == set(t.instructions)  # 100 episodes see the canonical and every paraphrase
+        assert {t.instruction_for(s) for s in seeds} == {t.instruction}  # the default is the canonical one
+    with pytest.raises(ValueError, match="unknown instruction mode 'random'"):
+        catalog.get("PickPlacePen").instruction_for(0, "random")

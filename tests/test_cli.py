@@ -56,6 +56,22 @@ def test_show_points_at_the_row_the_class_and_the_solver(capsys):
     assert main(["show", "PickPlacePencil"]) == 2
 
 
+def test_list_and_show_give_the_language_instructions(capsys):
+    pen = maniladder_ms.default_catalog().get("PickPlacePen")
+    assert main(["list"]) == 0
+    assert pen.instruction not in capsys.readouterr().out  # the default table stays narrow
+    assert main(["list", "--level", "1", "--instructions"]) == 0
+    out = capsys.readouterr().out
+    assert all(t.instruction in out for t in maniladder_ms.default_catalog().filter(level=1))
+    assert main(["list", "--level", "1", "--json"]) == 0
+    row = next(r for r in json.loads(capsys.readouterr().out) if r["id"] == "PickPlacePen")
+    assert row["instruction"] == pen.instruction and row["paraphrases"] == list(pen.paraphrases)
+    assert main(["show", "PickPlacePen"]) == 0
+    out = capsys.readouterr().out
+    assert any(line.startswith("instruction ") and line.endswith(pen.instruction) for line in out.splitlines())
+    assert all(f"paraphrase {i}" in out and p in out for i, p in enumerate(pen.paraphrases, 1))
+
+
 def test_unknown_task_exits_2_with_message(capsys):
     assert main(["render", "PickPlacePencil"]) == 2
     assert "unknown ManiLadder task 'PickPlacePencil'" in capsys.readouterr().err

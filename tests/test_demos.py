@@ -13,7 +13,7 @@ import pytest
 import maniladder_ms
 from maniladder_ms.demos import DemoFileError, dataset_stats, generate, verify
 from maniladder_ms.demos import recording as generate_module
-from maniladder_ms.demos.files import demo_path
+from maniladder_ms.demos.files import demo_path, load_demo_json
 from maniladder_ms.demos.stats import plot_stats
 from maniladder_ms.solvers import solver_for
 
@@ -58,6 +58,8 @@ def test_generated_demos_verify(recorded, task_id):
     meta = json.loads(path.with_suffix(".json").read_text())
     assert meta["env_info"]["env_id"] == f"maniladder_ms:ManiLadder-{task_id}-v1"
     assert "render_backend" not in meta["env_info"]["env_kwargs"]
+    instruction = maniladder_ms.default_catalog().get(task_id).instruction
+    assert meta["instructions"] == "canonical" and all(ep["instruction"] == instruction for ep in meta["episodes"])
     assert [ep["episode_seed"] for ep in meta["episodes"]] == sorted(ep["episode_seed"] for ep in meta["episodes"])
     assert meta["solver"]["attempts"] >= 3
     checks = verify(path, progress=False)
@@ -101,6 +103,19 @@ def test_native_control_mode_recording(tmp_path, mode):
     meta = json.loads(report.path.with_suffix(".json").read_text())
     assert all(ep["control_mode"] == mode for ep in meta["episodes"])
     assert all(c.success_from_actions for c in verify(report.path, progress=False))
+
+
+def test_demo_episodes_record_their_instruction(tmp_path):
+    pen = maniladder_ms.default_catalog().get("PickPlacePen")
+    report = generate("PickPlacePen", 2, tmp_path, control_mode="pd_joint_pos", instructions="paraphrase", progress=False)
+    meta = json.loads(report.path.with_suffix(".json").read_text())
+    assert meta["instructions"] == "paraphrase"
+    assert [ep["instruction"] for ep in meta["episodes"]] == \
+        [pen.instruction_for(ep["episode_seed"], "paraphrase") for ep in meta["episodes"]]
+    # a file from before instructions (the committed samples) reads with the canonical one
+    sample = COMMITTED_DEMOS / "PickPlacePen" / "trajectory.none.pd_joint_pos.physx_cpu.h5"
+    assert all("instruction" not in ep for ep in json.loads(sample.with_suffix(".json").read_text())["episodes"])
+    assert {ep["instruction"] for ep in load_demo_json(sample)["episodes"]} == {pen.instruction}
 
 
 def test_existing_dataset_is_not_overwritten(recorded, demo_root):

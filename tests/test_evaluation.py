@@ -130,6 +130,8 @@ def test_random_policy_gets_nothing(tmp_path):
     t = s["tasks"][PEN]
     assert t["successes"] == 0 and t["mean_steps"] == 150  # ran to the horizon every time
     assert not any("is_grasped" in r["reached"] for r in read_episodes(tmp_path / "random"))
+    pen = maniladder_ms.default_catalog().get(PEN)
+    assert {r["instruction"] for r in read_episodes(tmp_path / "random")} == {pen.instruction}  # canonical by default
     assert s["ladder"]["level"] == 0 and s["ladder"]["exact"]
 
 
@@ -146,6 +148,44 @@ class KilledRandom(RandomPolicy):
         if ctx.episode == self.kill_at:
             raise KeyboardInterrupt
         super().reset(ctx)
+
+
+class InstructedRandom(RandomPolicy):
+    """Random policy that keeps the (seed, instruction) of every episode context it is given."""
+
+    name = "instructed-random"
+
+    def __init__(self):
+        super().__init__()
+        self.seen = []
+
+    def reset(self, ctx):
+        self.seen.append((ctx.seed, ctx.instruction))
+        super().reset(ctx)
+
+
+def test_policy_gets_the_episode_instruction_and_the_record_keeps_it(tmp_path):
+    pen, out, policy = maniladder_ms.default_catalog().get(PEN), tmp_path / "run", InstructedRandom()
+    evaluate(policy, out, tasks=[PEN], episodes=2, obs_mode="state", instructions="paraphrase", progress=False)
+    drawn = [(eval_seed(0, k), pen.instruction_for(eval_seed(0, k), "paraphrase")) for k in range(2)]
+    assert policy.seen == drawn
+    assert sorted((r["seed"], r["instruction"]) for r in read_episodes(out)) == drawn
+    assert json.loads((out / "manifest.json").read_text())["instructions"] == "paraphrase"
+    with pytest.raises(ResultsError, match="another run.*instructions 'paraphrase' there vs 'canonical' now"):
+        evaluate(InstructedRandom(), out, tasks=[PEN], episodes=2, obs_mode="state", progress=False)
+    with pytest.raises(ValueError, match="unknown instruction mode 'shuffled'"):
+        evaluate(InstructedRandom(), tmp_path / "b", tasks=[PEN], episodes=1, instructions="shuffled", progress=False)
+    assert not (tmp_path / "b").exists()
+
+
+def test_results_from_before_instructions_resume_as_canonical(tmp_path):
+    from maniladder_ms.evaluation.results import open_run
+
+    old = {"protocol_version": PROTOCOL_VERSION, "policy": "random", "obs_mode": "state", "seed": 0, "tasks": [PEN]}
+    open_run(tmp_path, old)  # a manifest written without the key
+    assert open_run(tmp_path, dict(old, instructions="canonical"))["policy"] == "random"
+    with pytest.raises(ResultsError, match="another run"):
+        open_run(tmp_path, dict(old, instructions="paraphrase"))
 
 
 def test_resume_after_kill_loses_no_finished_episode(tmp_path):
@@ -360,5 +400,7 @@ def test_add_parsers_plugs_into_the_maniladder_command(tmp_path, capsys):
     assert {"eval", "report"} <= set(sub.choices)
     args = parser.parse_args(["eval", "--policy", "random", "--tasks", "NoSuchTask", "--out", str(tmp_path / "x")])
     assert args.func(args) == 2 and "unknown ManiLadder task" in capsys.readouterr().err
+    assert args.instructions == "canonical"
+    assert parser.parse_args(["eval", "--policy", "random", "--instructions", "paraphrase"]).instructions == "paraphrase"
     args = parser.parse_args(["report", str(tmp_path / "nothing")])
     assert args.func(args) == 2

@@ -7,6 +7,7 @@ import sys
 from dataclasses import asdict
 from pathlib import Path
 
+from maniladder_ms.catalog import INSTRUCTION_MODES
 from maniladder_ms.solvers import JOINT_TARGET_MODES
 
 from .recording import DEFAULT_CONTROL_MODES
@@ -36,7 +37,7 @@ def cmd_generate(args) -> int:
     for spec in _selected_tasks(args):
         for mode in args.control_mode or default_control_modes(spec.id):
             r = generate(spec.id, args.num, args.out, seed=args.seed, control_mode=mode, obs_mode=args.obs_mode,
-                         workers=args.workers, overwrite=args.overwrite)
+                         workers=args.workers, overwrite=args.overwrite, instructions=args.instructions)
             print(f"{r.task_id} [{mode}]: {r.kept} demos -> {r.path}  "
                   f"(solver success {r.success_rate:.0%} over {len(r.attempts)} seeds)")
     return 0
@@ -126,6 +127,9 @@ def add_parser(sub):
                      help=f"repeatable; default those of {' and '.join(DEFAULT_CONTROL_MODES)} the task's solver drives")
     gen.add_argument("--workers", type=int, default=1, help="processes")
     gen.add_argument("--overwrite", action="store_true", help="replace an existing dataset file")
+    gen.add_argument("--instructions", choices=INSTRUCTION_MODES, default="canonical",
+                     help="the language instruction each episode records: the task's canonical one (default), "
+                          "or one of it and its paraphrases drawn from the episode seed")
     gen.set_defaults(func=cmd_generate)
 
     ver = dsub.add_parser("verify", help="replay demos from actions and env states; non-zero exit below threshold")

@@ -28,7 +28,8 @@ def json_path(h5_path: Path) -> Path:
 
 
 def load_demo_json(h5_path: Path) -> dict:
-    """The json beside `h5_path`, checked to describe a ManiLadder task."""
+    """The json beside `h5_path`, checked to describe a ManiLadder task, with its `task_spec`. Every episode
+    has an `instruction`: files recorded before instructions were written get the task's canonical one."""
     path = json_path(h5_path)
     if not path.exists():
         raise DemoFileError(f"{path}: missing (every demo .h5 needs its .json beside it)")
@@ -43,6 +44,8 @@ def load_demo_json(h5_path: Path) -> dict:
         data["task_spec"] = default_catalog().get(env_id.removeprefix(ENV_ID_PREFIX))
     except UnknownTaskError as e:
         raise DemoFileError(f"{path}: demo of an unknown task: {e}") from e
+    for ep in data["episodes"]:
+        ep.setdefault("instruction", data["task_spec"].instruction)
     return data
 
 

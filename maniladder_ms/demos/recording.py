@@ -3,7 +3,9 @@
 Seeds are tried in chunks; each chunk is recorded into its own part file under `.parts/` and renamed
 into place only when complete, so an interrupted run resumes where it stopped (finished chunks are
 not redone) and `--workers K` runs chunks in K processes. When enough successful episodes exist,
-the first `num` by seed are merged into the dataset file.
+the first `num` by seed are merged into the dataset file; each episode entry of its json gets the task's
+language `instruction` (the canonical one, or under `instructions="paraphrase"` one drawn from the
+episode seed), and the json's `instructions` says which of the two.
 """
 
 from __future__ import annotations
@@ -93,12 +95,14 @@ def _finished_chunks(parts_dir: Path) -> dict[int, list[dict]]:
 def generate(
     task_id: str, num: int, out_dir: Path, seed: int = 0, control_mode: str = "pd_joint_pos",
     obs_mode: str = "none", workers: int = 1, overwrite: bool = False, progress: bool = True,
-    max_attempts: int | None = None,
+    max_attempts: int | None = None, instructions: str = "canonical",
 ) -> GenerateReport:
-    """Record `num` successful solver episodes of `task_id` (seeds from `seed` on) into one h5/json pair."""
-    from maniladder_ms.catalog import default_catalog
+    """Record `num` successful solver episodes of `task_id` (seeds from `seed` on) into one h5/json pair;
+    `instructions` ("canonical" or "paraphrase") picks the instruction each episode records."""
+    from maniladder_ms.catalog import check_instruction_mode, default_catalog
 
     spec = default_catalog().get(task_id)
+    check_instruction_mode(instructions)
     if not (0 <= seed and seed + max_attempts_for(num, max_attempts) <= MAX_DEMO_SEED):
         raise ValueError(f"demo seeds must stay in [0, {MAX_DEMO_SEED}): evaluation seeds start there")
     modes = solver_for(spec.id).control_modes
@@ -155,7 +159,7 @@ def generate(
     bar.close()
 
     report.attempts = [a for start in sorted(done) for a in done[start]]
-    report.kept = _merge(parts_dir, out, num)
+    report.kept = _merge(parts_dir, out, num, spec, instructions)
     shutil.rmtree(parts_dir.parent)  # the merged file and its json carry everything the parts had
     if report.kept < num:
         raise RuntimeError(
@@ -165,8 +169,9 @@ def generate(
     return report
 
 
-def _merge(parts_dir: Path, out: Path, num: int) -> int:
-    """Copy the first `num` successful episodes (by seed) of all parts into `out`; returns the count."""
+def _merge(parts_dir: Path, out: Path, num: int, spec, instructions: str) -> int:
+    """Copy the first `num` successful episodes (by seed) of all parts into `out`, each with its instruction
+    (`spec.instruction_for` under `instructions`); returns the count."""
     episodes = []  # (seed, part h5 path, episode json)
     env_info = source = None
     attempts = []
@@ -188,9 +193,9 @@ def _merge(parts_dir: Path, out: Path, num: int) -> int:
         for new_id, (_, part_h5, ep) in enumerate(episodes):
             with h5py.File(part_h5, "r") as src:
                 src.copy(src[f"traj_{ep['episode_id']}"], dst, name=f"traj_{new_id}")
-            merged.append(dict(ep, episode_id=new_id))
+            merged.append(dict(ep, episode_id=new_id, instruction=spec.instruction_for(ep["episode_seed"], instructions)))
     meta = dict(
-        env_info=env_info, **source, episodes=merged,
+        env_info=env_info, **source, instructions=instructions, episodes=merged,
         solver=dict(attempts=len(attempts), successes=sum(a["success"] for a in attempts)),
     )
     json_path(tmp).write_text(json.dumps(meta, indent=2))

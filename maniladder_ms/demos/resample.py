@@ -1,8 +1,8 @@
 """`maniladder demos resample`: re-record committed demo samples after a deliberate physics change.
 
 A change to a task, an object or the simulation settings can make the committed samples (`demos/`) no longer
-replay from their actions. Each sample file is recorded again with the same task, obs mode, control mode and
-episode count (seeds from `seed` on, as `demos generate` does), into a scratch folder; the new file replaces
+replay from their actions. Each sample file is recorded again with the same task, obs mode, control mode,
+instruction mode and episode count (seeds from `seed` on, as `demos generate` does), into a scratch folder; the new file replaces
 the old one only once every episode of it replays to success from its actions (`verify`).
 """
 
@@ -62,7 +62,8 @@ def resample_file(path: Path, seed: int = 0, workers: int = 1, progress: bool = 
     num = len(meta["episodes"])
     with tempfile.TemporaryDirectory(prefix=".resample-", dir=path.parent) as scratch:
         report = generate(meta["task_spec"].id, num, Path(scratch), seed=seed, control_mode=control_mode,
-                          obs_mode=obs_mode, workers=workers, progress=progress)
+                          obs_mode=obs_mode, workers=workers, progress=progress,
+                          instructions=meta.get("instructions", "canonical"))
         result = ResampleResult(path, num, verify(report.path, progress=progress))
         if result.ok:
             shutil.move(json_path(report.path), json_path(path))

@@ -7,7 +7,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from maniladder_ms.catalog import EMBODIMENTS, LEVELS, OBJECT_PROPERTIES, CatalogError, UnknownTaskError
+from maniladder_ms.catalog import EMBODIMENTS, INSTRUCTION_MODES, LEVELS, OBJECT_PROPERTIES, CatalogError, UnknownTaskError
 
 from maniladder_ms.table import print_table
 
@@ -57,7 +57,8 @@ def cmd_eval(args) -> int:
     tasks = [t.strip() for t in args.tasks.split(",") if t.strip()] if args.tasks else None
     out = args.out or Path("results") / policy_label(args.policy)
     summary = evaluate(args.policy, out, tasks=tasks, level=args.level, suite=args.suite, episodes=args.episodes,
-                       seed=args.seed, obs_mode=args.obs_mode, workers=args.workers, progress=not args.quiet)
+                       seed=args.seed, obs_mode=args.obs_mode, workers=args.workers, progress=not args.quiet,
+                       instructions=args.instructions)
     print_summary(summary)
     print(f"\nresults in {out}/ (episodes.jsonl, summary.json); `maniladder report {out}` renders the report")
     return 0
@@ -94,6 +95,9 @@ def add_parsers(subparsers) -> None:
                     help="rgb (default: 4 RGB cameras, no state) | rgb+state | any ManiSkill obs mode")
     ev.add_argument("--out", type=Path, help="results folder (default results/<policy>); re-running resumes it")
     ev.add_argument("--workers", type=int, default=1, help="worker processes (default 1)")
+    ev.add_argument("--instructions", choices=INSTRUCTION_MODES, default="canonical",
+                    help="the language instruction the policy gets (ctx.instruction): the task's canonical one "
+                         "(default), or per episode one of it and its paraphrases drawn from the episode seed")
     ev.add_argument("--quiet", action="store_true", help="no progress bar")
     ev.set_defaults(func=_guarded(cmd_eval))
 

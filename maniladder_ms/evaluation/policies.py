@@ -23,7 +23,9 @@ Optional members (duck-typed, all may be absent):
   (the built-ins, which ignore observations, use `"none"` to skip rendering); `control_mode` defaults to
   the env's default (`pd_joint_delta_pos`). `env_kwargs(spec) -> dict` may give these per task.
 - `reset(ctx)`: called before every episode with an `EpisodeContext` (spec, seed, episode index,
-  single-env action space, obs/control mode, horizon).
+  single-env action space, obs/control mode, horizon, and `instruction`: the episode's language instruction,
+  the task's canonical one, or under `--instructions paraphrase` one of it and its paraphrases drawn from the
+  episode seed; a language-conditioned policy (VLA) reads it here, and the episode record stores it).
 - `supports(spec) -> bool | str`: False or a reason string skips the task (listed as skipped).
 - `max_episodes(spec) -> int | None`: fewer episodes for that task (e.g. a demo file with 5 demos).
 - `run_episode(env, ctx) -> None`: an *env-driving* policy (oracle). It gets the env itself and
@@ -64,6 +66,7 @@ class EpisodeContext:
     obs_mode: str
     control_mode: str
     horizon: int
+    instruction: str = ""  # the episode's language instruction (`TaskSpec.instruction_for`)
 
 
 BUILTIN_NAMES = ("random", "solver", "replay:<demo.h5 or folder>")

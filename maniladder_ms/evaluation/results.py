@@ -23,8 +23,10 @@ from . import PROTOCOL_VERSION
 MANIFEST = "manifest.json"
 EPISODES = "episodes.jsonl"
 SUMMARY = "summary.json"
-# manifest keys that must match for a resume to add to a folder
-IDENTITY_KEYS = ("protocol_version", "policy", "obs_mode", "seed")
+# manifest keys that must match for a resume to add to a folder, with the value a folder written before the
+# key existed ran under
+IDENTITY_KEYS = ("protocol_version", "policy", "obs_mode", "seed", "instructions")
+IDENTITY_DEFAULTS = {"instructions": "canonical"}
 
 
 class ResultsError(ValueError):
@@ -64,7 +66,7 @@ def open_run(out: Path, manifest: dict) -> dict:
         _write_json(out / MANIFEST, manifest)
         return manifest
     check_protocol(old, out)
-    diff = [k for k in IDENTITY_KEYS if old.get(k) != manifest.get(k)]
+    diff = [k for k in IDENTITY_KEYS if old.get(k, IDENTITY_DEFAULTS.get(k)) != manifest.get(k, IDENTITY_DEFAULTS.get(k))]
     if diff:
         what = ", ".join(f"{k} {old.get(k)!r} there vs {manifest.get(k)!r} now" for k in diff)
         raise ResultsError(f"{out} holds another run ({what}); use another --out folder to keep both")

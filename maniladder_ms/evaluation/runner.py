@@ -11,8 +11,11 @@ Protocol:
   obs mode (default `rgb`: four 128x128 RGB cameras, state parts removed; see `policies`).
 - Success: the task's success rule holds at some control step <= the horizon. ManiSkill ends an episode
   at its first success (terminated), so this is also the state at the end of the episode.
+- Instructions: each episode's `EpisodeContext.instruction` is the task's canonical instruction, or with
+  `instructions="paraphrase"` one of it and its paraphrases drawn from the task and the episode seed
+  (reproducible); the episode record stores the one used.
 - Records: one JSON line per finished episode (task, episode, seed, success, steps, wall_s, policy_s,
-  level, suite, obs/control mode), appended as each finishes; a re-run with the same `--out` runs only
+  level, suite, obs/control mode, instruction), appended as each finishes; a re-run with the same `--out` runs only
   the episodes not on disk yet.
 """
 
@@ -30,7 +33,7 @@ from typing import Optional
 import gymnasium as gym
 import numpy as np
 
-from maniladder_ms.catalog import default_catalog
+from maniladder_ms.catalog import check_instruction_mode, default_catalog
 
 from . import EVAL_SEED_BASE, EVAL_SEED_STRIDE, PROTOCOL_VERSION, eval_seed
 from .policies import EpisodeContext, PolicyError, load_policy, policy_env_kwargs, policy_supports
@@ -137,9 +140,10 @@ class EpisodeMonitor(gym.Wrapper):
 class EpisodeRunner:
     """Runs episodes of one policy, one env per task kept open between episodes of that task."""
 
-    def __init__(self, policy, obs_mode: str = DEFAULT_OBS_MODE):
+    def __init__(self, policy, obs_mode: str = DEFAULT_OBS_MODE, instructions: str = "canonical"):
         self.policy = policy
         self.obs_mode = obs_mode
+        self.instructions = instructions
         self._key = None
         self._env: Optional[EpisodeMonitor] = None
 
@@ -173,7 +177,8 @@ class EpisodeRunner:
         env = self.env_for(spec, env_kwargs)
         base = env.unwrapped
         ctx = EpisodeContext(spec=spec, seed=seed, episode=episode, action_space=base.single_action_space,
-                             obs_mode=env_kwargs["obs_mode"], control_mode=base.control_mode, horizon=spec.horizon)
+                             obs_mode=env_kwargs["obs_mode"], control_mode=base.control_mode, horizon=spec.horizon,
+                             instruction=spec.instruction_for(seed, self.instructions))
         env.begin()
         policy_s = 0.0
         note = None
@@ -224,6 +229,7 @@ class EpisodeRunner:
             "wall_s": round(wall, 4), "policy_s": round(policy_s, 4), "level": spec.level, "suite": spec.suite,
             "obs_mode": env_kwargs["obs_mode"], "control_mode": base.control_mode,
             "reached": sorted(env.reached),  # intermediate flags that held at some step (`reached_flags`)
+            "instruction": ctx.instruction,
             "time": time.strftime("%Y-%m-%dT%H:%M:%S"),
         }
         if note:
@@ -255,10 +261,10 @@ def select_tasks(catalog, tasks=None, level=None, suite=None):
 _WORKER: dict = {}
 
 
-def _worker_init(policy_spec: str, obs_mode: str):
+def _worker_init(policy_spec: str, obs_mode: str, instructions: str):
     import maniladder_ms  # noqa: F401  (registers the envs)
 
-    _WORKER["runner"] = EpisodeRunner(load_policy(policy_spec), obs_mode)
+    _WORKER["runner"] = EpisodeRunner(load_policy(policy_spec), obs_mode, instructions)
 
 
 def _worker_run(task_id: str, episode: int, seed: int, env_kwargs: dict) -> dict:
@@ -277,9 +283,11 @@ def evaluate(
     workers: int = 1,
     progress: bool = True,
     bootstrap: int = 2000,
+    instructions: str = "canonical",
 ) -> dict:
     """Evaluate `policy` (a `--policy` string, or a policy object with workers=1) into folder `out`;
-    resumes what is there. Returns the summary (also written to `out/summary.json`)."""
+    resumes what is there. `instructions`: "canonical" or "paraphrase" (see the module doc). Returns the
+    summary (also written to `out/summary.json`)."""
     import maniladder_ms  # noqa: F401
     from tqdm import tqdm
 
@@ -289,6 +297,7 @@ def evaluate(
         raise ValueError(f"--episodes must be in [1, {EVAL_SEED_STRIDE}], got {episodes}")
     if workers < 1:
         raise ValueError(f"--workers must be >= 1, got {workers}")
+    check_instruction_mode(instructions)
     if isinstance(policy, str):
         policy_spec, policy_obj = policy, load_policy(policy)
     else:
@@ -318,6 +327,7 @@ def evaluate(
     out = Path(out)
     manifest = {
         "protocol_version": PROTOCOL_VERSION, "policy": policy_spec, "obs_mode": obs_mode, "seed": seed,
+        "instructions": instructions,
         "episodes": episodes, "tasks": [s.id for s in runnable], "skipped": skipped, "task_env": task_env,
         "seed_scheme": f"{EVAL_SEED_BASE} + {EVAL_SEED_STRIDE} * seed + episode",
         "maniladder_version": maniladder_ms.__version__, "catalog_version": catalog.version,
@@ -340,7 +350,7 @@ def evaluate(
 
     try:
         if workers == 1 or len(jobs) <= 1:
-            runner = EpisodeRunner(policy_obj, obs_mode)
+            runner = EpisodeRunner(policy_obj, obs_mode, instructions)
             try:
                 for spec, k, s in jobs:
                     record(runner.run(spec, k, s, task_env[spec.id]))
@@ -349,7 +359,7 @@ def evaluate(
         else:
             ctx = mp.get_context("spawn")
             with cf.ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_worker_init,
-                                        initargs=(policy_spec, obs_mode)) as pool:
+                                        initargs=(policy_spec, obs_mode, instructions)) as pool:
                 futures = [pool.submit(_worker_run, spec.id, k, s, task_env[spec.id]) for spec, k, s in jobs]
                 try:
                     for fut in cf.as_completed(futures):
