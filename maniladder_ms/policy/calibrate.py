@@ -186,22 +186,22 @@ class TaskCalibration:
         self.log(f"{self.spec.id}: {report.kept} demos ({report.success_rate:.0%} solver success) -> {report.path}")
 
     def stage_features(self):
+        if self.features_path.is_file():  # before any import: a stage already done adds no time to timings.json
+            return
         from .encoders import make_encoder
         from .features import cache_features
 
-        if self.features_path.is_file():
-            return
         encoder = make_encoder(self.config.encoder, grid=self.config.grid, device=self.device)
         cache_features(self.demo_h5, encoder, self.config.cameras, self.features_path, size=self.config.image_size,
                        progress=self.progress, stride=self.protocol.frame_stride, control_mode=self.control_mode)
 
     def stage_train(self):
-        from .features import load_features
-        from .flow import LadderFlowTrainer
-
         todo = [step for step in self.checkpoint_steps if not self.checkpoint(step).is_file()]
         if not todo:
             return
+        from .features import load_features
+        from .flow import LadderFlowTrainer
+
         episodes = load_features(self.features_path)[: self.protocol.demos]
         trainer = LadderFlowTrainer(self.config, episodes, device=self.device)
         done = [step for step in self.checkpoint_steps if step not in todo]
