@@ -5,7 +5,9 @@ the video."""
 from __future__ import annotations
 
 import json
+import os
 import shutil
+import subprocess
 from pathlib import Path
 
 import h5py
@@ -22,14 +24,20 @@ CAM = "front_camera"
 VIDEO_KEY = f"observation.images.{CAM}"
 
 
-def test_export_lerobot_reads_back(tmp_path):
+@pytest.fixture(scope="module")
+def exported(tmp_path_factory):
+    out = tmp_path_factory.mktemp("lerobot") / "ds"
+    assert main(["demos", "export", str(DEMO), "--format", "lerobot", "--out", str(out), "--cameras", CAM]) == 0
+    return out
+
+
+def test_export_lerobot_reads_back(exported):
     import imageio_ffmpeg
     import pandas as pd
     import pyarrow as pa
     import pyarrow.parquet as pq
 
-    out = tmp_path / "ds"
-    assert main(["demos", "export", str(DEMO), "--format", "lerobot", "--out", str(out), "--cameras", CAM]) == 0
+    out = exported
     with h5py.File(DEMO, "r") as h5:
         actions = [h5[f"traj_{i}"]["actions"][()] for i in range(2)]
         robot_states = [h5[f"traj_{i}"]["env_states/articulations/ml_panda"][()] for i in range(2)]
@@ -86,6 +94,25 @@ def test_export_lerobot_reads_back(tmp_path):
     assert len(frames) == total
     frame = frames[lengths[0]]
     assert frame.shape == (128, 128, 3) and frame.std() > 10 and len(np.unique(frame.reshape(-1, 3), axis=0)) > 50
+
+
+LEROBOT_CHECK = """
+import sys
+from lerobot.datasets.lerobot_dataset import LeRobotDataset
+ds = LeRobotDataset("local/maniladder", root=sys.argv[1], video_backend="pyav")
+a, b = ds[0], ds[ds.num_frames - 1]
+assert ds.fps == 20 and ds.num_episodes == 2 and int(b["episode_index"]) == 1 and b["task"] == a["task"] != ""
+assert tuple(a["observation.images.front_camera"].shape) == (3, 128, 128) and tuple(a["observation.state"].shape) == (9,)
+print("ok")
+"""
+
+
+@pytest.mark.skipif(not os.environ.get("LEROBOT_PYTHON"), reason="set LEROBOT_PYTHON to a python with lerobot[dataset]")
+def test_lerobot_loads_the_export(exported):
+    """LeRobot itself (its own venv: it needs Python >= 3.12 and other pins) loads the export and decodes frames."""
+    run = subprocess.run([os.environ["LEROBOT_PYTHON"], "-c", LEROBOT_CHECK, str(exported)], capture_output=True,
+                         text=True, timeout=600, env={**os.environ, "HF_HUB_OFFLINE": "1"})
+    assert run.returncode == 0 and run.stdout.strip().endswith("ok"), run.stderr[-3000:]
 
 
 def test_export_lerobot_errors(tmp_path, capsys):
