@@ -1,4 +1,4 @@
-"""`maniladder demos generate | verify | resample | stats`."""
+"""`maniladder demos generate | verify | resample | stats | export`."""
 
 from __future__ import annotations
 
@@ -111,8 +111,19 @@ def cmd_stats(args) -> int:
     return 0
 
 
+def cmd_export(args) -> int:
+    from .lerobot import export_lerobot
+
+    cameras = [c for c in (args.cameras or "").split(",") if c] or None
+    r = export_lerobot(args.path, args.out, cameras=cameras, fps=args.fps, overwrite=args.overwrite,
+                       vcodec=args.vcodec)
+    print(f"wrote a LeRobot v3.0 dataset of {r.episodes} episodes, {r.frames} frames, "
+          f"cameras {', '.join(r.cameras)}, {len(r.tasks)} task string(s) -> {r.out}")
+    return 0
+
+
 def add_parser(sub):
-    demos = sub.add_parser("demos", help="scripted demonstrations: generate, verify, resample, stats")
+    demos = sub.add_parser("demos", help="scripted demonstrations: generate, verify, resample, stats, export")
     dsub = demos.add_subparsers(dest="demos_command", required=True)
 
     gen = dsub.add_parser("generate", help="record successful solver episodes as ManiSkill h5 + json")
@@ -152,3 +163,17 @@ def add_parser(sub):
     st.add_argument("root", type=Path, nargs="?", default=Path("demos"))
     st.add_argument("--png", type=Path, help="plot path (default <root>/stats.png)")
     st.set_defaults(func=cmd_stats)
+
+    ex = dsub.add_parser("export", help="write demos as a LeRobot v3.0 dataset (images rendered from the recorded "
+                                        "env states)")
+    ex.add_argument("path", type=Path, help="a demo .h5 file, or a folder of them (one embodiment and control mode)")
+    ex.add_argument("--format", choices=("lerobot",), required=True, help="dataset format (lerobot: LeRobot v3.0)")
+    ex.add_argument("--out", type=Path, required=True, help="dataset folder (must be missing or empty)")
+    ex.add_argument("--cameras", help="camera uids, comma-separated, e.g. front_camera,hand_camera "
+                                      "(default: all the task's cameras)")
+    ex.add_argument("--fps", type=int, default=20, help="frame rate of the timestamps and videos (default 20, "
+                                                        "the tasks' control frequency)")
+    ex.add_argument("--vcodec", choices=("libsvtav1", "libx264"), default="libsvtav1",
+                    help="video encoder (default libsvtav1: AV1 as LeRobot writes; libx264: H.264)")
+    ex.add_argument("--overwrite", action="store_true", help="replace an existing LeRobot dataset in --out")
+    ex.set_defaults(func=cmd_export)

@@ -13,9 +13,8 @@ from typing import Iterator, Optional, Sequence
 import numpy as np
 import torch
 
-from maniladder_ms.demos.files import (
-    episode_arrays, episode_reset_kwargs, load_demo_json, open_demo_h5, replay_env_kwargs, state_at, torch_state,
-)
+from maniladder_ms.demos.files import load_demo_json, replay_env_kwargs
+from maniladder_ms.demos.frames import replay_frames
 from maniladder_ms.demos.joint_targets import TARGET_MODE, joint_target_episodes
 
 from .encoders import Encoder
@@ -24,30 +23,9 @@ from .encoders import Encoder
 def demo_frames(h5_path, cameras: Sequence[str], size: int = 128, progress: bool = False,
                 stride: int = 1) -> Iterator[tuple]:
     """Per episode of a demo file: (images uint8 (F, cameras, size, size, 3) of the frames 0, stride, 2 stride,
-    ..., their step indices (F,), all actions (T, A), episode json)."""
-    from tqdm import tqdm
-
-    import maniladder_ms
-
-    meta = load_demo_json(Path(h5_path))
-    env = maniladder_ms.make(meta["task_spec"].id, obs_mode="rgb", cameras=tuple(cameras),
-                             sensor_configs=dict(width=size, height=size), **replay_env_kwargs(meta))
-    base = env.unwrapped
-    try:
-        with open_demo_h5(Path(h5_path)) as h5:
-            for ep in tqdm(meta["episodes"], desc=f"render {Path(h5_path).parent.name}", disable=not progress):
-                actions, states = episode_arrays(h5, ep["episode_id"], str(h5_path))
-                env.reset(**episode_reset_kwargs(ep))
-                frames = np.arange(0, len(actions), stride)
-                images = np.empty((len(frames), len(cameras), size, size, 3), np.uint8)
-                for i, t in enumerate(frames):
-                    base.set_state_dict(torch_state(state_at(states, int(t))))
-                    obs = base.get_obs(unflattened=True)
-                    for c, cam in enumerate(cameras):
-                        images[i, c] = obs["sensor_data"][cam]["rgb"][0].cpu().numpy()
-                yield images, frames, np.asarray(actions, np.float32), ep
-    finally:
-        env.close()
+    ..., their step indices (F,), all actions (T, A), episode json); rendered by `demos.frames.replay_frames`."""
+    for e in replay_frames(h5_path, cameras, size, progress, stride):
+        yield e.images, e.frames, e.actions, e.ep
 
 
 def encode_frames(encoder: Encoder, images: np.ndarray) -> torch.Tensor:
