@@ -196,6 +196,79 @@ def test_domain_randomization_changes_scene_and_keeps_distractors_clear():
     # same seed, same randomised scene
     again, _ = env.reset(seed=0)
     assert torch.equal(again["sensor_data"]["front_camera"]["rgb"].float(), images[0])
+    pen = base.pen.pose.raw_pose.clone()
+    # same episode, new look: the pen where it was, the picture different
+    new_look, _ = env.reset(seed=0, options={"visual_seed": 1})
+    assert torch.equal(base.pen.pose.raw_pose, pen)
+    assert (new_look["sensor_data"]["front_camera"]["rgb"].float() - images[0]).abs().mean() > 5
+    env.close()
+
+
+def task_layout(base) -> dict:
+    """Every actor and articulation state (pose, velocity, qpos) but the distractors', and the state obs."""
+    state = base.get_state_dict()
+    layout = {f"{kind}/{name}": value.clone() for kind in ("actors", "articulations")
+              for name, value in state[kind].items() if not name.startswith("distractor_")}
+    layout["obs"] = flat(base.get_obs())
+    return layout
+
+
+def xy_box(mesh) -> np.ndarray:
+    return np.asarray(mesh.bounds)[:, :2]
+
+
+@pytest.mark.parametrize("task_id", ["PickPlacePen", "LiftBasketHands", "DragRopeToGoal"])
+def test_domain_randomization_is_paired(task_id):
+    """A seed fixes the task layout whatever the look: the same object poses and task obs with randomisation
+    off, on, and on in another visual seed; the looks differ; distractors touch no task object."""
+    plain = make(task_id, obs_mode="state")
+    dr = make(task_id, obs_mode="state", domain_randomization=True)
+    base = dr.unwrapped
+    with_distractors = 0
+    for seed in (0, 4):
+        plain.reset(seed=seed)
+        expected = task_layout(plain.unwrapped)
+        looks = []
+        for visual_seed in (None, 1):
+            dr.reset(seed=seed, options=None if visual_seed is None else {"visual_seed": visual_seed})
+            assert base.visual_seed == (seed if visual_seed is None else visual_seed)
+            layout = task_layout(base)
+            assert layout.keys() == expected.keys()
+            for key, value in expected.items():
+                assert torch.equal(layout[key], value), f"{task_id} seed {seed} visual seed {visual_seed}: {key} moved"
+            looks.append(base.ladder_scene.look)
+            distractors = base.ladder_scene.distractors
+            with_distractors += bool(distractors)
+            boxes = [xy_box(d.get_first_collision_mesh()) for d in distractors]
+            for name, obj in {**base.scene.actors, **base.scene.articulations}.items():
+                if name.startswith(("distractor_", "table", "ground", "backdrop")) or obj is base.agent.robot:
+                    continue
+                mesh = obj.get_first_collision_mesh()
+                if mesh is None:
+                    continue
+                lo, hi = xy_box(mesh)
+                for d_lo, d_hi in boxes:
+                    assert (d_hi < lo).any() or (hi < d_lo).any(), f"{task_id} seed {seed}: a distractor touches {name}"
+        assert looks[0] != looks[1]
+    assert with_distractors  # the seeds exercise distractors
+    plain.close()
+    dr.close()
+
+
+def test_visual_seed_kwarg_fixes_the_look():
+    """`visual_seed=K` gives every episode look K; a reset option overrides it; bad seeds are refused."""
+    env = make("PickPlacePen", obs_mode="state", domain_randomization=True, visual_seed=5)
+    base = env.unwrapped
+    looks = []
+    for seed in (0, 1):
+        env.reset(seed=seed)
+        assert base.visual_seed == 5
+        looks.append(base.ladder_scene.look)
+    assert looks[0] == looks[1]
+    env.reset(seed=0, options={"visual_seed": 6})
+    assert base.visual_seed == 6 and base.ladder_scene.look != looks[0]
+    with pytest.raises(ValueError, match="visual_seed must be an int"):
+        env.reset(seed=0, options={"visual_seed": -1})
     env.close()
 
 
