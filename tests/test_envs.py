@@ -9,7 +9,7 @@ from mani_skill.utils.registration import REGISTERED_ENVS
 import maniladder_ms
 from maniladder_ms import TaskNotImplementedError, UnknownTaskError, UnsupportedRobotError
 from maniladder_ms.envs import resolve_render_backend
-from maniladder_ms.envs.scene import MAX_DISTRACTORS
+from maniladder_ms.envs.scene import DISTRACTOR_AREA, DISTRACTOR_REACH, KEEP_OUT_MARGIN, MAX_DISTRACTORS
 
 from conftest import sampled_tasks
 
@@ -240,9 +240,7 @@ def test_domain_randomization_is_paired(task_id):
             distractors = base.ladder_scene.distractors
             with_distractors += bool(distractors)
             boxes = [xy_box(d.get_first_collision_mesh()) for d in distractors]
-            for name, obj in {**base.scene.actors, **base.scene.articulations}.items():
-                if name.startswith(("distractor_", "table", "ground", "backdrop")) or obj is base.agent.robot:
-                    continue
+            for name, obj in task_objects(base):
                 mesh = obj.get_first_collision_mesh()
                 if mesh is None:
                     continue
@@ -253,6 +251,38 @@ def test_domain_randomization_is_paired(task_id):
     assert with_distractors  # the seeds exercise distractors
     plain.close()
     dr.close()
+
+
+def task_objects(base):
+    """The scene's actors and articulations but the table, ground, backdrop, distractors and robot."""
+    for name, obj in {**base.scene.actors, **base.scene.articulations}.items():
+        if not name.startswith(("distractor_", "table", "ground", "backdrop")) and obj is not base.agent.robot:
+            yield name, obj
+
+
+@pytest.mark.parametrize("task_id", sampled_tasks(TASKS))
+def test_task_objects_stay_in_the_task_region(task_id):
+    """Every task object within a distractor's reach lies within TASK_REGION (plus the room distractors
+    leave) at reset, over seeds: distractors, kept out of the region, then touch no task object."""
+    env = make(task_id, obs_mode="state")
+    base = env.unwrapped
+    xmin, xmax, ymin, ymax = base.TASK_REGION
+    room = KEEP_OUT_MARGIN - DISTRACTOR_REACH
+    ax0, ax1, ay0, ay1 = DISTRACTOR_AREA
+    for seed in range(8):
+        env.reset(seed=seed)
+        for name, obj in task_objects(base):
+            mesh = obj.get_first_collision_mesh()
+            if mesh is None:  # visual only (goal markers)
+                continue
+            (lo_x, lo_y), (hi_x, hi_y) = xy_box(mesh)
+            if (hi_x < ax0 - DISTRACTOR_REACH or lo_x > ax1 + DISTRACTOR_REACH
+                    or hi_y < ay0 - DISTRACTOR_REACH or lo_y > ay1 + DISTRACTOR_REACH):
+                continue  # beyond any distractor (a mobile task's second table)
+            assert xmin - room <= lo_x and hi_x <= xmax + room and ymin - room <= lo_y and hi_y <= ymax + room, (
+                f"{task_id} seed {seed}: {name} spans x [{lo_x:.3f}, {hi_x:.3f}], y [{lo_y:.3f}, {hi_y:.3f}], "
+                f"outside TASK_REGION {base.TASK_REGION}")
+    env.close()
 
 
 def test_visual_seed_kwarg_fixes_the_look():

@@ -101,7 +101,9 @@ class ManiLadderEnv(BaseEnv):
     """
 
     SUPPORTED_ROBOTS: ClassVar[list[str]] = ["ml_panda", "panda_wristcam"]
-    # (xmin, xmax, ymin, ymax) of the table area task objects and goals use; distractors stay out of it
+    # (xmin, xmax, ymin, ymax) of the table area task objects and goals use; distractors stay out of it. It
+    # covers every task object's extent at reset (within scene.KEEP_OUT_MARGIN - scene.DISTRACTOR_REACH; test
+    # test_task_objects_stay_in_the_task_region), so no distractor touches one
     TASK_REGION: ClassVar[tuple[float, float, float, float]] = (-0.25, 0.25, -0.3, 0.3)
     task_spec: Optional[TaskSpec]
     # the dense reward a task gives on success: the normalized dense reward is the dense one over this

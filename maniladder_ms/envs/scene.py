@@ -30,6 +30,11 @@ TABLE_CENTER_X = -0.15  # the robot base stands on the table top at x = -0.615, 
 BACKDROP_DISTANCE = 1.6
 MAX_DISTRACTORS = 3
 DISTRACTOR_HALF_SIZE = (0.015, 0.03)  # range of distractor half-extent
+DISTRACTOR_REACH = float(np.sqrt(2) * DISTRACTOR_HALF_SIZE[1])  # farthest a distractor reaches from its centre in xy
+# distractor centres stay this far outside the task's region: a distractor reaches no closer to it than
+# KEEP_OUT_MARGIN - DISTRACTOR_REACH, the room a task's objects may overhang their TASK_REGION by at reset
+KEEP_OUT_MARGIN = 0.05
+DISTRACTOR_AREA = (-0.35, 0.35, -0.45, 0.45)  # (xmin, xmax, ymin, ymax) distractor centres are drawn in
 DEFAULT_TABLE_COLOR = (0.62, 0.47, 0.32, 1)
 DEFAULT_BACKDROP_COLOR = (0.82, 0.82, 0.82, 1)
 
@@ -158,11 +163,12 @@ class LadderScene:
 
     def _sample_clear_xy(self, b: int, keep_out, placed: list[torch.Tensor], tries: int = 64) -> torch.Tensor:
         """Rejection-sample b table positions outside keep_out (+margin), the robot base and earlier distractors."""
-        margin = 0.05  # > a distractor's largest half diagonal (0.03 * sqrt 2): no part of one enters keep_out
+        margin = KEEP_OUT_MARGIN
         xmin, xmax, ymin, ymax = keep_out
         cpu = dict(device="cpu")
-        lo = torch.tensor([-0.35, -0.45], **cpu)
-        hi = torch.tensor([0.35, 0.45], **cpu)
+        ax0, ax1, ay0, ay1 = DISTRACTOR_AREA
+        lo = torch.tensor([ax0, ay0], **cpu)
+        hi = torch.tensor([ax1, ay1], **cpu)
         out = torch.zeros(b, 2, **cpu)
         todo = torch.ones(b, dtype=torch.bool, **cpu)
         robot = torch.tensor([-0.615, 0.0], **cpu)
@@ -175,8 +181,7 @@ class LadderScene:
             near_robot = torch.linalg.norm(cand - robot, dim=1) < 0.3
             near_other = torch.zeros(b, dtype=torch.bool, **cpu)
             for xy in placed:
-                # two yawed boxes touch no closer than twice the largest half diagonal
-                near_other |= torch.linalg.norm(cand - xy, dim=1) < 2 * np.sqrt(2) * DISTRACTOR_HALF_SIZE[1] + 0.02
+                near_other |= torch.linalg.norm(cand - xy, dim=1) < 2 * DISTRACTOR_REACH + 0.02
             ok = todo & ~inside_task & ~near_robot & ~near_other
             out[ok] = cand[ok]
             todo &= ~ok
