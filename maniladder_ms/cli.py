@@ -155,7 +155,10 @@ def cmd_render(args) -> int:
     else:
         spec = _catalog().get(args.task)
         out = args.out or Path(f"{spec.id}_seed{args.seed}.png")
-        path = render.render_task(spec.id, args.seed, out, domain_randomization=args.domain_randomization, size=args.size)
+        if args.visual_seed is not None and not args.domain_randomization:
+            raise ValueError("--visual-seed picks the look of domain randomisation: add --dr")
+        path = render.render_task(spec.id, args.seed, out, domain_randomization=args.domain_randomization,
+                                  size=args.size, visual_seed=args.visual_seed)
     print(f"wrote {path}")
     return 0
 
@@ -221,6 +224,8 @@ def build_parser() -> argparse.ArgumentParser:
     rd.add_argument("--out", type=Path, help="PNG path (default: <task>_seed<seed>.png)")
     rd.add_argument("--size", type=int, default=256, help="pixels per camera image")
     rd.add_argument("--domain-randomization", "--dr", action="store_true")
+    rd.add_argument("--visual-seed", type=int, help="with --dr: the look's seed (textures, lighting, distractors); "
+                    "the layout stays the --seed episode's (default: the look of --seed)")
     rd.set_defaults(func=cmd_render)
 
     bn = sub.add_parser("bench", help="control steps/s of tasks as ratios to PickCube-v1 (same process)")

@@ -45,7 +45,8 @@ def save_tiled(images: dict[str, np.ndarray], title: str, out: Path) -> Path:
 
 
 def render_task(task_id: str, seed: int, out: Path, domain_randomization: bool = False,
-                size: int = RENDER_CAMERA_SIZE) -> Path:
+                size: int = RENDER_CAMERA_SIZE, visual_seed: int | None = None) -> Path:
+    """Every camera of episode `seed`; with domain randomisation in look `visual_seed` (default: the seed's)."""
     import maniladder_ms
 
     env = maniladder_ms.make(
@@ -53,9 +54,10 @@ def render_task(task_id: str, seed: int, out: Path, domain_randomization: bool =
         sensor_configs=dict(width=size, height=size),
     )
     try:
-        env.reset(seed=seed)
+        env.reset(seed=seed, options=None if visual_seed is None else {"visual_seed": visual_seed})
         spec = env.unwrapped.task_spec
-        title = f"{spec.id}  ({spec.suite}, seed {seed}{', domain randomisation' if domain_randomization else ''})"
+        look = f", domain randomisation, visual seed {env.unwrapped.visual_seed}" if domain_randomization else ""
+        title = f"{spec.id}  ({spec.suite}, seed {seed}{look})"
         return save_tiled(camera_images(env), title, out)
     finally:
         env.close()

@@ -117,6 +117,18 @@ def test_render_and_bench_refuse_bad_targets(capsys):
     assert "exactly one of" in capsys.readouterr().err
     assert main(["bench", "--scene", "jelly"]) == 2
     assert "unknown scene 'jelly'" in capsys.readouterr().err
+    assert main(["render", "PickPlacePen", "--visual-seed", "1"]) == 2
+    assert "add --dr" in capsys.readouterr().err
+
+
+def test_render_dr_visual_seed_changes_the_look(tmp_path, capsys):
+    images = []
+    for k in (0, 1):
+        out = tmp_path / f"look{k}.png"
+        assert main(["render", "PickPlacePen", "--dr", "--seed", "3", "--visual-seed", str(k), "--out", str(out),
+                     "--size", "64"]) == 0
+        images.append(np.asarray(Image.open(out).convert("RGB")).astype(float)[22:86])
+    assert np.abs(images[0] - images[1]).mean() > 5
 
 
 def test_bench_agents_and_showcases(capsys):

@@ -9,7 +9,7 @@ from mani_skill.utils.registration import REGISTERED_ENVS
 import maniladder_ms
 from maniladder_ms import TaskNotImplementedError, UnknownTaskError, UnsupportedRobotError
 from maniladder_ms.envs import resolve_render_backend
-from maniladder_ms.envs.scene import MAX_DISTRACTORS
+from maniladder_ms.envs.scene import DISTRACTOR_AREA, DISTRACTOR_REACH, KEEP_OUT_MARGIN, MAX_DISTRACTORS
 
 from conftest import sampled_tasks
 
@@ -196,6 +196,109 @@ def test_domain_randomization_changes_scene_and_keeps_distractors_clear():
     # same seed, same randomised scene
     again, _ = env.reset(seed=0)
     assert torch.equal(again["sensor_data"]["front_camera"]["rgb"].float(), images[0])
+    pen = base.pen.pose.raw_pose.clone()
+    # same episode, new look: the pen where it was, the picture different
+    new_look, _ = env.reset(seed=0, options={"visual_seed": 1})
+    assert torch.equal(base.pen.pose.raw_pose, pen)
+    assert (new_look["sensor_data"]["front_camera"]["rgb"].float() - images[0]).abs().mean() > 5
+    env.close()
+
+
+def task_layout(base) -> dict:
+    """Every actor and articulation state (pose, velocity, qpos) but the distractors', and the state obs."""
+    state = base.get_state_dict()
+    layout = {f"{kind}/{name}": value.clone() for kind in ("actors", "articulations")
+              for name, value in state[kind].items() if not name.startswith("distractor_")}
+    layout["obs"] = flat(base.get_obs())
+    return layout
+
+
+def xy_box(mesh) -> np.ndarray:
+    return np.asarray(mesh.bounds)[:, :2]
+
+
+@pytest.mark.parametrize("task_id", ["PickPlacePen", "LiftBasketHands", "DragRopeToGoal"])
+def test_domain_randomization_is_paired(task_id):
+    """A seed fixes the task layout whatever the look: the same object poses and task obs with randomisation
+    off, on, and on in another visual seed; the looks differ; distractors touch no task object."""
+    plain = make(task_id, obs_mode="state")
+    dr = make(task_id, obs_mode="state", domain_randomization=True)
+    base = dr.unwrapped
+    with_distractors = 0
+    for seed in (0, 4):
+        plain.reset(seed=seed)
+        expected = task_layout(plain.unwrapped)
+        looks = []
+        for visual_seed in (None, 1):
+            dr.reset(seed=seed, options=None if visual_seed is None else {"visual_seed": visual_seed})
+            assert base.visual_seed == (seed if visual_seed is None else visual_seed)
+            layout = task_layout(base)
+            assert layout.keys() == expected.keys()
+            for key, value in expected.items():
+                assert torch.equal(layout[key], value), f"{task_id} seed {seed} visual seed {visual_seed}: {key} moved"
+            looks.append(base.ladder_scene.look)
+            distractors = base.ladder_scene.distractors
+            with_distractors += bool(distractors)
+            boxes = [xy_box(d.get_first_collision_mesh()) for d in distractors]
+            for name, obj in task_objects(base):
+                mesh = obj.get_first_collision_mesh()
+                if mesh is None:
+                    continue
+                lo, hi = xy_box(mesh)
+                for d_lo, d_hi in boxes:
+                    assert (d_hi < lo).any() or (hi < d_lo).any(), f"{task_id} seed {seed}: a distractor touches {name}"
+        assert looks[0] != looks[1]
+    assert with_distractors  # the seeds exercise distractors
+    plain.close()
+    dr.close()
+
+
+def task_objects(base):
+    """The scene's actors and articulations but the table, ground, backdrop, distractors and robot."""
+    for name, obj in {**base.scene.actors, **base.scene.articulations}.items():
+        if not name.startswith(("distractor_", "table", "ground", "backdrop")) and obj is not base.agent.robot:
+            yield name, obj
+
+
+@pytest.mark.parametrize("task_id", sampled_tasks(TASKS))
+def test_task_objects_stay_in_the_task_region(task_id):
+    """Every task object within a distractor's reach lies within TASK_REGION (plus the room distractors
+    leave) at reset, over seeds: distractors, kept out of the region, then touch no task object."""
+    env = make(task_id, obs_mode="state")
+    base = env.unwrapped
+    xmin, xmax, ymin, ymax = base.TASK_REGION
+    room = KEEP_OUT_MARGIN - DISTRACTOR_REACH
+    ax0, ax1, ay0, ay1 = DISTRACTOR_AREA
+    for seed in range(8):
+        env.reset(seed=seed)
+        for name, obj in task_objects(base):
+            mesh = obj.get_first_collision_mesh()
+            if mesh is None:  # visual only (goal markers)
+                continue
+            (lo_x, lo_y), (hi_x, hi_y) = xy_box(mesh)
+            if (hi_x < ax0 - DISTRACTOR_REACH or lo_x > ax1 + DISTRACTOR_REACH
+                    or hi_y < ay0 - DISTRACTOR_REACH or lo_y > ay1 + DISTRACTOR_REACH):
+                continue  # beyond any distractor (a mobile task's second table)
+            assert xmin - room <= lo_x and hi_x <= xmax + room and ymin - room <= lo_y and hi_y <= ymax + room, (
+                f"{task_id} seed {seed}: {name} spans x [{lo_x:.3f}, {hi_x:.3f}], y [{lo_y:.3f}, {hi_y:.3f}], "
+                f"outside TASK_REGION {base.TASK_REGION}")
+    env.close()
+
+
+def test_visual_seed_kwarg_fixes_the_look():
+    """`visual_seed=K` gives every episode look K; a reset option overrides it; bad seeds are refused."""
+    env = make("PickPlacePen", obs_mode="state", domain_randomization=True, visual_seed=5)
+    base = env.unwrapped
+    looks = []
+    for seed in (0, 1):
+        env.reset(seed=seed)
+        assert base.visual_seed == 5
+        looks.append(base.ladder_scene.look)
+    assert looks[0] == looks[1]
+    env.reset(seed=0, options={"visual_seed": 6})
+    assert base.visual_seed == 6 and base.ladder_scene.look != looks[0]
+    with pytest.raises(ValueError, match="visual_seed must be an int"):
+        env.reset(seed=0, options={"visual_seed": -1})
     env.close()
 
 

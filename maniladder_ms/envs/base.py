@@ -47,6 +47,14 @@ class UnsupportedRobotError(ValueError):
     """A robot uid the task was not built for."""
 
 
+def _check_visual_seed(seed) -> Optional[int]:
+    if seed is None:
+        return None
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= seed < 2**32:
+        raise ValueError(f"visual_seed must be an int in [0, 2**32), got {seed!r}")
+    return int(seed)
+
+
 def _needs_rendering(obs_mode: Optional[str], render_mode: Optional[str]) -> bool:
     return render_mode is not None or any(m in (obs_mode or "") for m in VISUAL_OBS_MODES)
 
@@ -79,7 +87,13 @@ class ManiLadderEnv(BaseEnv):
         task_id: catalog id, fixed by the registration of each env id; None for scenes that are not
             ladder tasks (agent gallery, deformable showcases), whose `task_spec` is then None.
         domain_randomization: randomise lighting, table/backdrop textures and 0-3 distractors; the
-            scene is then rebuilt at every reset (reconfiguration_freq=1).
+            scene is then rebuilt at every reset (reconfiguration_freq=1). The randomisation draws from
+            its own generators, never from the episode RNGs: a seed gives the same task layout (every
+            object pose and task parameter) with randomisation on or off, whatever the look.
+        visual_seed: the seed of the look (textures, lighting, distractors) of every episode; default
+            None: each episode's own seed, so a seed still fixes the whole randomised scene. A reset
+            option overrides it for one episode: `env.reset(seed=3, options={"visual_seed": 7})` is
+            episode 3 with look 7 (same episode, new look). Ignored without domain randomisation.
         robot_init_qpos_noise: std of the noise added to the robot's rest pose at reset.
         cameras: the sensor cameras to capture (uids, e.g. ("front_camera", "left_camera", "top_camera"));
             default all: the three third-view cameras and the robot's wrist cameras. A visual policy
@@ -87,7 +101,9 @@ class ManiLadderEnv(BaseEnv):
     """
 
     SUPPORTED_ROBOTS: ClassVar[list[str]] = ["ml_panda", "panda_wristcam"]
-    # (xmin, xmax, ymin, ymax) of the table area task objects and goals use; distractors stay out of it
+    # (xmin, xmax, ymin, ymax) of the table area task objects and goals use; distractors stay out of it. It
+    # covers every task object's extent at reset (within scene.KEEP_OUT_MARGIN - scene.DISTRACTOR_REACH; test
+    # test_task_objects_stay_in_the_task_region), so no distractor touches one
     TASK_REGION: ClassVar[tuple[float, float, float, float]] = (-0.25, 0.25, -0.3, 0.3)
     task_spec: Optional[TaskSpec]
     # the dense reward a task gives on success: the normalized dense reward is the dense one over this
@@ -117,6 +133,7 @@ class ManiLadderEnv(BaseEnv):
         task_id: Optional[str],
         robot_uids: Optional[str] = None,
         domain_randomization: bool = False,
+        visual_seed: Optional[int] = None,
         robot_init_qpos_noise: float = 0.02,
         render_backend: Optional[str] = None,
         cameras: Optional[Sequence[str]] = None,
@@ -132,6 +149,10 @@ class ManiLadderEnv(BaseEnv):
                 f"{task_id or type(self).__name__} does not support robot {robot_uids!r}; supported: {', '.join(map(str, self.SUPPORTED_ROBOTS))}"
             )
         self.domain_randomization = domain_randomization
+        self._visual_seed_default = _check_visual_seed(visual_seed)
+        self._visual_seed_option: Optional[int] = None
+        # the look's seed of the current scene (None without domain randomisation)
+        self.visual_seed: Optional[int] = None
         self.robot_init_qpos_noise = robot_init_qpos_noise
         if domain_randomization:
             kwargs.setdefault("reconfiguration_freq", 1)
@@ -150,6 +171,24 @@ class ManiLadderEnv(BaseEnv):
         for name, value in params.items():
             setattr(self, name, tuple(value) if isinstance(value, list) else value)
         return params
+
+    def reset(self, seed=None, options=None):
+        """ManiSkill's reset, plus the option `visual_seed` (see the class doc): the look's seed for this
+        episode; with domain randomisation a reset given one rebuilds the scene in that look."""
+        options = dict(options or {})
+        self._visual_seed_option = _check_visual_seed(options.pop("visual_seed", None))
+        if self._visual_seed_option is not None and self.domain_randomization:
+            options["reconfigure"] = True
+        return super().reset(seed=seed, options=options)
+
+    def _resolve_visual_seed(self) -> Optional[int]:
+        """The look's seed of a scene being built: the reset option's, the env's, or the episode seed."""
+        if not self.domain_randomization:
+            return None
+        for seed in (self._visual_seed_option, self._visual_seed_default):
+            if seed is not None:
+                return seed
+        return int(self._episode_seed[0])
 
     # ---- cameras ------------------------------------------------------------------------------
     @property
@@ -197,7 +236,10 @@ class ManiLadderEnv(BaseEnv):
         super()._load_agent(options, ROBOT_BASE_POSE)
 
     def _load_scene(self, options: dict):
-        self.ladder_scene = LadderScene(self, randomize=self.domain_randomization)
+        # the look draws from its own generators (seeded by the visual seed), so the task's layout draws
+        # from the episode RNGs after this are the same with and without domain randomisation
+        self.visual_seed = self._resolve_visual_seed()
+        self.ladder_scene = LadderScene(self, randomize=self.domain_randomization, visual_seed=self.visual_seed)
         self.ladder_scene.build()
         self.ee = EndEffectors(self.agent, self.scene)
         # tasks declare their fields after calling super()._load_scene

@@ -58,7 +58,7 @@ class CarryBoxToShelfHandsEnv(ManiLadderEnv):
 
     SUPPORTED_ROBOTS = ["ml_dual_panda_leap"]
     max_dense_reward = 10
-    TASK_REGION = (-0.32, 0.2, -0.3, 0.3)
+    TASK_REGION = (-0.34, 0.24, -0.3, 0.3)
     PARAMS = ("lift_height", "shelf_height", "shelf_half", "box_half", "box_mass", "rest_tol")
 
     def _load_scene(self, options: dict):

@@ -39,7 +39,7 @@ class HangMugEnv(ManiLadderEnv):
 
     max_dense_reward = 6
 
-    TASK_REGION = (-0.2, 0.1, -0.35, 0.25)
+    TASK_REGION = (-0.26, 0.16, -0.36, 0.28)
     PARAMS = ("peg_height", "peg_length", "peg_radius", "clearance")
     mug_shape = MugShape()
 

@@ -42,7 +42,7 @@ class OpenBoxRetrievalEnv(ManiLadderEnv):
 
     max_dense_reward = 7
 
-    TASK_REGION = (-0.2, 0.25, -0.25, 0.25)
+    TASK_REGION = (-0.37, 0.25, -0.25, 0.25)
     box_shape = LiddedBoxShape(inner_half_size=(0.08, 0.08))
     box_density = 2200.0  # ~1.5 kg: the box stays put while the lid is pulled open
     PARAMS = ("cube_half_size", "open_angle", "lift_clearance", "max_box_tilt")  # angles in degrees

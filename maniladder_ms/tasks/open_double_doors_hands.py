@@ -34,7 +34,7 @@ class OpenDoubleDoorsHandsEnv(ManiLadderEnv):
 
     SUPPORTED_ROBOTS = ["ml_dual_panda_leap"]
     max_dense_reward = 6
-    TASK_REGION = (-0.25, 0.3, -0.3, 0.3)
+    TASK_REGION = (-0.25, 0.44, -0.3, 0.3)
     PARAMS = ("open_angle",)
     cabinet_shape = CabinetShape()
     grasp_depth = 0.035  # below the knob's top, where a hand closes round it (as round a can)

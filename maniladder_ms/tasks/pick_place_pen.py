@@ -33,7 +33,7 @@ class PickPlacePenEnv(ManiLadderEnv):
 
     max_dense_reward = 6
 
-    TASK_REGION = (-0.25, 0.2, -0.32, 0.32)
+    TASK_REGION = (-0.25, 0.24, -0.32, 0.32)
     PARAMS = ("pen_length", "pen_radius", "tray_inner_half", "tray_wall_height", "margin")
     tray_wall_thickness = 0.008
     tray_base_thickness = 0.006

@@ -39,7 +39,7 @@ class PivotBookEnv(ManiLadderEnv):
 
     max_dense_reward = 6
 
-    TASK_REGION = (-0.2, 0.1, -0.25, 0.25)
+    TASK_REGION = (-0.2, 0.1, -0.31, 0.31)
     # book_half_size: long axis along local x; upright_tol in degrees
     PARAMS = ("book_half_size", "upright_tol", "wall_gap", "rest_speed", "rest_ang")
     wall_face_x = 0.05

@@ -40,7 +40,7 @@ class PourBeansIntoBowlEnv(CupToBowl, ManiLadderEnv):
 
     max_dense_reward = 6
 
-    TASK_REGION = (-0.2, 0.15, -0.25, 0.25)
+    TASK_REGION = (-0.2, 0.18, -0.25, 0.25)
     PARAMS = ("bean_count", "bean_radius", "success_fraction")
     particle_name = "beans"
     placement = {"cup": ((-0.16, -0.1), (0.08, 0.16)), "bowl": ((0.0, 0.08), (-0.05, 0.05))}

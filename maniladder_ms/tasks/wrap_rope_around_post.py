@@ -54,7 +54,7 @@ class WrapRopeAroundPostEnv(rope.RopeTask, ManiLadderEnv):
     """
 
     max_dense_reward = 5
-    TASK_REGION = (-0.4, 0.2, -0.25, 0.25)
+    TASK_REGION = (-0.45, 0.2, -0.56, 0.56)
     PARAMS = ("post_radius", "post_height", "min_turns")
     rope_anchored = True
     # 48 cm (the default 40 cm in 2 cm capsules, 4 capsules longer): the standing part, one turn round the
