@@ -97,7 +97,7 @@ def measured_level(rate: float, ranges: Optional[dict] = None) -> int:
 
 
 def level_text(level: int) -> str:
-    return "below L1 (too easy)" if level == 0 else f"L{level}"
+    return "easier than L1 (above its band)" if level == 0 else f"L{level}"
 
 
 class TaskCalibration:
