@@ -38,16 +38,17 @@ class PlaceMugOnCoasterHandEnv(ManiLadderEnv):
     within `centre_tol` (horizontally) of the coaster's centre, its bottom rests on the coaster (within
     `rest_tol` of the coaster's top), and no part of the hand touches it (`ee.touches`: released).
 
-    **Level 2:** (against Level 1's LiftBottleHand: one power grasp and a lift, 2 stages, ~150 steps, no
-    placement) 4 stages (grasp, lift and carry 12-30 cm, set down, release); the mug must end within 2 cm of
-    the coaster's centre and 10 degrees of upright, and the hand must open off an 8.4 cm mug standing on a
-    5 mm disc without pushing it off centre or tipping it (opening the fingers pushes a standing mug
-    several centimetres, HandoverMugHands' notes): the release is a stage of its own.
+    **Level 2:** (against Level 1's LiftBottleHand: one power grasp and a lift, 2 stages, ~80-step demos, no
+    placement, no release) 4 stages (grasp, lift and carry 12-30 cm, set down, release), ~210-step demos; the
+    mug hangs in the grip tilted by 5-25 degrees and must end within 2 cm of the coaster's centre and 10 degrees
+    of upright, so the wrist takes the tilt out before the set-down; and the hand must open off the standing mug
+    without pushing or tipping it: the fingers opening straight from the power grasp throw it 8-10 cm or tip
+    it over (3 of 3 seeds), so the release is a stage of its own (relax the squeeze, fingers, then thumb).
     """
 
     SUPPORTED_ROBOTS = ["ml_panda_leap"]
     max_dense_reward = 8
-    TASK_REGION = (-0.25, -0.05, -0.22, 0.22)
+    TASK_REGION = (-0.29, -0.01, -0.21, 0.24)  # the mug with its handle (8 cm from the axis) and the coaster
     PARAMS = ("lift_height", "max_tilt", "centre_tol", "rest_tol")
     mug_shape = MugShape()
 
@@ -136,6 +137,7 @@ CARRY_HEIGHT = 0.08  # m the TCP rises after the grasp before the carry (the mug
 CARRY_STEP = 0.01  # m a control step along the lift and the carry (faster swings the mug in the grip)
 STRAIGHTEN_ABOVE = 0.02  # m: the mug's bottom this far over the coaster when its tilt in the grip is taken out
 LOWER_STEP = 0.003  # m a control step of the closed-loop set-down
+SET_DOWN_GAP = 0.002  # m: the set-down stops with the mug's bottom this close to the coaster's top
 RELEASE_STEPS = 20  # control steps over which the fingers, then the thumb, open
 
 
@@ -175,9 +177,12 @@ def solve_place_mug_on_coaster_hand(env, seed: int) -> dict:
         glide(s, {"arm": (across, place_tcp(STRAIGHTEN_ABOVE), q)}, step_length=CARRY_STEP, settle_steps=10)
         q = _straighten(s, task)
         # lower closed loop: each step the target is where the TCP must be for the mug (as it hangs in the grip now)
-        for k in range(int(STRAIGHTEN_ABOVE / LOWER_STEP) + 1):
+        # until the mug's bottom is down on the coaster (following it further drags the standing mug off centre)
+        for k in range(int(STRAIGHTEN_ABOVE / LOWER_STEP) + 10):
+            if bool((task.mug.pose.p[:, 2] - task.coaster.pose.p[:, 2] - COASTER_HEIGHT < SET_DOWN_GAP).all()):
+                break
             s.step({"arm": (place_tcp(max(STRAIGHTEN_ABOVE - (k + 1) * LOWER_STEP, 0.0)), q)})
-        s.move({"arm": (place_tcp(0.0), q)}, max_steps=10, pos_tol=0.002)
+        s.move({"arm": (s.tcp("arm").p.clone(), q)}, max_steps=3)  # hold there
         # let go: joint targets to where the joints are (no squeeze), then the fingers open, then the thumb
         hand = task.agent.controller.controllers["hand"].qpos.clone()
         s.close_hand("hand", hand, ramp_steps=5, hold_steps=2)
