@@ -2,6 +2,8 @@
 
 import torch
 
+from mani_skill.utils.geometry.rotation_conversions import axis_angle_to_quaternion, quaternion_apply, quaternion_multiply
+
 
 def yaw_quat(yaw: torch.Tensor) -> torch.Tensor:
     """(b,) yaw angles -> (b, 4) quaternions of rotations about world z."""
@@ -17,3 +19,15 @@ def yaw_of(q: torch.Tensor) -> torch.Tensor:
 def actor_yaw(actor) -> float:
     """Yaw of an actor in the first sub-env, for solvers (which drive one env)."""
     return float(yaw_of(actor.pose.q)[0])
+
+
+def uprighting(body_q: torch.Tensor, q: torch.Tensor) -> torch.Tensor:
+    """(b, 4) orientation `q` (a held object's grasping frame, say a TCP) turned by the world rotation that brings
+    the z axis of a body at orientation `body_q` (b, 4) to world z, the shortest way: where a TCP that holds a
+    tilted body must turn to stand it upright."""
+    z = torch.zeros_like(body_q[:, 1:])
+    z[:, 2] = 1
+    axis = quaternion_apply(body_q, z)
+    c = torch.cross(axis, z, dim=1)
+    angle = torch.atan2(c.norm(dim=1), (axis * z).sum(1))
+    return quaternion_multiply(axis_angle_to_quaternion(torch.nn.functional.normalize(c, dim=1) * angle[:, None]), q)

@@ -2,7 +2,8 @@
 
 The handle is a C of three boxes on the mug's -x side: two arms out from the wall and an outer bar,
 leaving an opening a peg or a finger passes through along the mug's y axis. HangMug hangs it by
-that loop; later levels reuse it (PlaceMugOnCoasterHand, HandoverMugHands).
+that loop; later levels reuse it (PlaceMugOnCoasterHand, HandoverMugHands), with the round coaster
+they set it on (`build_coaster`).
 """
 
 from __future__ import annotations
@@ -16,6 +17,9 @@ import sapien.render
 from mani_skill.envs.scene import ManiSkillScene
 
 from .containers import CERAMIC_DENSITY, ContainerShape, body_builder, build_resting, cup
+from .pot import build_stove_plate
+
+COASTER_RADIUS, COASTER_HEIGHT = 0.055, 0.005  # an 11 cm cork coaster, 5 mm thick
 
 
 @dataclass(frozen=True)
@@ -56,6 +60,12 @@ def build_mug(scene: ManiSkillScene, name: str, shape: MugShape, color, friction
         if render_mat is not None:
             builder.add_box_visual(sapien.Pose(p=centre), half_size=half, material=render_mat)
     return build_resting(builder, name)
+
+
+def build_coaster(scene: ManiSkillScene, name: str, color=(0.72, 0.55, 0.36, 1), ring_color=(0.45, 0.3, 0.18, 1)):
+    """A round coaster (`COASTER_RADIUS`, `COASTER_HEIGHT`) fixed to the table (kinematic: tasks place it per
+    episode), its origin at its bottom centre: a disc with a darker rim ring (`pot.build_stove_plate`)."""
+    return build_stove_plate(scene, name, COASTER_RADIUS, COASTER_HEIGHT, color=color, ring_color=ring_color)
 
 
 def build_mug_tree(scene: ManiSkillScene, name: str, post_height: float, peg_height: float, peg_length: float,
