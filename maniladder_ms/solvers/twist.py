@@ -13,7 +13,7 @@ from __future__ import annotations
 import torch
 
 from maniladder_ms.agents.helpers import top_down_quat
-from mani_skill.utils.geometry.rotation_conversions import quaternion_apply, quaternion_to_matrix
+from mani_skill.utils.geometry.rotation_conversions import quaternion_apply, quaternion_invert, quaternion_to_matrix
 
 from .driven import DrivenSolver
 
@@ -87,13 +87,20 @@ def lid_points(task):
 
 def unscrew(s: DrivenSolver, task, arm: str, ee: str, max_strokes: int = 4, stroke_steps: int = 200,
             offset=None, synergy: str | None = None, ramp_steps: int = 40, preshape: str | None = None,
-            follow: float = 1.0):
+            follow: float = 1.0, measured_axis: bool = False,
+            rise_back: float | None = None):
     """Unscrew `task.jar`'s lid (UnscrewCapTask) in strokes with `arm` / `ee` (see the module docstring);
     the hand winds up first unless it already has (`wind_up_target`). `offset`: the grip point in the TCP
     frame (`grip_target`; None: the TCP); `synergy`: the LEAP grasp that grips the lid, closed over
     `ramp_steps` (None: `DrivenSolver.grasp`), from the hand posture `preshape` taken above the lid;
     `follow`: the share of the wrist's turn the lid takes (the rest slips), which sets how far the open
-    hand turns back for the rest of the turn."""
+    hand turns back for the rest of the turn; `measured_axis`: each stroke turns the closed hand about the
+    lid's axis as it stands once the hand has closed, the hand keeping its grip on it as it then is (for a
+    container held by another hand, which gives a little as the hand closes: turning about the planned grip
+    point would drag the lid round a circle and tip the container), not about the planned grip point;
+    `rise_back`: the opened hand first rises to this height (m) above the lid's top, then turns back there
+    (None: it turns back as it rises to `ABOVE_LID`; on a held container, which tilts a little in its
+    holder's grip, the hanging thumb then dragged the lid back)."""
     release = float(torch.deg2rad(torch.tensor(float(task.release_angle))))
     grip_point, above = lid_points(task)
 
@@ -113,13 +120,24 @@ def unscrew(s: DrivenSolver, task, arm: str, ee: str, max_strokes: int = 4, stro
             s.grasp(ee)
         else:
             s.close_hand(ee, synergy, ramp_steps=ramp_steps)
-        turn_wrist(s, arm, grip_point, 1, lambda: done() or bool((_j7(s, arm) <= -J7_LIMIT + J7_MARGIN).all()),
-                   max_steps=stroke_steps, offset=offset)
+        axis, grip = grip_point, offset
+        if measured_axis:
+            point = grip_point()
+            tcp = s.tcp(arm)
+            grip = quaternion_apply(quaternion_invert(tcp.q), point - tcp.p)  # the lid's axis point in the TCP frame
+            axis = lambda: point  # noqa: E731
+        turn_wrist(s, arm, axis, 1, lambda: done() or bool((_j7(s, arm) <= -J7_LIMIT + J7_MARGIN).all()),
+                   max_steps=stroke_steps, offset=grip)
         if done():
             return
         s.release(ee, steps=5)
+        back = above
+        if rise_back is not None:
+            high = task.lid_top() + torch.tensor([0.0, 0.0, rise_back], device=task.device)
+            back = lambda: high  # noqa: E731
+            s.move({arm: grip_target(high, tcp_yaw(s, arm), offset)}, max_steps=25, pos_tol=0.01)
         # turn back as far as the rest of the turn needs (or the wrist allows)
         back_to = _j7(s, arm) + ((release - task.memory["held_turn"][:, 0]) / follow + BACK_MARGIN)
-        turn_wrist(s, arm, above, -1,
+        turn_wrist(s, arm, back, -1,
                    lambda: bool(((_j7(s, arm) >= back_to) | (_j7(s, arm) >= J7_LIMIT - J7_MARGIN)).all()),
                    max_steps=stroke_steps, offset=offset)

@@ -1,0 +1,108 @@
+"""OpenJarHands (L2 rigid DX, family UnscrewCap): the left LEAP hand holds a free jar, the right unscrews its lid."""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+
+from maniladder_ms.envs import register_task
+from maniladder_ms.objects.jar import JarShape
+from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
+from maniladder_ms.solvers.bimanual import Grasp, close_hands
+from maniladder_ms.solvers.driven import DrivenSolver
+from maniladder_ms.solvers.twist import is_wound_up, rise_first, unscrew, wind_up_target
+from maniladder_ms.tasks.pour_grains_hand_to_cup import READY_ARM_JOINTS, side_grasp
+
+from .unscrew_cap import UnscrewCapTask
+
+HOLDER, TWISTER = "left", "right"
+
+
+
+# UNFINISHED: not registered until its solver reaches the bar (>= 90% on seeds 100-149; see the branch log)
+# @register_task("OpenJarHands")
+class OpenJarHandsEnv(UnscrewCapTask):
+    """**Task:** a screw-top jar stands free on the table; the left LEAP hand holds its body from the side
+    while the right LEAP hand grips the lid from above in a power grasp and unscrews it counter-clockwise
+    (seen from above) by turning the wrist, in strokes: grip, twist, let go, turn the open hand back, grip
+    again, until the lid is off its thread.
+
+    **Randomisation:** the jar (a 6 cm wide, 16 cm tall sealed body of ~0.6 kg and a 6.6 cm wide, 3.5 cm
+    tall lid screwed home; `objects.jar`) has its centre uniform in x in [-0.16, -0.1], y in
+    [-0.04, 0.02] and its yaw (where the lid's stripes point) uniform in [0, 2 pi).
+
+    **Success:** (the UnscrewCap family rule, `UnscrewCapTask`) the lid's thread joint has turned by at
+    least `release_angle` counter-clockwise, and so has the episode memory `held_turn`, which counts the
+    joint's turn only over control steps in which one hand held the lid (`ee.holds`: a finger pressing
+    against the thumb or palm) while the other hand held the jar's body. The thread resists with
+    `thread_torque` of dry friction; a turn made while the other hand does not hold the jar does not
+    count.
+
+    **Level 2:** (against Level 1's LiftBasketHands: both hands do the same thing, close on a handle and
+    lift together, 2 stages, ~160 steps) the two hands do different things at once: one holds a free jar
+    against the thread's torque throughout while the other turns the lid a full turn, 360 degrees, more
+    than the Panda's wrist turns in one go with the lid slipping in the grip, so it takes two strokes with a
+    regrasp between them: 6 stages (hold the jar, grip the lid, twist, let go and turn back, grip again,
+    twist), ~300-450 control steps in the unfinished solver's successes so far; the twisting grasp must
+    stay centred on the lid's axis within ~1 cm while the wrist turns ~8 rad, and the jar, held only by the
+    other hand, must not tip or turn in that hand's grip.
+    """
+
+    SUPPORTED_ROBOTS = ["ml_dual_panda_leap"]
+    max_dense_reward = 6
+    JAR_REGION = (-0.16, -0.1, -0.04, 0.02)
+    TASK_REGION = (-0.25, 0.0, -0.15, 0.25)
+    READY_JOINTS = {f"{HOLDER}_panda_joint{i}": angle for i, angle in enumerate(READY_ARM_JOINTS[HOLDER], 1)}
+    jar_shape = JarShape(body_radius=0.03, body_height=0.16, lid_radius=0.033, lid_height=0.035)
+    body_color, lid_color = (0.85, 0.75, 0.55, 1), (0.2, 0.45, 0.8, 1)
+
+
+# The holding hand's side grasp on the jar's body (`side_grasp`, PourGrainsHandToCup's pourer grasp and ready
+# pose): palm normal along -y, level, thumb low, the TCP 4.5 cm past the jar's axis so the palm meets the body
+# (palm off the jar, inwards 0: the jar tipped 15-40 deg in the fingertip grip while the other hand closed and
+# twisted; with the palm on it, 4-7 deg). The grasp centre 9.5 cm up the 16 cm body (7 cm: seeds 100-103 1/4,
+# 9.5: 3/4, 11: 0/2 of the failures); the ring finger stays open (curled, it reached the lid)
+HOLD_GRASP = dict(yaw=-np.pi / 2, pitch=0.0, up=-1.0, height=0.095, shift=0.04, inwards=0.045,
+                  approach="preshape", close=np.array([0.0, 1.5, 0.6, 0.4] * 2 + [0.0] * 4 + [1.6, 0.3, 0.3, 0.3]))
+LINE_UP_DISTANCE = 0.1  # m out from the grasp (along the palm normal) where the holding hand lines up
+ABOVE = 0.1  # its first target is this far above the line-up point (the ready pose is there)
+HOLD_PRESHAPE_STEPS = 20
+# the twisting hand: UnscrewCapHand's power grasp, closed slower (40 steps: the held jar gives), its TCP at
+# the lid's mid-height (the jar has no neck for the fingertips to reach under the lid onto)
+GRIP_OFFSET = (0.0, 0.0, 0.0)
+RAMP_STEPS = 40
+FOLLOW = 0.7  # UnscrewCapHand's
+CLEARANCE = 0.1  # m above the lid top where the twisting hand winds its wrist up
+WIND_UP_STEPS = 80
+RISE_BACK = 0.08  # m above the lid top where the opened hand turns back between strokes
+
+
+@register_solver("OpenJarHands", control_modes=TCP_DELTA_MODES)
+def solve_open_jar_hands(env, seed: int) -> dict:
+    """Left: side grasp on the jar's body from the ready pose; right: rise, wind the wrist up above the lid,
+    then power-grasp twist strokes (`solvers.twist.unscrew`) until the lid is off."""
+    with DrivenSolver.episode(env, seed) as s:
+        task: OpenJarHandsEnv = env.unwrapped
+        device = task.device
+        p, q, normal = side_grasp(task.jar.pose.p, HOLD_GRASP)
+        hold = Grasp(f"{HOLDER}_arm", f"{HOLDER}_hand", p, q, -LINE_UP_DISTANCE * normal)
+        twist_arm = f"{TWISTER}_arm"
+
+        def high():
+            return rise_first(s, twist_arm, task.lid_top() + torch.tensor([0.0, 0.0, CLEARANCE], device=device))
+
+        s.set_ee(hold.ee, HOLD_GRASP["approach"], steps=0)
+        for k in range(WIND_UP_STEPS):
+            target = (s.above(hold.lined_up[0], ABOVE), hold.q) if k < HOLD_PRESHAPE_STEPS else hold.lined_up
+            errs = s.step({hold.arm: target, twist_arm: wind_up_target(s, twist_arm, high(), GRIP_OFFSET)})
+            ep, _ = errs[twist_arm]
+            hp, hr = errs[hold.arm]
+            if k >= HOLD_PRESHAPE_STEPS and bool((ep < 0.01).all() and (hp < 0.01).all()) and is_wound_up(s, twist_arm):
+                break
+        s.move({hold.arm: (hold.p, hold.q)}, max_steps=40, pos_tol=0.003)
+        close_hands(s, {hold.ee: HOLD_GRASP["close"]}, ramp_steps=20)
+        unscrew(s, task, twist_arm, f"{TWISTER}_hand", offset=GRIP_OFFSET, synergy="power", ramp_steps=RAMP_STEPS,
+                preshape="preshape", follow=FOLLOW, measured_axis=True,
+                rise_back=RISE_BACK)
+        s.hold_until_success()
+        return s.info
