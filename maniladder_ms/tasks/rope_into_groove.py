@@ -59,7 +59,7 @@ class RopeIntoGrooveEnv(rope.RopeBetweenArmsTask, ManiLadderEnv):
     length, never sideways into a groove, and each gripper has to turn its capsule the short way onto the axis:
     turned the long way round the capsule lags in the fingers and the rope lands across a wall); the groove is
     22 mm wide for a 16 mm rope, 3 mm to spare on each side at every one of the 20 capsules, while the fingers
-    closed on the rope (about 36 mm across) cannot enter it, so the rope is let go above the walls' 19 mm top and
+    closed on the rope (46 mm across: each fingertip is 15 mm thick) cannot enter it, so the rope is let go above the walls' 19 mm top and
     has to drop in straight; 17 of 20 capsules must end inside (a capsule resting on a wall top counts out), and
     the groove lies 3-6 cm beyond the rope, so the approach opens the grippers only half way (3 cm) to keep the
     fingers off its wall.
