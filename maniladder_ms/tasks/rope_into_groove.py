@@ -52,17 +52,17 @@ class RopeIntoGrooveEnv(rope.RopeBetweenArmsTask, ManiLadderEnv):
     the same time, each (`ee.holds`) one of the `end_capsules` outermost capsules at the end on its side (episode
     memory `both_held`: a lay by both arms, not a drag by one end).
 
-    **Level 2:** (against Level 1's LiftRopeBimanual, same rope and layout: 2 stages, grasp both ends and lift
-    them 15 cm with 80% spread, no placement tolerance, ~80 steps): 5 stages (grasp both ends at once; lift;
-    carry the rope 8-23 cm across the table and turn it up to 35 degrees onto the groove's axis; lower it in;
-    release; ~125 steps), the two arms in lock-step all the way (a rope carried by one end drags along its own
-    length, never sideways into a groove, and each gripper has to turn its capsule the short way onto the axis:
-    turned the long way round the capsule lags in the fingers and the rope lands across a wall); the groove is
-    22 mm wide for a 16 mm rope, 3 mm to spare on each side at every one of the 20 capsules, while the fingers
-    closed on the rope (46 mm across: each fingertip is 15 mm thick) cannot enter it, so the rope is let go above the walls' 19 mm top and
-    has to drop in straight; 17 of 20 capsules must end inside (a capsule resting on a wall top counts out), and
-    the groove lies 3-6 cm beyond the rope, so the approach opens the grippers only half way (3 cm) to keep the
-    fingers off its wall.
+    **Level 2:** (against Level 1's LiftRopeBimanual, same rope and layout: 2 stages, grasp both ends and lift them
+    15 cm with 80% spread, no placement tolerance, ~80 steps): 5 stages (grasp both ends at once; lift; carry the
+    rope 8-23 cm across the table and turn it up to 35 degrees onto the groove's axis; lower it in; release; ~125
+    steps), the two arms in lock-step all the way (a rope carried by one end drags along its own length, never
+    sideways into a groove, and each gripper has to turn its capsule the short way onto the axis: turned the long
+    way round the capsule lags in the fingers and the rope lands across a wall); the groove is 22 mm wide for a 16
+    mm rope, 3 mm to spare on each side at every one of the 20 capsules, while the fingers closed on the rope (46 mm
+    across: each fingertip is 15 mm thick) cannot enter it, so the rope is let go above the walls' 19 mm top and has
+    to drop in straight; 17 of 20 capsules must end inside (a capsule resting on a wall top counts out), and the
+    groove lies 3-6 cm beyond the rope, so the approach opens the grippers only half way (3 cm) to keep the fingers
+    off its wall.
     """
 
     SUPPORTED_ROBOTS = ["ml_dual_panda"]
@@ -191,7 +191,8 @@ def solve_rope_into_groove(env, seed: int) -> dict:
         down = torch.tensor([0.0, 0.0, GROOVE_FLOOR + task.groove_depth + RELEASE_ABOVE_TOP + GRASP_CLEARANCE],
                             device=device)
         low = {side: centre + down + along * (SPREAD / 2 if side == "left" else -SPREAD / 2) for side in task.SIDES}
-        glide(s, {g.arm: (over[side], low[side], qs[side]) for side, g in zip(task.SIDES, grasps)}, step_length=SET_DOWN_STEP)
+        glide(s, {g.arm: (over[side], low[side], qs[side]) for side, g in zip(task.SIDES, grasps)},
+              step_length=SET_DOWN_STEP)
         for g in grasps:
             s.release(g.ee, steps=0)
         for _ in range(RELEASE_WAIT_STEPS):
