@@ -111,6 +111,31 @@ def test_winding_number_of_a_rope_laid_once_around_a_post():
     assert abs(rope.winding_number(beside, torch.zeros(2))[0]) < 0.5
 
 
+def test_rope_in_groove_fraction():
+    """A 20-capsule rope laid along a groove's axis inside it counts 1.0; laid beside it (parallel, outside
+    the walls) 0; half of it inside and the other half past the groove's end 0.5; lying on the walls' top (above
+    it) 0; batched, one groove per env, the grooves turned and moved."""
+    half_width, half_length, top = 0.011, 0.23, 0.019
+    s = np.linspace(-0.19, 0.19, 20)
+    yaw = np.deg2rad(100.0)
+    along, across = np.array([np.cos(yaw), np.sin(yaw)]), np.array([-np.sin(yaw), np.cos(yaw)])
+    centre = np.array([0.05, -0.02])
+
+    def laid(offset_along, offset_across, z):
+        xy = centre + (s[:, None] + offset_along) * along + offset_across * across
+        return np.concatenate([xy, np.full((len(s), 1), z)], axis=1)
+
+    ropes = [laid(0, 0.002, 0.012), laid(0, 0.03, 0.008), laid(0.23, 0, 0.012), laid(0, 0.0, 0.027)]
+    points = torch.as_tensor(np.stack(ropes), dtype=torch.float32)
+    centres = torch.as_tensor(np.tile(centre, (4, 1)), dtype=torch.float32)
+    fraction = metrics.inside_channel_fraction(points, centres, torch.full((4,), yaw), half_width, half_length, top)
+    assert fraction.tolist() == pytest.approx([1.0, 0.0, 0.5, 0.0])
+    # the same ropes against a groove turned 90 degrees: none runs along it
+    turned = metrics.inside_channel_fraction(points, centres, torch.full((4,), yaw + np.pi / 2), half_width,
+                                             half_length, top)
+    assert (turned <= 0.1).all()
+
+
 def test_rope_built_straight_is_straight():
     env = _make("rope")
     try:

@@ -1,4 +1,5 @@
-"""Occupancy metrics shared by cloth and clay: top-down footprints and voxel grids of particle sets.
+"""Occupancy metrics shared by cloth, clay and rope: top-down footprints and voxel grids of particle sets,
+and the share of a rope's points inside a channel.
 
 Each particle counts as a square tile (or cube) of side `tile` centred on it, rasterised on a grid of
 `cell` (default tile / 2); all functions are batched over the leading env dimension of points [B, N, 3].
@@ -6,7 +7,8 @@ Each particle counts as a square tile (or cube) of side `tile` centred on it, ra
 - `footprint_grid` + `iou`: shape agreement with a target footprint given as a boolean grid;
 - `region_coverage`: fraction of a table rectangle that the particles cover;
 - `target_coverage`: the same for a rectangle placed per env (a target area marked on the table);
-- `voxel_grid` + `iou`: 3D shape agreement.
+- `voxel_grid` + `iou`: 3D shape agreement;
+- `inside_channel_fraction`: share of points (a rope's capsule centres) inside a straight channel on the table.
 """
 
 from __future__ import annotations
@@ -87,3 +89,19 @@ def iou(grid: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
     inter = (grid & target).flatten(1).sum(dim=1)
     union = (grid | target).flatten(1).sum(dim=1).clamp_min(1)
     return inter / union
+
+
+def inside_channel_fraction(points: torch.Tensor, centre: torch.Tensor, yaw: torch.Tensor, half_width: float,
+                            half_length: float, top: float) -> torch.Tensor:
+    """Fraction of `points` [B, N, 3] inside a straight channel (a groove, a U-shaped slot), [B].
+
+    The channel runs along world yaw `yaw` [B] (its axis direction in the table plane) through `centre` [B, 2+]
+    (the middle of its axis); a point is inside when it lies between its walls (at most `half_width` from the
+    axis, sideways), between its ends (at most `half_length` from `centre` along the axis) and below the walls'
+    top (z at most `top`, world)."""
+    rel = points[..., :2] - centre[:, None, :2]
+    c, s = torch.cos(yaw)[:, None], torch.sin(yaw)[:, None]
+    along = rel[..., 0] * c + rel[..., 1] * s
+    across = -rel[..., 0] * s + rel[..., 1] * c
+    inside = (across.abs() <= half_width) & (along.abs() <= half_length) & (points[..., 2] <= top)
+    return inside.float().mean(dim=1)

@@ -119,7 +119,9 @@ class Rope:
         """Lay the rope flat on the table (z = radius), at rest, curved in the table's plane: `turns`
         [B, segments - 1] are the in-plane bend angles (rad, counter-clockwise) between consecutive
         capsules, `heading` [B] the yaw of the first capsule; the mean of the capsule centres lands on the
-        xy of `middle` [B, 2 or 3] (`from_tip`: the first tip lands there instead, as for an anchored rope)."""
+        xy of `middle` [B, 2 or 3] (`from_tip`: the first tip lands there instead, as for an anchored rope).
+        Returns the laid capsule centres, [B, segments, 3] (on the GPU backend the links' poses show them only
+        after the next physics update)."""
         b, n = turns.shape[0], self.config.segments
         yaw = heading[:, None] + torch.cat([torch.zeros(b, 1, device=turns.device), turns.cumsum(dim=1)], dim=1)
         step = torch.stack([torch.cos(yaw), torch.sin(yaw)], dim=-1) * (self.config.segment_length / 2)
@@ -129,6 +131,7 @@ class Rope:
         bend = torch.zeros(b, 2 * (n - 1), device=turns.device)
         bend[:, 0::2] = turns
         self.set_shape(Pose.create_from_pq(root, yaw_quat(heading)), bend)
+        return torch.cat([first[:, None] + centres, root[:, None, 2:].expand(b, n, 1)], dim=2)
 
 
 class RopeTask:
@@ -163,6 +166,13 @@ class RopeBetweenArmsTask(RopeTask):
         """(B,) bool: the rope's first capsule lies on the left (+y) arm's side."""
         return self.rope.links[0].pose.p[:, 1] >= self.rope.links[-1].pose.p[:, 1]
 
+    def side_points(self, k: int) -> dict[str, torch.Tensor]:
+        """Centres of the k-th capsule from each end (0: the end capsules), keyed by the arm on whose side that
+        end lies, [B, 3] each."""
+        first, last = self.rope.links[k].pose.p, self.rope.links[-1 - k].pose.p
+        left_first = self.first_is_left()[:, None]
+        return {"left": torch.where(left_first, first, last), "right": torch.where(left_first, last, first)}
+
     def end_links(self, count: int) -> tuple[list, list]:
         """The `count` capsules at each end of the rope, outermost first: (first end, last end)."""
         links = self.rope.links
@@ -186,12 +196,16 @@ class RopeBetweenArmsTask(RopeTask):
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
-            b = len(env_idx)
-            turns = wavy_turns(b, self.rope_config.segments, 0.15)
-            heading = (np.pi / 2 + (torch.rand(b) * 2 - 1) * np.deg2rad(15)
-                       + torch.where(torch.rand(b) < 0.5, 0.0, np.pi))
-            middle = torch.stack([torch.rand(b) * 0.1 - 0.15, torch.rand(b) * 0.06 - 0.03], dim=1)
-            self.rope.lay_flat(middle, heading, turns)
+            self.lay_rope(len(env_idx))
+
+    def lay_rope(self, b: int) -> torch.Tensor:
+        """Lay the rope of the `b` sub-scenes being reset (on torch's default device) as the class docstring
+        says; returns its capsule centres, [b, segments, 3] (`Rope.lay_flat`)."""
+        turns = wavy_turns(b, self.rope_config.segments, 0.15)
+        heading = (np.pi / 2 + (torch.rand(b) * 2 - 1) * np.deg2rad(15)
+                   + torch.where(torch.rand(b) < 0.5, 0.0, np.pi))
+        middle = torch.stack([torch.rand(b) * 0.1 - 0.15, torch.rand(b) * 0.06 - 0.03], dim=1)
+        return self.rope.lay_flat(middle, heading, turns)
 
     def _get_obs_extra(self, info: dict):
         obs = {f"{side}_tcp_pose": self.ee.tcp(side).raw_pose for side in self.SIDES}

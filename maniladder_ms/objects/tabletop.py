@@ -1,5 +1,5 @@
 """Small rigid table-top objects made from primitives: pen, trays, upright cylinder, flat boxes (a card, a stand),
-shelf, ping-pong ball."""
+shelf, ping-pong ball, a U-shaped channel."""
 
 from __future__ import annotations
 
@@ -152,3 +152,25 @@ def build_ping_pong_ball(scene: ManiSkillScene, name: str, radius: float, mass: 
                                                                                       roughness=0.3))
     builder.initial_pose = sapien.Pose(p=[0, 0, radius])
     return builder.build(name=name)
+
+
+def build_channel(scene: ManiSkillScene, name: str, inner_width: float, depth: float, length: float, wall: float,
+                  floor: float, color, floor_color=None) -> "Actor":
+    """A fixed (kinematic) U-shaped channel lying on the table along its local x axis: a floor plate `floor`
+    thick and two walls `wall` thick rising `depth` above it, `inner_width` apart, both `length` long; open at
+    both ends and on top. Its origin is the middle of the plate's bottom face (on the table at z = 0), so the
+    channel's floor lies at z = `floor` and its walls' top at `floor` + `depth`. `floor_color`: the plate's
+    colour between the walls (default `color`)."""
+    builder = scene.create_actor_builder()
+    outer = inner_width / 2 + wall
+    parts = [([0, 0, floor / 2], [length / 2, outer, floor / 2], floor_color or color)]
+    for sign in (1, -1):
+        parts.append(([0, sign * (inner_width / 2 + wall / 2), floor + depth / 2], [length / 2, wall / 2, depth / 2],
+                      color))
+    for centre, half, part_color in parts:
+        builder.add_box_collision(pose=sapien.Pose(p=centre), half_size=half)
+        if scene.can_render():
+            builder.add_box_visual(pose=sapien.Pose(p=centre), half_size=half,
+                                   material=sapien.render.RenderMaterial(base_color=list(part_color), roughness=0.6))
+    builder.initial_pose = sapien.Pose()
+    return builder.build_kinematic(name=name)

@@ -1,0 +1,203 @@
+"""RopeIntoGroove (L2 deformable DG): both arms lift a rope by its ends and lay it into a U-shaped groove."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import torch
+
+from mani_skill.utils.structs.pose import Pose
+
+from maniladder_ms.agents.helpers import top_down_quat
+from maniladder_ms.deformables import metrics, rope
+from maniladder_ms.envs import ManiLadderEnv, register_task
+from maniladder_ms.geometry import yaw_quat
+from maniladder_ms.objects.tabletop import build_channel
+from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
+from maniladder_ms.solvers.bimanual import RELEASE_WAIT_STEPS, SET_DOWN_STEP, Grasp, glide, grasp_together, reach
+from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver
+
+GROOVE_LENGTH = 0.46  # the rope's 40 cm and 3 cm to spare at each end
+GROOVE_WALL = 0.015  # thickness of each wall
+GROOVE_FLOOR = 0.004  # the plate the walls stand on: the groove's floor lies this high
+GROOVE_TURN = 20  # degrees: the groove's axis lies within this of the y axis
+GROOVE_GAP = (0.03, 0.06)  # metres from the rope's farthest point to the groove's near wall, along x
+GROOVE_COLOR, GROOVE_FLOOR_COLOR = (0.55, 0.45, 0.35, 1), (0.3, 0.25, 0.2, 1)
+
+
+@register_task("RopeIntoGroove")
+class RopeIntoGrooveEnv(rope.RopeBetweenArmsTask, ManiLadderEnv):
+    """**Task:** a rope lies across the table between the two arms, and beyond it (away from the robot) a
+    straight U-shaped groove is fixed to the table, running the same way; each gripper takes one end of the rope,
+    together they lift it, carry it over the groove, lower it in and let go: the rope lies in the groove.
+
+    **Randomisation:**
+    - the rope as in LiftRopeBimanual (`rope.RopeBetweenArmsTask`; `rope.RopeConfig()`: 40 cm, 20 capsules of
+      1.6 cm diameter): flat across the table (along y) in a gentle S (the in-plane turn between capsules k and
+      k + 1 is amp * sin(2 pi (k + 1) / 20 + phase), amp uniform in [0, 0.15] rad, phase uniform), the mean of its
+      capsule centres at x uniform in [-0.15, -0.05], y uniform in [-0.03, 0.03], its first capsule heading within
+      +-15 degrees (uniform) of +y or of -y;
+    - the groove (46 cm long, open at both ends: a 4 mm plate and two 1.5 cm thick walls, `groove_width` apart
+      and `groove_depth` high above the plate) has its axis within +-20 degrees (uniform) of the y axis and its
+      centre at y uniform in [-0.03, 0.03]; along x it lies beyond the rope: at the y of every capsule, the
+      groove's outer face of the near wall is at least a gap uniform in [0.03, 0.06] m (one per episode) further
+      along +x than that capsule's far side (so the groove's centre lands at x in about [-0.07, 0.13], 8-23 cm
+      from the rope's middle).
+
+    **Success:** at least `min_fraction` of the rope's capsules are inside the groove (`metrics.
+    inside_channel_fraction`: the capsule's centre between the walls, at most half of `groove_width` from the
+    groove's axis sideways, between the groove's ends, and below the walls' top, `groove_depth` above its floor);
+    the rope is let go (no gripper touches it, `ee.touches`); and earlier in the episode both grippers held it at
+    the same time, each (`ee.holds`) one of the `end_capsules` outermost capsules at the end on its side (episode
+    memory `both_held`: a lay by both arms, not a drag by one end).
+
+    **Level 2:** (against Level 1's LiftRopeBimanual, same rope and layout: 2 stages, grasp both ends and lift them
+    15 cm with 80% spread, no placement tolerance, ~80 steps): 5 stages (grasp both ends at once; lift; carry the
+    rope 8-23 cm across the table and turn it up to 35 degrees onto the groove's axis; lower it in; release; ~125
+    steps), the two arms in lock-step all the way (a rope carried by one end drags along its own length, never
+    sideways into a groove, and each gripper has to turn its capsule the short way onto the axis: turned the long
+    way round the capsule lags in the fingers and the rope lands across a wall); the groove is 22 mm wide for a 16
+    mm rope, 3 mm to spare on each side at every one of the 20 capsules, while the fingers closed on the rope (46 mm
+    across: each fingertip is 15 mm thick) cannot enter it, so the rope is let go above the walls' 19 mm top and has
+    to drop in straight; 17 of 20 capsules must end inside (a capsule resting on a wall top counts out), and the
+    groove lies 3-6 cm beyond the rope, so the approach opens the grippers only half way (3 cm) to keep the fingers
+    off its wall.
+    """
+
+    SUPPORTED_ROBOTS = ["ml_dual_panda"]
+    max_dense_reward = 8
+    TASK_REGION = (-0.3, 0.2, -0.32, 0.32)
+    PARAMS = ("min_fraction", "groove_width", "groove_depth", "end_capsules")
+
+    def _load_scene(self, options: dict):
+        super()._load_scene(options)  # the rope (rope.RopeTask)
+        self.groove = build_channel(self.scene, "groove", self.groove_width, self.groove_depth, GROOVE_LENGTH,
+                                    GROOVE_WALL, GROOVE_FLOOR, GROOVE_COLOR, GROOVE_FLOOR_COLOR)
+        self.memory.flag("both_held")  # both grippers held the rope's ends at the same time
+
+    def lay_rope(self, b: int) -> torch.Tensor:
+        centres = super().lay_rope(b)  # the rope (rope.RopeBetweenArmsTask), then the groove beyond it
+        axis = np.pi / 2 + (torch.rand(b) * 2 - 1) * np.deg2rad(GROOVE_TURN)
+        y = torch.rand(b) * 0.06 - 0.03
+        # the groove's centre line (x at each capsule's y) lies beyond every capsule by the capsule's radius, the
+        # groove's half width (inner half width and a wall) and the gap, all measured along x
+        gap = GROOVE_GAP[0] + torch.rand(b) * (GROOVE_GAP[1] - GROOVE_GAP[0])
+        slope = torch.cos(axis) / torch.sin(axis)  # x per y along the groove's axis
+        farthest = (centres[..., 0] - (centres[..., 1] - y[:, None]) * slope[:, None]).amax(dim=1)
+        x = farthest + self.rope_config.radius + (self.groove_width / 2 + GROOVE_WALL) / torch.sin(axis) + gap
+        self.groove.set_pose(Pose.create_from_pq(torch.stack([x, y, torch.zeros(b)], dim=1), yaw_quat(axis)))
+        return centres
+
+    def groove_axis(self) -> torch.Tensor:
+        """Yaw of the groove's axis (its local x), [B]."""
+        q = self.groove.pose.q
+        return 2 * torch.atan2(q[:, 3], q[:, 0])
+
+    def end_points(self) -> dict[str, torch.Tensor]:
+        """Centres of the second capsule from each end (where the solver grasps), keyed by side, [B, 3]."""
+        return self.side_points(1)
+
+    def _update_memory(self):
+        held = self.end_holds()
+        self.memory.latch("both_held", held["left"] & held["right"])
+
+    def _get_obs_extra(self, info: dict):
+        obs = super()._get_obs_extra(info)
+        if "state" in self.obs_mode:
+            obs.update(groove_pose=self.groove.pose.raw_pose, inside_fraction=info["inside_fraction"])
+        return obs
+
+    def evaluate(self):
+        centres = self.rope.points()[:, 1:-1]
+        fraction = metrics.inside_channel_fraction(centres, self.groove.pose.p, self.groove_axis(),
+                                                   self.groove_width / 2, GROOVE_LENGTH / 2,
+                                                   GROOVE_FLOOR + self.groove_depth)
+        # distance of the rope's capsules from the groove's axis line (top-down), for the reward
+        rel = centres[..., :2] - self.groove.pose.p[:, None, :2]
+        axis = self.groove_axis()
+        off_axis = (-rel[..., 0] * torch.sin(axis)[:, None] + rel[..., 1] * torch.cos(axis)[:, None]).abs().mean(dim=1)
+        in_groove = fraction >= self.min_fraction
+        touched = self.ee.touches(self.rope.links)
+        grasped = self.end_holds()
+        both_held = self.memory["both_held"]
+        return {
+            "success": in_groove & ~touched & both_held,
+            "inside_fraction": fraction,
+            "in_groove": in_groove,
+            "off_axis": off_axis,
+            "touching_rope": touched,
+            "both_held": both_held,
+            "left_grasped": grasped["left"],
+            "right_grasped": grasped["right"],
+        }
+
+    def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
+        near_axis = 1 - torch.tanh(10 * info["off_axis"])
+        before = self._two_arm_reward(info, near_axis)  # reach and grasp both ends (4), then move over the groove
+        after = 4 + near_axis + 2 * info["inside_fraction"] + (info["in_groove"] & ~info["touching_rope"]).float()
+        reward = torch.where(info["both_held"], torch.maximum(before, after), before)
+        reward[info["success"]] = self.max_dense_reward
+        return reward
+
+
+GRASP_CLEARANCE = 0.004  # TCP this far above the capsule centre: finger tips off the table, free to close
+GRASP_OPENING = 0.0  # normalised gripper command for the approach: 3 cm between the finger pads
+CARRY_HEIGHT = 0.1  # the grasped capsules' height while the rope is carried over the groove
+SPREAD = 0.33  # metres between the grasped capsule centres (0.34 between them along the rope): nearly straight
+RELEASE_ABOVE_TOP = 0.012  # the grasped capsules' centres this far above the walls' top when let go
+
+
+@register_solver("RopeIntoGroove", control_modes=TCP_DELTA_MODES)
+def solve_rope_into_groove(env, seed: int) -> dict:
+    """Each arm takes the second capsule from the end on its side top-down, fingers across the capsule; both
+    close, rise together while moving apart to hold the rope nearly straight, carry it over the groove's axis
+    (turning the grippers onto it), lower it until the held capsules are just above the walls' top (the
+    sagging middle already in the groove), open both and rise."""
+    with DrivenSolver.episode(env, seed) as s:
+        task: RopeIntoGrooveEnv = env.unwrapped
+        n, device = task.num_envs, task.device
+        above = torch.tensor([0.0, 0.0, APPROACH_HEIGHT], device=device)
+        radius = task.rope_config.radius
+        ends = task.end_points()
+        grasps = []
+        first_left = bool(task.first_is_left()[0])  # one env: the solver's
+        links = {"left": task.rope.links[1 if first_left else -2], "right": task.rope.links[-2 if first_left else 1]}
+        yaws = {side: DrivenSolver.neutral_yaw(rope.segment_yaw(links[side].pose.q), np.pi) for side in task.SIDES}
+        for side in task.SIDES:
+            p = ends[side].clone()
+            p[:, 2] = radius + GRASP_CLEARANCE
+            grasps.append(Grasp(f"{side}_arm", f"{side}_gripper", p, top_down_quat(yaws[side], n, device), above))
+        for g in grasps:  # half open: the fingers stay clear of the groove's wall when the rope lies near it
+            s.set_ee(g.ee, [GRASP_OPENING], steps=0)
+        reach(s, grasps)
+        grasp_together(s, [g.ee for g in grasps])
+        left, right = grasps
+        flat = torch.tensor([1.0, 1.0, 0.0], device=device)
+        up = torch.tensor([0.0, 0.0, CARRY_HEIGHT + GRASP_CLEARANCE], device=device)
+        middle = (left.p + right.p) / 2 * flat
+        across = torch.nn.functional.normalize((left.p - right.p) * flat, dim=1)
+        lifted = {"left": middle + up + across * SPREAD / 2, "right": middle + up - across * SPREAD / 2}
+        glide(s, {g.arm: (g.p, lifted[side], g.q) for side, g in zip(task.SIDES, grasps)})
+        # over the groove: its axis points to +y (the left arm's side) within 20 degrees
+        axis = task.groove_axis()
+        along = torch.stack([torch.cos(axis), torch.sin(axis), torch.zeros_like(axis)], dim=1)
+        # each gripper turns the short way onto the axis (the fingers are symmetric: a half turn is no turn)
+        qs = {side: top_down_quat(yaws[side] + DrivenSolver.neutral_yaw(axis - yaws[side], np.pi), n, device)
+              for side in task.SIDES}
+        centre = task.groove.pose.p * flat
+        over = {"left": centre + up + along * SPREAD / 2, "right": centre + up - along * SPREAD / 2}
+        glide(s, {g.arm: (lifted[side], over[side], qs[side]) for side, g in zip(task.SIDES, grasps)})
+        down = torch.tensor([0.0, 0.0, GROOVE_FLOOR + task.groove_depth + RELEASE_ABOVE_TOP + GRASP_CLEARANCE],
+                            device=device)
+        low = {side: centre + down + along * (SPREAD / 2 if side == "left" else -SPREAD / 2) for side in task.SIDES}
+        glide(s, {g.arm: (over[side], low[side], qs[side]) for side, g in zip(task.SIDES, grasps)},
+              step_length=SET_DOWN_STEP)
+        for g in grasps:
+            s.release(g.ee, steps=0)
+        for _ in range(RELEASE_WAIT_STEPS):
+            s.step()
+        glide(s, {g.arm: (low[side], low[side] + above / 2, qs[side]) for side, g in zip(task.SIDES, grasps)},
+              settle_steps=5)
+        s.hold_until_success()
+        return s.info
