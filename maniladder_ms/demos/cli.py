@@ -10,6 +10,7 @@ from pathlib import Path
 from maniladder_ms.catalog import INSTRUCTION_MODES
 from maniladder_ms.solvers import JOINT_TARGET_MODES
 
+from .lerobot import DEFAULT_FPS
 from .recording import DEFAULT_CONTROL_MODES
 
 
@@ -171,8 +172,8 @@ def add_parser(sub):
     ex.add_argument("--out", type=Path, required=True, help="dataset folder (must be missing or empty)")
     ex.add_argument("--cameras", help="camera uids, comma-separated, e.g. front_camera,hand_camera "
                                       "(default: all the task's cameras)")
-    ex.add_argument("--fps", type=int, default=20, help="frame rate of the timestamps and videos (default 20, "
-                                                        "the tasks' control frequency)")
+    ex.add_argument("--fps", type=int, default=DEFAULT_FPS, help=f"frame rate of the timestamps and videos (default "
+                                                                 f"{DEFAULT_FPS}, the tasks' control frequency)")
     ex.add_argument("--vcodec", choices=("libsvtav1", "libx264"), default="libsvtav1",
                     help="video encoder (default libsvtav1: AV1 as LeRobot writes; libx264: H.264)")
     ex.add_argument("--overwrite", action="store_true", help="replace an existing LeRobot dataset in --out")

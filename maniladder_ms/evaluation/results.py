@@ -66,9 +66,12 @@ def open_run(out: Path, manifest: dict) -> dict:
         _write_json(out / MANIFEST, manifest)
         return manifest
     check_protocol(old, out)
-    diff = [k for k in IDENTITY_KEYS if old.get(k, IDENTITY_DEFAULTS.get(k)) != manifest.get(k, IDENTITY_DEFAULTS.get(k))]
+    def value(m: dict, k: str):  # a manifest written before a key existed holds its default
+        return m.get(k, IDENTITY_DEFAULTS.get(k))
+
+    diff = [k for k in IDENTITY_KEYS if value(old, k) != value(manifest, k)]
     if diff:
-        what = ", ".join(f"{k} {old.get(k)!r} there vs {manifest.get(k)!r} now" for k in diff)
+        what = ", ".join(f"{k} {value(old, k)!r} there vs {value(manifest, k)!r} now" for k in diff)
         raise ResultsError(f"{out} holds another run ({what}); use another --out folder to keep both")
     merged = dict(old)
     merged["tasks"] = list(dict.fromkeys(list(old.get("tasks", [])) + list(manifest.get("tasks", []))))

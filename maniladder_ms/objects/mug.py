@@ -20,6 +20,9 @@ from .containers import CERAMIC_DENSITY, ContainerShape, body_builder, build_res
 from .pot import build_stove_plate
 
 COASTER_RADIUS, COASTER_HEIGHT = 0.055, 0.005  # an 11 cm cork coaster, 5 mm thick
+# ceramic-like mass without ceramic density: ~0.13 kg for the ManiLadder mug shapes, light enough that a rim
+# pinch or a LEAP grasp holds it without it tilting in the fingers
+MUG_DENSITY = 800.0
 
 
 @dataclass(frozen=True)

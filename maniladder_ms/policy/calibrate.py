@@ -147,6 +147,10 @@ class TaskCalibration:
             if fixed[0] != fixed[1]:
                 raise ValueError(f"{self.dir} holds a calibration with other settings ({path}); "
                                  "give another --work folder or delete that one")
+            before, now = (s.get("calibration", {}).get("episodes", 0) for s in (old, settings))
+            if now < before:  # the evaluation folder keeps all it has: the result would count `before` episodes
+                raise ValueError(f"{self.dir} was evaluated on {before} episodes; a calibration can add episodes, "
+                                 f"not drop them (asked for {now})")
             if old != settings:
                 path.write_text(json.dumps(settings, indent=1))
         else:

@@ -17,23 +17,19 @@ from typing import Any
 import numpy as np
 import torch
 
-from mani_skill.utils.geometry.rotation_conversions import (axis_angle_to_quaternion, quaternion_apply,
-                                                            quaternion_multiply)
+from mani_skill.utils.geometry.rotation_conversions import quaternion_apply, quaternion_multiply
 from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.agents.helpers import leap_fingertip, top_down_quat
 from maniladder_ms.envs import register_task
-from maniladder_ms.geometry import yaw_quat
+from maniladder_ms.geometry import uprighting, yaw_quat
 from maniladder_ms.objects.basket import tilt
-from maniladder_ms.objects.mug import MugShape, build_mug
-from maniladder_ms.objects.pot import build_stove_plate
+from maniladder_ms.objects.mug import COASTER_HEIGHT, MUG_DENSITY, MugShape, build_coaster, build_mug
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.bimanual import Grasp, HandoverSolver, glide, reach, roll_targets
 
 from .handover import HandoverTask
 
-MUG_DENSITY = 800.0  # ~0.13 kg (HangMug's)
-COASTER_RADIUS, COASTER_HEIGHT = 0.055, 0.005
 UPSIDE_DOWN = (0.0, 1.0, 0.0, 0.0)  # wxyz: half a turn about x
 HANDLE_YAW = 20.0  # degrees: the handle's direction is uniform within this of pointing away from the robot
 
@@ -77,8 +73,7 @@ class HandoverMugHandsEnv(HandoverTask):
         super()._load_scene(options)
         self.mug = build_mug(self.scene, "mug", self.mug_shape, color=(0.25, 0.45, 0.75, 1), friction=1.0,
                              density=MUG_DENSITY)
-        self.coaster = build_stove_plate(self.scene, "coaster", COASTER_RADIUS, COASTER_HEIGHT,
-                                         color=(0.72, 0.55, 0.36, 1), ring_color=(0.45, 0.3, 0.18, 1))
+        self.coaster = build_coaster(self.scene, "coaster")
         self.item, self.target = self.mug, self.coaster
 
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
@@ -231,16 +226,6 @@ NUDGE_SHORT = 0.003  # the push stops this short of the centre (the mug slides o
 NUDGE_STEP = 0.0015  # metres a control step while pushing
 
 
-def upright_quat(task, q: torch.Tensor) -> torch.Tensor:
-    """The TCP orientation `q` turned by the rotation that brings the mug's axis to world z (the tilt in the grip)."""
-    n = task.num_envs
-    z = torch.tensor([[0.0, 0.0, 1.0]], device=task.device).expand(n, 3)
-    axis = quaternion_apply(task.mug.pose.q, z)
-    c = torch.cross(axis, z, dim=1)
-    angle = torch.atan2(c.norm(dim=1), (axis * z).sum(1))
-    return quaternion_multiply(axis_angle_to_quaternion(torch.nn.functional.normalize(c, dim=1) * angle[:, None]), q)
-
-
 @register_solver("HandoverMugHands", control_modes=TCP_DELTA_MODES)
 def solve_handover_mug_hands(env, seed: int) -> dict:
     """The left picks the upside-down mug top-down (the finger row along the handle) and rolls palm-up on the way
@@ -284,14 +269,14 @@ def solve_handover_mug_hands(env, seed: int) -> dict:
             p[:, 2] += COASTER_HEIGHT + gap
             return p
 
-        taker_q = upright_quat(task, s.tcp("right_arm").q)
+        taker_q = uprighting(task.mug.pose.q, s.tcp("right_arm").q)
         s.move({"right_arm": (s.tcp("right_arm").p.clone(), taker_q)}, max_steps=30)
         start = s.tcp("right_arm").p.clone()
         across = place_tcp(0.0)
         across[:, 2] = start[:, 2]
         glide(s, {"right_arm": (start, across, taker_q)}, step_length=CARRY_STEP, settle_steps=5)
         glide(s, {"right_arm": (across, place_tcp(PLACE_ABOVE), taker_q)}, step_length=CARRY_STEP, settle_steps=10)
-        taker_q = upright_quat(task, s.tcp("right_arm").q)
+        taker_q = uprighting(task.mug.pose.q, s.tcp("right_arm").q)
         s.move({"right_arm": (s.tcp("right_arm").p.clone(), taker_q)}, max_steps=30)
         for _ in range(PLACE_AIMS):  # closed loop on the mug's own position (it shifts in the grip on the way)
             s.move({"right_arm": (place_tcp(PLACE_ABOVE), taker_q)}, max_steps=20, pos_tol=0.002)

@@ -13,12 +13,11 @@ from mani_skill.utils.structs.pose import Pose
 from maniladder_ms.agents.helpers import top_down_quat, wrap_angle
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.geometry import yaw_of, yaw_quat
-from maniladder_ms.objects.mug import MugShape, build_mug, build_mug_tree
+from maniladder_ms.objects.mug import MUG_DENSITY, MugShape, build_mug, build_mug_tree
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.driven import DrivenSolver
 
 
-MUG_DENSITY = 800.0  # ~0.2 kg: a rim pinch holds it without the mug tilting in the fingers
 
 
 @register_task("HangMug")

@@ -18,11 +18,11 @@ from maniladder_ms.envs.scene import TABLE_HALF_SIZE
 from maniladder_ms.geometry import yaw_of, yaw_quat
 from maniladder_ms.objects.basket import tilt
 from maniladder_ms.objects.markers import MARKER_THICKNESS, build_zone_marker
-from maniladder_ms.objects.mug import MugShape, build_mug
+from maniladder_ms.objects.mug import MUG_DENSITY, MugShape, build_mug
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.driven import DrivenSolver
 
-from .hang_mug import MUG_DENSITY, RIM_DEPTH
+from .hang_mug import RIM_DEPTH
 
 SIDE_TABLE_HALF = (0.25, 0.25)  # x, y half extents of the side table's top (its top is level with the main table's)
 SIDE_TABLE_X = -0.5  # its near edge in line with the main table's (x = -0.75), which the base drives along

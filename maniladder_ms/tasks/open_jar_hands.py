@@ -18,8 +18,7 @@ from .unscrew_cap import UnscrewCapTask
 HOLDER, TWISTER = "left", "right"
 
 
-
-# UNFINISHED: not registered until its solver reaches the bar (>= 90% on seeds 100-149; see the branch log)
+# UNFINISHED: not registered until its solver reaches the bar (>= 90% on seeds 100-149; see the catalog row)
 # @register_task("OpenJarHands")
 class OpenJarHandsEnv(UnscrewCapTask):
     """**Task:** a screw-top jar stands free on the table; the left LEAP hand holds its body from the side
@@ -43,7 +42,7 @@ class OpenJarHandsEnv(UnscrewCapTask):
     against the thread's torque throughout while the other turns the lid a full turn, 360 degrees, more
     than the Panda's wrist turns in one go with the lid slipping in the grip, so it takes two strokes with a
     regrasp between them: 6 stages (hold the jar, grip the lid, twist, let go and turn back, grip again,
-    twist), ~300-450 control steps in the unfinished solver's successes so far; the twisting grasp must
+    twist), 306-470 control steps (mean 361) in the unfinished solver's successes so far; the twisting grasp must
     stay centred on the lid's axis within ~1 cm while the wrist turns ~8 rad, and the jar, held only by the
     other hand, must not tip or turn in that hand's grip.
     """
@@ -96,7 +95,7 @@ def solve_open_jar_hands(env, seed: int) -> dict:
             target = (s.above(hold.lined_up[0], ABOVE), hold.q) if k < HOLD_PRESHAPE_STEPS else hold.lined_up
             errs = s.step({hold.arm: target, twist_arm: wind_up_target(s, twist_arm, high(), GRIP_OFFSET)})
             ep, _ = errs[twist_arm]
-            hp, hr = errs[hold.arm]
+            hp, _ = errs[hold.arm]
             if k >= HOLD_PRESHAPE_STEPS and bool((ep < 0.01).all() and (hp < 0.01).all()) and is_wound_up(s, twist_arm):
                 break
         s.move({hold.arm: (hold.p, hold.q)}, max_steps=40, pos_tol=0.003)

@@ -14,12 +14,11 @@ from maniladder_ms.agents.helpers import top_down_quat
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.geometry import uprighting, yaw_quat
 from maniladder_ms.objects.basket import tilt
-from maniladder_ms.objects.mug import COASTER_HEIGHT, MugShape, build_coaster, build_mug
+from maniladder_ms.objects.mug import COASTER_HEIGHT, MUG_DENSITY, MugShape, build_coaster, build_mug
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.bimanual import glide
 from maniladder_ms.solvers.driven import DrivenSolver
 
-MUG_DENSITY = 800.0  # ~0.13 kg (HangMug's, HandoverMugHands')
 
 
 @register_task("PlaceMugOnCoasterHand")
