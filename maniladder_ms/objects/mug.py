@@ -13,10 +13,12 @@ from dataclasses import dataclass
 import numpy as np
 import sapien
 import sapien.render
+import torch
 
 from mani_skill.envs.scene import ManiSkillScene
 
 from .containers import CERAMIC_DENSITY, ContainerShape, body_builder, build_resting, cup
+from .basket import tilt
 from .pot import build_stove_plate
 
 COASTER_RADIUS, COASTER_HEIGHT = 0.055, 0.005  # an 11 cm cork coaster, 5 mm thick
@@ -91,3 +93,24 @@ def build_mug_tree(scene: ManiSkillScene, name: str, post_height: float, peg_hei
         builder.add_cylinder_visual(peg, radius=peg_radius, half_length=peg_length / 2, material=mat)
     builder.initial_pose = sapien.Pose()
     return builder.build_kinematic(name=name)
+
+
+def mug_body_centre(mug, shape: MugShape) -> torch.Tensor:
+    """World centre of a mug's body (half its height up its axis from its bottom-centre origin), (num_envs, 3)."""
+    from mani_skill.utils.geometry.rotation_conversions import quaternion_apply
+
+    half = torch.zeros_like(mug.pose.p)
+    half[:, 2] = shape.body.height / 2
+    return mug.pose.p + quaternion_apply(mug.pose.q, half)
+
+
+def placed_on_coaster(mug, coaster, max_tilt_deg: float, centre_tol: float, rest_tol: float, info: dict) -> torch.Tensor:
+    """Whether a mug stands on a coaster (`build_coaster`): upright within `max_tilt_deg`, its bottom centre within
+    `centre_tol` (horizontally) of the coaster's centre and within `rest_tol` of the coaster's top. Writes `tilt`,
+    `is_upright`, `is_centred`, `on_coaster` into `info`."""
+    offset = mug.pose.p - coaster.pose.p  # bottom centre from the coaster's bottom centre
+    info["tilt"] = tilt(mug)
+    info["is_upright"] = info["tilt"] < np.deg2rad(max_tilt_deg)
+    info["is_centred"] = torch.linalg.norm(offset[:, :2], dim=1) <= centre_tol
+    info["on_coaster"] = (offset[:, 2] - COASTER_HEIGHT).abs() <= rest_tol
+    return info["is_upright"] & info["is_centred"] & info["on_coaster"]

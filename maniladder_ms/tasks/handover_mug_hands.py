@@ -24,7 +24,8 @@ from maniladder_ms.agents.helpers import leap_fingertip, top_down_quat
 from maniladder_ms.envs import register_task
 from maniladder_ms.geometry import uprighting, yaw_quat
 from maniladder_ms.objects.basket import tilt
-from maniladder_ms.objects.mug import COASTER_HEIGHT, MUG_DENSITY, MugShape, build_coaster, build_mug
+from maniladder_ms.objects.mug import (COASTER_HEIGHT, MUG_DENSITY, MugShape, build_coaster, build_mug, mug_body_centre,
+                                       placed_on_coaster)
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.bimanual import Grasp, HandoverSolver, glide, reach, roll_targets
 
@@ -93,16 +94,10 @@ class HandoverMugHandsEnv(HandoverTask):
             self.coaster.set_pose(Pose.create_from_pq(coaster))
 
     def item_centre(self) -> torch.Tensor:
-        half = torch.tensor([0.0, 0.0, self.mug_shape.body.height / 2], device=self.device).expand(self.num_envs, 3)
-        return self.mug.pose.p + quaternion_apply(self.mug.pose.q, half)
+        return mug_body_centre(self.mug, self.mug_shape)
 
     def _placed(self, info: dict) -> torch.Tensor:
-        offset = self.mug.pose.p - self.coaster.pose.p  # bottom centre from the coaster's bottom centre
-        info["tilt"] = tilt(self.mug)
-        info["is_upright"] = info["tilt"] < np.deg2rad(self.max_tilt)
-        info["is_centred"] = torch.linalg.norm(offset[:, :2], dim=1) <= self.centre_tol
-        info["on_coaster"] = (offset[:, 2] - COASTER_HEIGHT).abs() <= self.rest_tol
-        return info["is_upright"] & info["is_centred"] & info["on_coaster"]
+        return placed_on_coaster(self.mug, self.coaster, self.max_tilt, self.centre_tol, self.rest_tol, info)
 
     def _get_obs_extra(self, info: dict):
         obs = dict(left_tcp_pose=self.ee.tcp("left").raw_pose, right_tcp_pose=self.ee.tcp("right").raw_pose,

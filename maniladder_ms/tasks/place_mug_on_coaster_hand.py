@@ -14,7 +14,8 @@ from maniladder_ms.agents.helpers import top_down_quat
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.geometry import uprighting, yaw_quat
 from maniladder_ms.objects.basket import tilt
-from maniladder_ms.objects.mug import COASTER_HEIGHT, MUG_DENSITY, MugShape, build_coaster, build_mug
+from maniladder_ms.objects.mug import (COASTER_HEIGHT, MUG_DENSITY, MugShape, build_coaster, build_mug, mug_body_centre,
+                                       placed_on_coaster)
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.bimanual import glide
 from maniladder_ms.solvers.driven import DrivenSolver
@@ -71,8 +72,7 @@ class PlaceMugOnCoasterHandEnv(ManiLadderEnv):
 
     def mug_centre(self) -> torch.Tensor:
         """World centre of the mug's body (half its height up its axis), (num_envs, 3)."""
-        half = torch.tensor([0.0, 0.0, self.mug_shape.body.height / 2], device=self.device).expand(self.num_envs, 3)
-        return (self.mug.pose * Pose.create_from_pq(half)).p
+        return mug_body_centre(self.mug, self.mug_shape)
 
     def clearance(self) -> torch.Tensor:
         """(num_envs,) height above the table of the lowest point of the mug's body (a cylinder; a mug lying on its
@@ -95,13 +95,9 @@ class PlaceMugOnCoasterHandEnv(ManiLadderEnv):
         return obs
 
     def evaluate(self):
-        offset = self.mug.pose.p - self.coaster.pose.p  # bottom centre from the coaster's bottom centre
-        info = dict(tilt=tilt(self.mug), height=self.clearance(), is_grasped=self.ee.holds(self.mug),
+        info = dict(height=self.clearance(), is_grasped=self.ee.holds(self.mug),
                     touched=self.ee.touches(self.mug), carried=self.memory["carried"])
-        info["is_upright"] = info["tilt"] < np.deg2rad(self.max_tilt)
-        info["is_centred"] = torch.linalg.norm(offset[:, :2], dim=1) <= self.centre_tol
-        info["on_coaster"] = (offset[:, 2] - COASTER_HEIGHT).abs() <= self.rest_tol
-        info["placed"] = info["is_upright"] & info["is_centred"] & info["on_coaster"]
+        info["placed"] = placed_on_coaster(self.mug, self.coaster, self.max_tilt, self.centre_tol, self.rest_tol, info)
         info["released"] = ~info["touched"]
         info["success"] = info["carried"] & info["placed"] & info["released"]
         return info
