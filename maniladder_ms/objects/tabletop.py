@@ -174,3 +174,11 @@ def build_channel(scene: ManiSkillScene, name: str, inner_width: float, depth: f
                                    material=sapien.render.RenderMaterial(base_color=list(part_color), roughness=0.6))
     builder.initial_pose = sapien.Pose()
     return builder.build_kinematic(name=name)
+
+
+def place_at_rest(actor, pose):
+    """Put a dynamic actor at `pose` (a batched Pose) with zero linear and angular velocity: where a reset places
+    a free object, so it does not carry the last episode's motion into the next."""
+    actor.set_pose(pose)
+    actor.set_linear_velocity(pose.p.new_zeros(pose.p.shape))
+    actor.set_angular_velocity(pose.p.new_zeros(pose.p.shape))

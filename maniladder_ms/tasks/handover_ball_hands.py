@@ -15,6 +15,7 @@ from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.agents.helpers import LEAP_SYNERGIES, top_down_quat
 from maniladder_ms.envs import register_task
+from maniladder_ms.objects.tabletop import place_at_rest
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.bimanual import HandoverSolver, glide, roll_targets
 
@@ -96,9 +97,7 @@ class HandoverBallHandsEnv(HandoverTask):
             xy = torch.stack([torch.rand(b) * 0.1 - 0.15, torch.rand(b) * 0.1 + 0.12], dim=1)
             self.stand.set_pose(Pose.create_from_pq(torch.cat([xy, torch.zeros(b, 1)], dim=1)))
             ball = torch.cat([xy, torch.full((b, 1), ball_rest_height() + 0.001)], dim=1)
-            self.ball.set_pose(Pose.create_from_pq(ball))
-            self.ball.set_linear_velocity(torch.zeros(b, 3))
-            self.ball.set_angular_velocity(torch.zeros(b, 3))
+            place_at_rest(self.ball, Pose.create_from_pq(ball))
 
     def _get_obs_extra(self, info: dict):
         obs = dict(left_tcp_pose=self.ee.tcp("left").raw_pose, right_tcp_pose=self.ee.tcp("right").raw_pose,

@@ -26,6 +26,7 @@ from maniladder_ms.geometry import uprighting, yaw_quat
 from maniladder_ms.objects.basket import tilt
 from maniladder_ms.objects.mug import (COASTER_HEIGHT, MUG_DENSITY, MugShape, build_coaster, build_mug, mug_body_centre,
                                        placed_on_coaster)
+from maniladder_ms.objects.tabletop import place_at_rest
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.bimanual import Grasp, HandoverSolver, glide, reach, roll_targets
 
@@ -87,9 +88,7 @@ class HandoverMugHandsEnv(HandoverTask):
             # about x, the mug's -x stays -x: a yaw of pi turns it to +x
             handle_yaw = (torch.rand(b) * 2 - 1) * np.deg2rad(HANDLE_YAW)
             flip = torch.tensor(UPSIDE_DOWN).expand(b, 4)
-            self.mug.set_pose(Pose.create_from_pq(xyz, quaternion_multiply(yaw_quat(handle_yaw + np.pi), flip)))
-            self.mug.set_linear_velocity(torch.zeros(b, 3))
-            self.mug.set_angular_velocity(torch.zeros(b, 3))
+            place_at_rest(self.mug, Pose.create_from_pq(xyz, quaternion_multiply(yaw_quat(handle_yaw + np.pi), flip)))
             coaster = torch.stack([torch.rand(b) * 0.1 - 0.15, -0.28 + torch.rand(b) * 0.08, torch.zeros(b)], dim=1)
             self.coaster.set_pose(Pose.create_from_pq(coaster))
 

@@ -15,7 +15,7 @@ from maniladder_ms.envs import register_task
 from maniladder_ms.geometry import yaw_of, yaw_quat
 from maniladder_ms.objects.basket import tilt
 from maniladder_ms.objects.markers import MARKER_THICKNESS, build_zone_marker
-from maniladder_ms.objects.tabletop import build_ping_pong_ball, build_serving_tray
+from maniladder_ms.objects.tabletop import build_ping_pong_ball, build_serving_tray, place_at_rest
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.bimanual import top_down_carry
 from maniladder_ms.solvers.driven import DrivenSolver
@@ -90,9 +90,7 @@ class PingPongTransportEnv(LiftTwoHandedTask):
             self.tray.set_pose(Pose.create_from_pq(tray, tray_q))
             local = torch.stack([torch.rand(b) * 0.08 - 0.04, torch.rand(b) * 0.12 - 0.06,
                                  torch.full((b,), TRAY_BASE + self.ball_radius)], dim=1)
-            self.ball.set_pose(Pose.create_from_pq(tray + quaternion_apply(tray_q, local)))
-            self.ball.set_linear_velocity(torch.zeros(b, 3))
-            self.ball.set_angular_velocity(torch.zeros(b, 3))
+            place_at_rest(self.ball, Pose.create_from_pq(tray + quaternion_apply(tray_q, local)))
             zone = torch.stack([torch.rand(b) * 0.05 + 0.05, torch.rand(b) * 0.1 - 0.05, torch.zeros(b)], dim=1)
             zone[:, 2] = MARKER_THICKNESS / 2
             self.zone.set_pose(Pose.create_from_pq(zone))

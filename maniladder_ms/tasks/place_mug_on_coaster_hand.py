@@ -16,6 +16,7 @@ from maniladder_ms.geometry import uprighting, yaw_quat
 from maniladder_ms.objects.basket import tilt
 from maniladder_ms.objects.mug import (COASTER_HEIGHT, MUG_DENSITY, MugShape, build_coaster, build_mug, mug_body_centre,
                                        placed_on_coaster)
+from maniladder_ms.objects.tabletop import place_at_rest
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.bimanual import glide
 from maniladder_ms.solvers.driven import DrivenSolver
@@ -64,9 +65,7 @@ class PlaceMugOnCoasterHandEnv(ManiLadderEnv):
         with torch.device(self.device):
             b = len(env_idx)
             mug = torch.stack([torch.rand(b) * 0.1 - 0.2, 0.05 + torch.rand(b) * 0.1, torch.zeros(b)], dim=1)
-            self.mug.set_pose(Pose.create_from_pq(mug, yaw_quat(torch.rand(b) * 2 * np.pi)))
-            self.mug.set_linear_velocity(torch.zeros(b, 3))
-            self.mug.set_angular_velocity(torch.zeros(b, 3))
+            place_at_rest(self.mug, Pose.create_from_pq(mug, yaw_quat(torch.rand(b) * 2 * np.pi)))
             coaster = torch.stack([torch.rand(b) * 0.1 - 0.2, -0.15 + torch.rand(b) * 0.08, torch.zeros(b)], dim=1)
             self.coaster.set_pose(Pose.create_from_pq(coaster))
 
