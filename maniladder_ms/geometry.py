@@ -16,6 +16,14 @@ def yaw_of(q: torch.Tensor) -> torch.Tensor:
     return 2 * torch.atan2(q[:, 3], q[:, 0])
 
 
+def tilt(actor) -> torch.Tensor:
+    """(num_envs,) angle (rad) between the actor's z axis and the world's."""
+    q = actor.pose.q
+    # z component of the rotated z axis: 1 - 2 (x^2 + y^2) for a wxyz quaternion
+    cos = 1 - 2 * (q[:, 1] ** 2 + q[:, 2] ** 2)
+    return torch.arccos(cos.clamp(-1, 1))
+
+
 def actor_yaw(actor) -> float:
     """Yaw of an actor in the first sub-env, for solvers (which drive one env)."""
     return float(yaw_of(actor.pose.q)[0])

@@ -196,7 +196,11 @@ class RopeBetweenArmsTask(RopeTask):
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
-            self.lay_rope(len(env_idx))
+            self.place_by_rope(self.lay_rope(len(env_idx)))
+
+    def place_by_rope(self, centres: torch.Tensor):
+        """Place what a task sets relative to where its rope lies (capsule centres of the sub-scenes being reset,
+        [b, segments, 3]; torch's default device is the env's); the family places nothing."""
 
     def lay_rope(self, b: int) -> torch.Tensor:
         """Lay the rope of the `b` sub-scenes being reset (on torch's default device) as the class docstring

@@ -15,7 +15,6 @@ import numpy as np
 import sapien
 import sapien.physx as physx
 import sapien.render
-import torch
 import trimesh
 
 from mani_skill.envs.scene import ManiSkillScene
@@ -103,11 +102,3 @@ def build_basket(scene: ManiSkillScene, name: str, shape: BasketShape, mass: flo
             builder.add_box_visual(sapien.Pose(p=centre), half_size, material=render_mat)
     builder.initial_pose = sapien.Pose()
     return builder.build(name=name)
-
-
-def tilt(actor) -> torch.Tensor:
-    """(num_envs,) angle (rad) between the actor's z axis and the world's."""
-    q = actor.pose.q
-    # z component of the rotated z axis: 1 - 2 (x^2 + y^2) for a wxyz quaternion
-    cos = 1 - 2 * (q[:, 1] ** 2 + q[:, 2] ** 2)
-    return torch.arccos(cos.clamp(-1, 1))

@@ -18,7 +18,7 @@ import torch
 from mani_skill.envs.scene import ManiSkillScene
 
 from .containers import CERAMIC_DENSITY, ContainerShape, body_builder, build_resting, cup
-from .basket import tilt
+from maniladder_ms.geometry import tilt
 from .pot import build_stove_plate
 
 COASTER_RADIUS, COASTER_HEIGHT = 0.055, 0.005  # an 11 cm cork coaster, 5 mm thick

@@ -22,8 +22,7 @@ from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.agents.helpers import leap_fingertip, top_down_quat
 from maniladder_ms.envs import register_task
-from maniladder_ms.geometry import uprighting, yaw_quat
-from maniladder_ms.objects.basket import tilt
+from maniladder_ms.geometry import tilt, uprighting, yaw_quat
 from maniladder_ms.objects.mug import (COASTER_HEIGHT, MUG_DENSITY, MugShape, build_coaster, build_mug, mug_body_centre,
                                        placed_on_coaster)
 from maniladder_ms.objects.tabletop import place_at_rest

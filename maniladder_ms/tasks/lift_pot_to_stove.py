@@ -10,8 +10,7 @@ import torch
 from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.envs import register_task
-from maniladder_ms.geometry import yaw_of, yaw_quat
-from maniladder_ms.objects.basket import tilt
+from maniladder_ms.geometry import tilt, yaw_of, yaw_quat
 from maniladder_ms.objects.pot import PotShape, build_pot, build_stove_plate
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.bimanual import top_down_carry

@@ -11,7 +11,7 @@ import numpy as np
 import torch
 
 from maniladder_ms.envs import ManiLadderEnv
-from maniladder_ms.objects.basket import tilt
+from maniladder_ms.geometry import tilt
 
 
 class LiftTwoHandedTask(ManiLadderEnv):

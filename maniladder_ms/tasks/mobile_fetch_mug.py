@@ -15,8 +15,7 @@ from mani_skill.utils.structs.pose import Pose
 from maniladder_ms.agents.helpers import drive_base_to, top_down_quat
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.envs.scene import TABLE_HALF_SIZE
-from maniladder_ms.geometry import yaw_of, yaw_quat
-from maniladder_ms.objects.basket import tilt
+from maniladder_ms.geometry import tilt, yaw_of, yaw_quat
 from maniladder_ms.objects.markers import MARKER_THICKNESS, build_zone_marker
 from maniladder_ms.objects.mug import MUG_DENSITY, MugShape, build_mug
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver

@@ -12,8 +12,7 @@ from mani_skill.utils.geometry.rotation_conversions import quaternion_apply, qua
 from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.envs import register_task
-from maniladder_ms.geometry import yaw_of, yaw_quat
-from maniladder_ms.objects.basket import tilt
+from maniladder_ms.geometry import tilt, yaw_of, yaw_quat
 from maniladder_ms.objects.markers import MARKER_THICKNESS, build_zone_marker
 from maniladder_ms.objects.tabletop import build_ping_pong_ball, build_serving_tray, place_at_rest
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver

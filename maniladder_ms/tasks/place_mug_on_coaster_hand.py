@@ -12,8 +12,7 @@ from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.agents.helpers import top_down_quat
 from maniladder_ms.envs import ManiLadderEnv, register_task
-from maniladder_ms.geometry import uprighting, yaw_quat
-from maniladder_ms.objects.basket import tilt
+from maniladder_ms.geometry import tilt, uprighting, yaw_quat
 from maniladder_ms.objects.mug import (COASTER_HEIGHT, MUG_DENSITY, MugShape, build_coaster, build_mug, mug_body_centre,
                                        placed_on_coaster)
 from maniladder_ms.objects.tabletop import place_at_rest
@@ -133,6 +132,8 @@ STRAIGHTEN_ABOVE = 0.02  # m: the mug's bottom this far over the coaster when it
 LOWER_STEP = 0.003  # m a control step of the closed-loop set-down
 SET_DOWN_GAP = 0.002  # m: the set-down stops with the mug's bottom this close to the coaster's top
 RELEASE_STEPS = 20  # control steps over which the fingers, then the thumb, open
+LOWER_SLACK = 10  # control steps the set-down may take beyond its planned STRAIGHTEN_ABOVE / LOWER_STEP
+RETREAT_HEIGHT = 0.08  # m the open hand rises off the placed mug (clear of its rim and handle)
 # measured: seeds 100-149 48/50 (110, 147 fail); the demo seeds 0-24 21/25. What fails: the mug slips down out of
 # the fingers in the carry (a grasp with the handle on the index finger's side, wrist yaw near -pi/2, slips most);
 # relaxing and opening the fingers tilts the standing mug 5-10 degrees and it lands 2-2.5 cm off centre (seed 18);
@@ -176,7 +177,7 @@ def solve_place_mug_on_coaster_hand(env, seed: int) -> dict:
         q = _straighten(s, task)
         # lower closed loop: each step the target is where the TCP must be for the mug (as it hangs in the grip now)
         # until the mug's bottom is down on the coaster (following it further drags the standing mug off centre)
-        for k in range(int(STRAIGHTEN_ABOVE / LOWER_STEP) + 10):
+        for k in range(int(STRAIGHTEN_ABOVE / LOWER_STEP) + LOWER_SLACK):
             if bool((task.mug.pose.p[:, 2] - task.coaster.pose.p[:, 2] - COASTER_HEIGHT < SET_DOWN_GAP).all()):
                 break
             s.step({"arm": (place_tcp(max(STRAIGHTEN_ABOVE - (k + 1) * LOWER_STEP, 0.0)), q)})
@@ -187,6 +188,6 @@ def solve_place_mug_on_coaster_hand(env, seed: int) -> dict:
         hand[:, :12] = 0
         s.close_hand("hand", hand, ramp_steps=RELEASE_STEPS, hold_steps=2)
         s.close_hand("hand", "open", ramp_steps=RELEASE_STEPS, hold_steps=2)
-        s.move({"arm": (s.above(s.tcp("arm").p.clone(), 0.08), q)}, max_steps=30, pos_tol=0.02)
+        s.move({"arm": (s.above(s.tcp("arm").p.clone(), RETREAT_HEIGHT), q)}, max_steps=30, pos_tol=0.02)
         s.hold_until_success()
         return s.info

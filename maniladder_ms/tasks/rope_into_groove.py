@@ -77,8 +77,9 @@ class RopeIntoGrooveEnv(rope.RopeBetweenArmsTask, ManiLadderEnv):
                                     GROOVE_WALL, GROOVE_FLOOR, GROOVE_COLOR, GROOVE_FLOOR_COLOR)
         self.memory.flag("both_held")  # both grippers held the rope's ends at the same time
 
-    def lay_rope(self, b: int) -> torch.Tensor:
-        centres = super().lay_rope(b)  # the rope (rope.RopeBetweenArmsTask), then the groove beyond it
+    def place_by_rope(self, centres: torch.Tensor):
+        """The groove beyond the rope just laid (`rope.RopeBetweenArmsTask`), its `centres` [b, segments, 3]."""
+        b = len(centres)
         axis = np.pi / 2 + (torch.rand(b) * 2 - 1) * np.deg2rad(GROOVE_TURN)
         y = torch.rand(b) * 0.06 - 0.03
         # the groove's centre line (x at each capsule's y) lies beyond every capsule by the capsule's radius, the
@@ -88,7 +89,6 @@ class RopeIntoGrooveEnv(rope.RopeBetweenArmsTask, ManiLadderEnv):
         farthest = (centres[..., 0] - (centres[..., 1] - y[:, None]) * slope[:, None]).amax(dim=1)
         x = farthest + self.rope_config.radius + (self.groove_width / 2 + GROOVE_WALL) / torch.sin(axis) + gap
         self.groove.set_pose(Pose.create_from_pq(torch.stack([x, y, torch.zeros(b)], dim=1), yaw_quat(axis)))
-        return centres
 
     def groove_axis(self) -> torch.Tensor:
         """Yaw of the groove's axis (its local x), [B]."""
@@ -99,6 +99,8 @@ class RopeIntoGrooveEnv(rope.RopeBetweenArmsTask, ManiLadderEnv):
         return self.side_points(1)
 
     def _update_memory(self):
+        if bool(self.memory["both_held"].all()):  # latched in every sub-scene: no contact query needed
+            return
         held = self.end_holds()
         self.memory.latch("both_held", held["left"] & held["right"])
 
@@ -146,6 +148,8 @@ GRASP_OPENING = 0.0  # normalised gripper command for the approach: 3 cm between
 CARRY_HEIGHT = 0.1  # the grasped capsules' height while the rope is carried over the groove
 SPREAD = 0.33  # metres between the grasped capsule centres (0.34 between them along the rope): nearly straight
 RELEASE_ABOVE_TOP = 0.012  # the grasped capsules' centres this far above the walls' top when let go
+RETREAT_FRACTION = 0.5  # the open grippers rise this share of APPROACH_HEIGHT off the laid rope
+RETREAT_SETTLE_STEPS = 5  # control steps held at the top of the retreat, the rope settling in the groove
 
 
 @register_solver("RopeIntoGroove", control_modes=TCP_DELTA_MODES)
@@ -197,7 +201,7 @@ def solve_rope_into_groove(env, seed: int) -> dict:
             s.release(g.ee, steps=0)
         for _ in range(RELEASE_WAIT_STEPS):
             s.step()
-        glide(s, {g.arm: (low[side], low[side] + above / 2, qs[side]) for side, g in zip(task.SIDES, grasps)},
-              settle_steps=5)
+        glide(s, {g.arm: (low[side], low[side] + above * RETREAT_FRACTION, qs[side]) for side, g in zip(task.SIDES, grasps)},
+              settle_steps=RETREAT_SETTLE_STEPS)
         s.hold_until_success()
         return s.info

@@ -23,8 +23,7 @@ from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.agents.helpers import leap_fingertip, top_down_quat
 from maniladder_ms.envs import register_task
-from maniladder_ms.geometry import yaw_of, yaw_quat
-from maniladder_ms.objects.basket import tilt
+from maniladder_ms.geometry import tilt, yaw_of, yaw_quat
 from maniladder_ms.objects.tabletop import build_flat_box
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver
@@ -139,9 +138,11 @@ POINT_BACK = np.array([0.0, 2.0, 0.0, 0.0, 0.0, 0.0, 1.6, 1.6, 0.0, 0.0, 1.6, 1.
 TIP_LOW = 0.0042
 PRESS_DEPTH = 0.002  # the index tip's target this far below the card's top: it presses the card on the stand
 # (1 mm left the tilted tip barely touching where the arm stops 1 mm short of its target)
+TIP_HOVER = 0.02  # m above the card's top where the pointing tip stops before it presses
 SLIDE_STEP = 0.01  # m the press point's target leads the finger by at most
+SLIDE_STEPS = 60  # control steps the closed-loop slide may take (~0.5 cm a step: the slides measured take 20-40)
+FINGER_LIFT = 0.04  # m the hand rises after the slide, clear of the card, before it opens
 SLIDE_TOL = 0.002  # m: the slide stops once the card's far end is this near its goal
-PRESS_BACK = 0.0  # the press point this far behind the card's centre (along the card, away from the edge)
 OVERHANG = 0.045  # the card's far end this far beyond the edge when the slide stops
 # the clamp: the palm lies on the card's end, the index and middle fingers curl down past the card's end and
 # back up under the overhang (tcp frame: x along the fingers, z down; the hand's geometry, open: the palm's
@@ -151,6 +152,8 @@ PALM_ABOVE = 0.081  # the palm's underside this far above the tcp
 CLAMP_AHEAD = 0.002  # the card's end this far ahead of the tcp (under the palm, behind the flexed MCP housings)
 CLAMP_SIDE = 0.007  # the card's centre line this far along the tcp's y axis: under the index and middle fingers
 CLAMP_PRESS = 0.002  # the palm's target this far into the card
+CLAMP_HOVER = 0.03  # m above the clamp pose where the open hand lines up before it lays its palm on the card
+LIFT_MARGIN = 0.03  # m lifted beyond `lift_height`, so the held card clears the rule's height with room
 # the thumb raised (j12 near its lower limit, -0.349): open, its links reach 4 mm below the palm's underside, over
 # the stand, and would hold the palm off the card; the ring finger (beside the card) stays straight
 THUMB_UP = [-0.34, 0.0, 0.0, 0.0]
@@ -174,24 +177,24 @@ def solve_slide_card_to_edge_hand(env, seed: int) -> dict:
         axis = torch.stack([torch.cos(yaw), torch.sin(yaw), torch.zeros_like(yaw)], dim=1)
         up = torch.tensor([0.0, 0.0, 1.0], device=device)
         s.set_ee("hand", POINT_BACK, steps=1)
-        card_top = task.card.pose.p + up * task.card_thickness / 2 - axis * PRESS_BACK
+        card_top = task.card.pose.p + up * task.card_thickness / 2
         s.move({"arm": (s.above(card_top, APPROACH_HEIGHT), q)}, max_steps=40)
         tip_offset = leap_fingertip(task.agent) - task.ee.tcp().p - up * TIP_LOW
-        s.move({"arm": (s.above(card_top, 0.02) - tip_offset, q)}, max_steps=30, pos_tol=0.003)
+        s.move({"arm": (s.above(card_top, TIP_HOVER) - tip_offset, q)}, max_steps=30, pos_tol=0.003)
         press = card_top - up * PRESS_DEPTH - tip_offset
         s.move({"arm": (press, q)}, max_steps=15, pos_tol=0.002)
         # slide along +x, closed loop on the card: the press point's target leads the finger by what the card's
         # far end still lacks of the overhang (at most SLIDE_STEP), until it is there
         far_end = lambda: task.card.pose.p + axis * task.card_length / 2  # noqa: E731
         goal = task.far_edge() + OVERHANG
-        for _ in range(60):
+        for _ in range(SLIDE_STEPS):
             lack = goal - far_end()[:, 0]
             if bool((lack <= SLIDE_TOL).all()):
                 break
             target = press.clone()
             target[:, 0] = s.tcp("arm").p[:, 0] + lack.clamp(0, SLIDE_STEP)
             s.step({"arm": (target, q)})
-        s.move({"arm": (s.above(s.tcp("arm").p, 0.04), q)}, max_steps=15, pos_tol=0.005)
+        s.move({"arm": (s.above(s.tcp("arm").p, FINGER_LIFT), q)}, max_steps=15, pos_tol=0.005)
         # the clamp: the open hand (thumb raised) comes down with its palm on the card's end; the index and
         # middle fingers hook at their PIP / DIP joints in front of the card's end, then swing down and back at
         # their MCP joints, their tips coming up under the overhang and pressing it against the palm
@@ -199,10 +202,10 @@ def solve_slide_card_to_edge_hand(env, seed: int) -> dict:
         side = torch.stack([torch.sin(yaw), -torch.cos(yaw), torch.zeros_like(yaw)], dim=1)  # the tcp's y axis
         top = far_end() + up * task.card_thickness / 2
         clamp = top - axis * CLAMP_AHEAD - side * CLAMP_SIDE - up * (PALM_ABOVE + CLAMP_PRESS)
-        s.move({"arm": (s.above(clamp, 0.03), q)}, max_steps=30, pos_tol=0.004)
+        s.move({"arm": (s.above(clamp, CLAMP_HOVER), q)}, max_steps=30, pos_tol=0.004)
         s.move({"arm": (clamp, q)}, max_steps=30, pos_tol=0.002)
         s.close_hand("hand", HOOK_CURL, ramp_steps=10, hold_steps=2)
         s.close_hand("hand", CLAMP, ramp_steps=20, hold_steps=5)
-        s.move({"arm": (s.above(clamp, task.lift_height + 0.03), q)}, max_steps=40)
+        s.move({"arm": (s.above(clamp, task.lift_height + LIFT_MARGIN), q)}, max_steps=40)
         s.hold_until_success()
         return s.info
