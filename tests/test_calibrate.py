@@ -105,6 +105,10 @@ def test_calibrate_resumes_after_a_kill(tmp_path):
     assert {p.name: p.stat().st_mtime_ns for p in [task_dir / "features.npz", *task_dir.glob("checkpoint_*.pt")]} == kept
     assert json.loads((out / "PickPlacePen.json").read_text())["episodes"] == 2
     assert json.loads((task_dir / "settings.json").read_text())["calibration"]["episodes"] == 2
+    # a re-run of the finished task leaves its result file as it was (no new time stamp to commit)
+    finished = (out / "PickPlacePen.json").read_bytes()
+    calibrate(["PickPlacePen"], work, out, demos_dir=REPO / "demos", config=TINY, protocol=more, progress=False)
+    assert (out / "PickPlacePen.json").read_bytes() == finished
     with pytest.raises(ValueError, match="can add episodes, not drop them"):  # the folder keeps its 2 episodes
         calibrate(["PickPlacePen"], work, out, demos_dir=REPO / "demos", config=TINY, protocol=TINY_PROTOCOL,
                   progress=False)

@@ -112,10 +112,14 @@ def test_demo_episodes_record_their_instruction(tmp_path):
     assert meta["instructions"] == "paraphrase"
     assert [ep["instruction"] for ep in meta["episodes"]] == \
         [pen.instruction_for(ep["episode_seed"], "paraphrase") for ep in meta["episodes"]]
-    # a file from before instructions (the committed samples) reads with the canonical one
-    sample = COMMITTED_DEMOS / "PickPlacePen" / "trajectory.none.pd_joint_pos.physx_cpu.h5"
-    assert all("instruction" not in ep for ep in json.loads(sample.with_suffix(".json").read_text())["episodes"])
-    assert {ep["instruction"] for ep in load_demo_json(sample)["episodes"]} == {pen.instruction}
+    # a file from before instructions were written (its episodes carry none) reads with the canonical one
+    old = tmp_path / "old" / report.path.name
+    old.parent.mkdir()
+    shutil.copy(report.path, old)
+    for ep in meta["episodes"]:
+        del ep["instruction"]
+    old.with_suffix(".json").write_text(json.dumps(meta))
+    assert {ep["instruction"] for ep in load_demo_json(old)["episodes"]} == {pen.instruction}
 
 
 def test_existing_dataset_is_not_overwritten(recorded, demo_root):

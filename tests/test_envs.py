@@ -299,6 +299,10 @@ def test_visual_seed_kwarg_fixes_the_look():
     assert base.visual_seed == 6 and base.ladder_scene.look != looks[0]
     with pytest.raises(ValueError, match="visual_seed must be an int"):
         env.reset(seed=0, options={"visual_seed": -1})
+    # a new look rebuilds every sub-scene: with a partial reset (here the empty one; CPU runs one sub-scene) it is
+    # our error, before ManiSkill's
+    with pytest.raises(ValueError, match="cannot go with a partial reset"):
+        env.reset(seed=0, options={"visual_seed": 6, "env_idx": torch.zeros(0, dtype=torch.long)})
     env.close()
 
 

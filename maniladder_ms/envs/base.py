@@ -178,6 +178,11 @@ class ManiLadderEnv(BaseEnv):
         options = dict(options or {})
         self._visual_seed_option = _check_visual_seed(options.pop("visual_seed", None))
         if self._visual_seed_option is not None and self.domain_randomization:
+            env_idx = options.get("env_idx")
+            if env_idx is not None and len(env_idx) < self.num_envs:
+                raise ValueError(
+                    f"the reset option visual_seed rebuilds every sub-scene in a new look; it cannot go with a "
+                    f"partial reset (env_idx: {len(env_idx)} of {self.num_envs} sub-scenes)")
             options["reconfigure"] = True
         return super().reset(seed=seed, options=options)
 

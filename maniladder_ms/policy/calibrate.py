@@ -270,8 +270,15 @@ class TaskCalibration:
             "protocol": PROTOCOL_VERSION, "config": self.config.as_dict(), "calibration": self.protocol.as_dict(),
             "time": time.strftime("%Y-%m-%dT%H:%M:%S"),
         }
+        path = self.out / f"{self.spec.id}.json"
+        if path.is_file():  # a resume of a finished task: the committed result stays as it is (no new time stamp)
+            old = json.loads(path.read_text())
+            volatile = ("time", "timings_s")
+            if {k: v for k, v in old.items() if k not in volatile} == \
+                    json.loads(json.dumps({k: v for k, v in result.items() if k not in volatile})):
+                return old
         self.out.mkdir(parents=True, exist_ok=True)
-        (self.out / f"{self.spec.id}.json").write_text(json.dumps(result, indent=1))
+        path.write_text(json.dumps(result, indent=1))
         return result
 
 
