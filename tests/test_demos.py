@@ -316,6 +316,23 @@ def test_wheel_install_replays_coacd_samples(convex_lookups, tmp_path):
     assert {c["file"] for c in checks} == set(files)
     assert all(c["success_from_actions"] for c in checks)
     assert not list(cache.rglob("part_*.obj"))  # nothing decomposed afresh
+
+    # ManiSkill's own replay_trajectory, from the wheel install, replays one of them to success from its actions
+    # (a copy: the replay writes its output beside the file it reads)
+    first = Path(files[0])
+    copy = tmp_path / "maniskill_replay" / first.name
+    copy.parent.mkdir()
+    for suffix in (".h5", ".json"):
+        shutil.copy(first.with_suffix(suffix), copy.with_suffix(suffix))
+    replay = subprocess.run(
+        [sys.executable, "-m", "mani_skill.trajectory.replay_trajectory", "--traj-path", str(copy), "-o", "state",
+         "--save-traj", "-b", "physx_cpu"], cwd=run,
+        env={**os.environ, "PYTHONPATH": str(site), "MANILADDER_CACHE": str(cache)},
+        capture_output=True, text=True, timeout=900)
+    assert replay.returncode == 0, replay.stderr[-3000:]
+    with h5py.File(first, "r") as f:
+        count = len([k for k in f if k.startswith("traj_")])
+    assert f"{count}/{count}=100.00% demos saved" in replay.stdout + replay.stderr, (replay.stdout + replay.stderr)[-2000:]
     print(f"wheel install: {len(files)} files of {', '.join(users)}; max drift "
           f"{max(c['max_drift'] for c in checks):.2e}; {time.time() - start:.0f} s")
 
