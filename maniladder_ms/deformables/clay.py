@@ -19,7 +19,9 @@ Metrics on particle positions [B, N, 3] (`Clay.positions()`), lengths in metres:
 - `width_along`: extent along a horizontal axis (squeezing narrows it);
 - `surface_height_at`: top of the clay near a table point; `dent_depth`: a reference top minus it;
 - footprint area / IoU with a target footprint or voxel grid: `maniladder_ms.deformables.metrics`
-  with tile = the clay's spacing.
+  with tile = the clay's spacing;
+- `top_layer`, `imprint_iou`: which top-layer cells a tool pressed in at least a depth, against the cells
+  under its footprint (a stamp's imprint; footprint shapes such as `metrics.inside_star`).
 """
 
 from __future__ import annotations

@@ -8,7 +8,8 @@ Each particle counts as a square tile (or cube) of side `tile` centred on it, ra
 - `region_coverage`: fraction of a table rectangle that the particles cover;
 - `target_coverage`: the same for a rectangle placed per env (a target area marked on the table);
 - `voxel_grid` + `iou`: 3D shape agreement;
-- `inside_channel_fraction`: share of points (a rope's capsule centres) inside a straight channel on the table.
+- `inside_channel_fraction`: share of points (a rope's capsule centres) inside a straight channel on the table;
+- `inside_star`: whether points lie inside a star outline (a stamp's footprint, `clay.imprint_iou`).
 """
 
 from __future__ import annotations

@@ -1,5 +1,6 @@
 """Hand tools: an L-shaped hook built from boxes for pulling objects from out of reach (HookCubeWithTool); a
-star-shaped stamp with a handle for pressing an imprint into clay (StampClay)."""
+star-shaped stamp with a handle for pressing an imprint into clay (StampClay); a rolling pin with two handles
+(FlattenClayWithRoller)."""
 
 from __future__ import annotations
 
@@ -118,4 +119,45 @@ def build_star_stamp(scene: ManiSkillScene, name: str, shape: StarStampShape, de
     builder.add_box_collision(centre, half_size=handle, material=surface, density=density)
     builder.add_box_visual(centre, half_size=handle, material=material)
     builder.initial_pose = sapien.Pose(p=[0, 0, 0.001])
+    return builder.build(name=name)
+
+
+@dataclass(frozen=True)
+class RollingPinShape:
+    """A rolling pin along the tool's local y: a barrel (radius `barrel_radius`, `barrel_length` long)
+    with a thinner handle (radius `handle_radius`, `handle_length` long) at each end. The origin is the
+    barrel's centre."""
+
+    barrel_radius: float = 0.02
+    barrel_length: float = 0.14
+    handle_radius: float = 0.012
+    handle_length: float = 0.07
+
+    @property
+    def handle_offset(self) -> float:
+        """Local |y| of each handle's centre."""
+        return (self.barrel_length + self.handle_length) / 2
+
+
+def build_rolling_pin(scene: ManiSkillScene, name: str, shape: RollingPinShape, density: float, color,
+                      handle_color, friction: float = 0.3, handle_friction: float = 1.0) -> "Actor":
+    """The rolling pin as a dynamic actor lying along its local y (the barrel on the table when the origin
+    is `barrel_radius` up); SAPIEN's cylinders run along their local x, so each is turned a quarter about z."""
+    builder = scene.create_actor_builder()
+    along_y = [np.cos(np.pi / 4), 0.0, 0.0, np.sin(np.pi / 4)]
+    barrel_mat = sapien.render.RenderMaterial(base_color=list(color), roughness=0.6)
+    handle_mat = sapien.render.RenderMaterial(base_color=list(handle_color), roughness=0.6)
+    barrel_surface = physx.PhysxMaterial(friction, friction, 0.0)
+    handle_surface = physx.PhysxMaterial(handle_friction, handle_friction, 0.0)
+    pose = sapien.Pose(q=along_y)
+    builder.add_cylinder_collision(pose, radius=shape.barrel_radius, half_length=shape.barrel_length / 2,
+                                   material=barrel_surface, density=density)
+    builder.add_cylinder_visual(pose, radius=shape.barrel_radius, half_length=shape.barrel_length / 2, material=barrel_mat)
+    for sign in (-1, 1):
+        pose = sapien.Pose(p=[0, sign * shape.handle_offset, 0], q=along_y)
+        builder.add_cylinder_collision(pose, radius=shape.handle_radius, half_length=shape.handle_length / 2,
+                                       material=handle_surface, density=density)
+        builder.add_cylinder_visual(pose, radius=shape.handle_radius, half_length=shape.handle_length / 2,
+                                    material=handle_mat)
+    builder.initial_pose = sapien.Pose(p=[0, 0, shape.barrel_radius])
     return builder.build(name=name)

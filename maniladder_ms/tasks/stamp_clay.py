@@ -30,7 +30,7 @@ class StampClayEnv(clay.ClayEnvMixin, ManiLadderEnv):
     leaving a star-shaped imprint.
 
     **Randomisation:** the slab (particles on a 1.2 cm lattice within `slab_half`: 9 x 9 x 3 of them,
-    10.8 x 10.8 x 3.6 cm) is turned by a uniform yaw in [0, pi/2), its centre uniform in x in [-0.05, 0.05],
+    10.8 x 10.8 x 3.6 cm, spheres included) is turned by a uniform yaw in [0, pi/2), its centre uniform in x in [-0.05, 0.05],
     y in [0.0, 0.06]; the stamp (5 arms, tips at radius `outer`, valleys at `inner`, a 1.2 cm plate, a 2 cm
     post 7 cm high) stands upright to the robot's right, its centre uniform in x in [-0.1, 0.0], y in
     [-0.2, -0.16], turned by a uniform yaw in [0, 2 pi / 5) (all the star's yaws).
@@ -44,11 +44,12 @@ class StampClayEnv(clay.ClayEnvMixin, ManiLadderEnv):
     `min_iou`; and the stamp is lifted off (it does not touch the clay).
 
     **Level 2:** against Level 1's PressClayFlat (one stage: press the closed gripper into a clay ball,
-    ~120 steps, any flat shape counts): 4 stages (grasp the 2 cm handle, carry the stamp over the slab,
-    press it level, lift it off), the press centred within 1 cm on a 10.8 cm slab with a 9 cm star; the
-    clay must take the tool's shape (the star's 25 top cells and no others at least 5 mm deep, IoU >= 0.5),
-    so the stamp must go straight down (a tilt of 6 degrees makes its arms' tips 4.5 mm apart in height)
-    and come straight up (a slide drags the imprint off the star).
+    ~120 steps, any flat enough shape counts): 4 stages in ~120 steps (grasp the 2 cm post, carry the stamp
+    over the slab, press it level, lift it off), the press centred within 1 cm on a 10.8 cm slab with a
+    10 cm star; the clay must take the tool's shape: of the 81 top cells, the star's 25-30 and few others
+    at least 5 mm deep (IoU >= 0.5; the scripted press reaches 0.64-0.77), so the stamp goes down level and
+    about 8 mm deep (+-2 mm: 1.5 mm shallower leaves the star's cells short of 5 mm, 3 mm deeper drags the
+    cells along its outline down with them), and comes straight up (a slide smears the imprint).
     """
 
     max_dense_reward = 6
