@@ -11,10 +11,10 @@ from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.agents.effectors import TOUCH_FORCE, pair_forces
 from maniladder_ms.agents.helpers import top_down_quat
-from maniladder_ms.envs import register_task
+from maniladder_ms.envs import register_task  # noqa: F401 (the task is not registered yet)
 from maniladder_ms.geometry import yaw_quat
 from maniladder_ms.objects.tools import RollingPinShape, build_rolling_pin
-from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
+from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver  # noqa: F401
 from maniladder_ms.solvers.bimanual import glide
 from maniladder_ms.solvers.driven import DrivenSolver
 
@@ -25,7 +25,9 @@ PIN_DENSITY = 700.0  # kg/m^3 (a wooden pin: ~0.2 kg)
 ROLL_AXIS = 0  # the pin lies along world y and rolls along world x
 
 
-@register_task("FlattenClayWithRoller")
+# UNFINISHED, not registered (the solver does not reach the bar: clay height 0.56-0.60 of start against the
+# rule's 0.4 on seeds 100-101, footprint 1.8-2.1x; see the branch's report): restore the decorator once it does
+# @register_task("FlattenClayWithRoller")
 class FlattenClayWithRollerEnv(PressClayFlatEnv):
     """**Task:** a ball of clay (plastic: it keeps the shape it is pressed into) lies on the table between
     the two arms; a rolling pin (a barrel with a handle at each end) lies across the table nearer the robot.
@@ -134,12 +136,13 @@ class FlattenClayWithRollerEnv(PressClayFlatEnv):
 CARRY_Z = 0.1  # the pin's axis this high while it moves over the clay
 # the barrel's bottom heights of the passes over the clay, each a stroke forwards and back over the clay's
 # centre; the arms push as hard as their targets are far, so the targets lie below where the barrel stops
-PASS_BOTTOMS = (0.03, 0.015, 0.0)
-ROLL_HALF = 0.06  # each pass rolls the pin this far to either side of the clay's start centre
+PASS_BOTTOMS = (0.015, -0.01, -0.03)
+ROLL_HALVES = (0.04, 0.06, 0.08)  # each pass rolls the pin this far to either side of the clay's start centre
+# (wider each pass: the clay pushed ahead of the barrel piles up in ridges just beyond the stroke's ends)
 ROLL_STEP = 0.006  # metres per control step of a roll
 
 
-@register_solver("FlattenClayWithRoller", control_modes=TCP_DELTA_MODES)
+# @register_solver("FlattenClayWithRoller", control_modes=TCP_DELTA_MODES)
 def solve_flatten_clay_with_roller(env, seed: int) -> dict:
     """Both arms take a handle top-down (fingers closing along x, across the handle), lift the pin together,
     carry it over the clay's near side, lower it, and roll it forwards and back over the clay a few times,
@@ -172,19 +175,22 @@ def solve_flatten_clay_with_roller(env, seed: int) -> dict:
 
         r = task.pin_shape.barrel_radius
         start = task.pin.pose.p.clone()
-        near_x = centre[:, 0] - ROLL_HALF
-        far_x = centre[:, 0] + ROLL_HALF
+        mid_x = centre[:, 0]
         glide_pin(start, at(start[:, 0], CARRY_Z), 0.01)
-        glide_pin(at(start[:, 0], CARRY_Z), at(near_x, CARRY_Z), 0.01)
-        last = at(near_x, CARRY_Z)
-        for bottom in PASS_BOTTOMS:
-            down = at(near_x, bottom + r)
-            glide_pin(last, down, 0.006)
+        glide_pin(at(start[:, 0], CARRY_Z), at(mid_x, CARRY_Z), 0.01)
+        last = at(mid_x, CARRY_Z)
+        # rolled in from the side at a low height the barrel plows the ball ahead of it (10 cm on seed 100):
+        # each pass presses down on the clay's middle first, then rolls out to either side and back
+        for bottom, half in zip(PASS_BOTTOMS, ROLL_HALVES):
+            near_x, far_x = centre[:, 0] - half, centre[:, 0] + half
+            down = at(mid_x, bottom + r)
+            glide_pin(last, down, 0.004)
             glide_pin(down, at(far_x, bottom + r), ROLL_STEP)
-            glide_pin(at(far_x, bottom + r), down, ROLL_STEP)
+            glide_pin(at(far_x, bottom + r), at(near_x, bottom + r), ROLL_STEP)
+            glide_pin(at(near_x, bottom + r), down, ROLL_STEP)
             last = down
             if bool(s.info["success"].all()):
                 break
-        glide_pin(last, at(near_x, CARRY_Z), 0.01)
+        glide_pin(last, at(mid_x, CARRY_Z), 0.01)
         s.hold_until_success()
         return s.info
