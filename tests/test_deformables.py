@@ -449,6 +449,40 @@ def test_clay_metrics():
     assert metrics.iou(voxels, voxels)[0] == 1
 
 
+def test_star_outline_and_imprint_iou():
+    outer, inner, arms = 0.05, 0.028, 5
+    tips = outer * 0.99 * torch.tensor([[np.cos(a), np.sin(a)] for a in np.arange(arms) * 2 * np.pi / arms])
+    valleys_out = inner * 1.05 * torch.tensor([[np.cos(a), np.sin(a)] for a in (np.arange(arms) + 0.5) * 2 * np.pi / arms])
+    assert metrics.inside_star(tips, outer, inner, arms).all()
+    assert not metrics.inside_star(valleys_out, outer, inner, arms).any()
+    assert metrics.inside_star(torch.zeros(1, 2), outer, inner, arms).all()
+    assert not metrics.inside_star(torch.tensor([[0.0, outer * 1.01]]), outer, inner, arms).any()
+    spacing = 0.012
+    start = torch.as_tensor(clay.clay_block((0.048, 0.048, 0.012), spacing), dtype=torch.float32)[None].repeat(2, 1, 1)
+    centre, yaw = torch.tensor([0.004, -0.003]), 0.3
+
+    def under(at):  # particles whose start xy lies under the star centred at `at`, turned by `yaw`
+        rel = start[..., :2] - at
+        c, s = np.cos(yaw), np.sin(yaw)
+        return metrics.inside_star(torch.stack([c * rel[..., 0] + s * rel[..., 1], -s * rel[..., 0] + c * rel[..., 1]], -1),
+                                   outer, inner, arms)
+
+    target = under(centre)
+    top = clay.top_layer(start, spacing)
+    assert top[0].sum() == 81 and 20 < (top & target)[0].sum() < 40
+    dented = start.clone()
+    dented[0, :, 2] -= 0.008 * (top & target)[0]  # env 0: the star's cells pressed 8 mm, a star-shaped dent
+    dented[1, :, 2] -= 0.008 * (top & under(centre + torch.tensor([0.04, 0.0])))[1]  # env 1: the dent 4 cm off
+    iou = clay.imprint_iou(start, dented, target, 0.005, spacing)
+    assert iou[0] == pytest.approx(1.0)
+    assert iou[1] < 0.3
+    shallow = clay.imprint_iou(start, dented, target, 0.009, spacing)  # not deep enough: nothing counts
+    assert (shallow == 0).all()
+    flat = start.clone()
+    flat[..., 2] -= 0.008 * top  # the whole top pressed down: the star's cells are a minority of the sunk ones
+    assert (clay.imprint_iou(start, flat, target, 0.005, spacing) < 0.5).all()
+
+
 def test_clay_keeps_the_shape_it_is_pressed_into():
     env = _make("clay", control_mode="pd_joint_delta_pos")
     try:

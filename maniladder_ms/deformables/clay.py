@@ -19,7 +19,9 @@ Metrics on particle positions [B, N, 3] (`Clay.positions()`), lengths in metres:
 - `width_along`: extent along a horizontal axis (squeezing narrows it);
 - `surface_height_at`: top of the clay near a table point; `dent_depth`: a reference top minus it;
 - footprint area / IoU with a target footprint or voxel grid: `maniladder_ms.deformables.metrics`
-  with tile = the clay's spacing.
+  with tile = the clay's spacing;
+- `top_layer`, `imprint_iou`: which top-layer cells a tool pressed in at least a depth, against the cells
+  under its footprint (a stamp's imprint; footprint shapes such as `metrics.inside_star`).
 """
 
 from __future__ import annotations
@@ -265,3 +267,23 @@ def surface_height_at(points: torch.Tensor, xy: torch.Tensor, within: float, rad
 def dent_depth(points: torch.Tensor, xy: torch.Tensor, reference_top: torch.Tensor, within: float, radius: float) -> torch.Tensor:
     """How far (m) the clay surface near xy lies below `reference_top` [B] (e.g. its height before), [B]."""
     return reference_top - surface_height_at(points, xy, within, radius)
+
+
+def top_layer(start: torch.Tensor, spacing: float) -> torch.Tensor:
+    """The particles of the clay's top layer at the start (within half a lattice spacing of the highest), [B, N]."""
+    z = start[..., 2]
+    return z >= z.amax(dim=1, keepdim=True) - spacing / 2
+
+
+def imprint_iou(start: torch.Tensor, points: torch.Tensor, under: torch.Tensor, depth: float, spacing: float) -> torch.Tensor:
+    """How well an imprint matches a tool's footprint, [B]: the intersection over union of two sets of the
+    top layer's cells (particles, each standing for its lattice cell): those that sank at least `depth` (m)
+    below their start height (`start` [B, N, 3] -> `points`), and those `under` [B, N] the tool's footprint
+    (e.g. a stamp's outline, placed where it pressed, tested at the particles' start xy). 1: exactly the
+    footprint's cells sank; a dent beside the footprint, or a press over all of the clay, scores low."""
+    top = top_layer(start, spacing)
+    sunk = top & (start[..., 2] - points[..., 2] >= depth)
+    target = top & under
+    inter = (sunk & target).sum(dim=1)
+    union = (sunk | target).sum(dim=1).clamp_min(1)
+    return inter / union

@@ -8,7 +8,8 @@ Each particle counts as a square tile (or cube) of side `tile` centred on it, ra
 - `region_coverage`: fraction of a table rectangle that the particles cover;
 - `target_coverage`: the same for a rectangle placed per env (a target area marked on the table);
 - `voxel_grid` + `iou`: 3D shape agreement;
-- `inside_channel_fraction`: share of points (a rope's capsule centres) inside a straight channel on the table.
+- `inside_channel_fraction`: share of points (a rope's capsule centres) inside a straight channel on the table;
+- `inside_star`: whether points lie inside a star outline (a stamp's footprint, `clay.imprint_iou`).
 """
 
 from __future__ import annotations
@@ -105,3 +106,17 @@ def inside_channel_fraction(points: torch.Tensor, centre: torch.Tensor, yaw: tor
     across = -rel[..., 0] * s + rel[..., 1] * c
     inside = (across.abs() <= half_width) & (along.abs() <= half_length) & (points[..., 2] <= top)
     return inside.float().mean(dim=1)
+
+
+def inside_star(xy: torch.Tensor, outer: float, inner: float, arms: int) -> torch.Tensor:
+    """Whether points xy [..., 2] (in the star's own frame) lie inside a star outline of `arms` tips at radius
+    `outer` (tip k at angle 2 pi k / arms) with the valleys between them at radius `inner`, [...]."""
+    sector = 2 * np.pi / arms
+    # fold every point into the half sector between a tip (angle 0) and its valley (angle sector / 2)
+    angle = torch.remainder(torch.atan2(xy[..., 1], xy[..., 0]) + sector / 2, sector) - sector / 2
+    radius = torch.linalg.norm(xy, dim=-1)
+    x, y = radius * torch.cos(angle), radius * torch.sin(angle).abs()
+    valley_x, valley_y = inner * np.cos(sector / 2), inner * np.sin(sector / 2)
+    # inside: on the centre's side of the edge from the tip (outer, 0) to the valley
+    cross = (valley_x - outer) * y - valley_y * (x - outer)
+    return cross >= 0

@@ -79,10 +79,14 @@ class PressClayFlatEnv(clay.ClayEnvMixin, ManiLadderEnv):
                        area_ratio=info["area_ratio"])
         return obs
 
-    def evaluate(self):
+    def shape_ratios(self) -> tuple[torch.Tensor, torch.Tensor]:
+        """The clay's height and footprint now over those at the start, [B] each (the FlattenClay family's measures)."""
         height, area = self._shape(self.clay.positions())
         start_height, start_area = self._shape(self.clay.start)
-        height_ratio, area_ratio = height / start_height, area / start_area
+        return height / start_height, area / start_area
+
+    def evaluate(self):
+        height_ratio, area_ratio = self.shape_ratios()
         is_flat = height_ratio <= self.max_height_ratio
         is_spread = area_ratio >= self.min_area_ratio
         pressed_flat = self.memory["pressed_flat"]
