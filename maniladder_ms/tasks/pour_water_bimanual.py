@@ -47,7 +47,8 @@ class PourWaterBimanualEnv(CupToBowl, ManiLadderEnv):
     rolls the source cup 172 degrees above it; the receiver's mouth is 6 cm wide against the bowl's 16 cm,
     so the source's mouth must be steered to within ~2 cm of it while it turns, and a quarter of the water
     spilled fails: 6 stages (two level side grasps, lift both, bring the receiver to the middle, carry
-    the source above it, roll) in a 300-step horizon.
+    the source above it, roll) in a 300-step horizon (the scripted solver: 240-246 steps, 50/50 on seeds
+    100-149).
     """
 
     SUPPORTED_ROBOTS = ["ml_dual_panda"]
