@@ -557,6 +557,17 @@ def test_full_container_is_full(make_shape):
     assert particles.fraction_spilled(half, [(pose, shape)])[0] == pytest.approx(0.5)
 
 
+def test_base_inside_a_bowl():
+    from maniladder_ms.deformables.pouring import base_inside
+
+    bowl = containers.bowl()
+    pose = Pose.create_from_pq(torch.tensor([[0.1, -0.2, 0.0]] * 4))
+    # a glass standing on the bowl's floor, on the table beside the bowl, held above the rim, on the rim's edge
+    bases = torch.tensor([[0.12, -0.19, 0.01], [0.1, 0.0, 0.0], [0.1, -0.2, bowl.height + 0.02],
+                          [0.1 + bowl.rim_radius + 0.01, -0.2, 0.02]])
+    assert base_inside(bases, pose, bowl).tolist() == [True, False, False, False]
+
+
 def test_container_decomposition_is_cached(monkeypatch):
     import coacd
 

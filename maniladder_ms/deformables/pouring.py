@@ -125,6 +125,13 @@ class CupToBowl:
         return info["fraction_in_bowl"] * (1 - info["fraction_spilled"])
 
 
+def base_inside(p: torch.Tensor, container_pose: Pose, shape) -> torch.Tensor:
+    """(B,) the points `p` (B, 3) (an object's base centre: a glass dropped into a bowl) lie within the
+    container's rim circle, in its horizontal plane, and below its rim (the container taken as upright)."""
+    rel = p - container_pose.p
+    return (torch.linalg.norm(rel[:, :2], dim=1) < shape.rim_radius) & (rel[:, 2] < shape.height)
+
+
 def _uniform(b: int, low: float, high: float) -> torch.Tensor:
     """[b] uniform draws in [low, high]: `(rand - 0.5) * width` for a range centred on 0, else
     `rand * width + low`. The two forms are the float32 expressions the pour tasks drew before the

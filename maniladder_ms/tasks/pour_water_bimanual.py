@@ -1,0 +1,180 @@
+"""PourWaterBimanual (L2 deformable DG): each gripper holds a cup; pour the liquid from one cup into the other."""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+import numpy as np
+import torch
+
+from mani_skill.utils.geometry.rotation_conversions import quaternion_apply
+
+from maniladder_ms.deformables import particles
+from maniladder_ms.deformables.pouring import CupToBowl
+from maniladder_ms.envs import ManiLadderEnv, register_task
+from maniladder_ms.objects import basket, containers
+from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
+from maniladder_ms.solvers.bimanual import Grasp, glide, grasp_together, reach, tcp_quat
+from maniladder_ms.solvers.driven import DrivenSolver
+from maniladder_ms.solvers.pouring import steer_roll
+
+
+@register_task("PourWaterBimanual")
+class PourWaterBimanualEnv(CupToBowl, ManiLadderEnv):
+    """**Task:** the left gripper picks up an empty cup and the right gripper a cup of water; holding both
+    in the air, pour the water from the right cup into the left one and keep it upright.
+
+    **Randomisation:**
+    - the source cup (plastic, inner radius 2.5 cm, 8 cm tall, 5.8 cm wide outside) stands to the right,
+      x in [-0.16, -0.1], y in [-0.26, -0.18], holding 80 liquid particles (low-friction spheres, radius
+      4 mm) packed from its floor with a small random jitter;
+    - the receiving cup (plastic, inner radius 3 cm, 8 cm tall, 6.8 cm wide outside), empty, stands to the
+      left, x in [-0.16, -0.1], y in [0.18, 0.26].
+
+    **Success:** (`CupToBowl.held_pour_metrics`, the PourParticles rule, with the receiving cup in the
+    bowl's role) at least `success_fraction` of the `particle_count` particles lie inside the receiving
+    cup's inner volume (below its rim, `particles.fraction_inside`); the left gripper holds the receiving
+    cup and the right gripper the source cup (`ee.holds`), now and on every step since the first particle
+    landed in the receiving cup (episode memory `receiving_cup_let_go`, `source_cup_let_go`); on every such
+    step the receiving cup's base was at least `lift_height` above the table (episode memory
+    `poured_low`): the pour happened between two cups held in the air; and the receiving cup is upright
+    now, its axis within `max_tilt` of vertical.
+
+    **Level 2:** (against Level 1's PourWaterHoldBowl: the bowl stays on the table, 16 cm wide, steadied by
+    a pinch on its rim, ~200 steps) both containers are in the air and both arms move: the left arm lifts
+    the receiver at least 5 cm and holds it still and upright (within 15 degrees) while the right arm
+    rolls the source cup 172 degrees above it; the receiver's mouth is 6 cm wide against the bowl's 16 cm,
+    so the source's mouth must be steered to within ~2 cm of it while it turns, and a quarter of the water
+    spilled fails: 6 stages (two level side grasps, lift both, bring the receiver to the middle, carry
+    the source above it, roll) in a 300-step horizon (the scripted solver: 240-246 steps, 50/50 on seeds
+    100-149).
+    """
+
+    SUPPORTED_ROBOTS = ["ml_dual_panda"]
+    max_dense_reward = 6
+    TASK_REGION = (-0.25, 0.1, -0.32, 0.32)
+    PARAMS = ("success_fraction", "particle_count", "lift_height", "max_tilt")
+    cup_name = "source_cup"
+    bowl_name = "receiving_cup"
+    bowl_shape = containers.cup(radius=0.03, height=0.08, wall=0.004)
+    bowl_density = CupToBowl.cup_density
+    bowl_color = (0.85, 0.45, 0.35, 1)
+    particle_name = "water"
+    held_containers = {"bowl": "left", "cup": "right"}
+    placement = {"bowl": ((-0.16, -0.1), (0.18, 0.26)), "cup": ((-0.16, -0.1), (-0.26, -0.18))}
+
+    @property
+    def particle_config(self) -> particles.ParticleConfig:
+        return dataclasses.replace(particles.LIQUID, count=self.particle_count, radius=0.004)
+
+    def _load_scene(self, options: dict):
+        super()._load_scene(options)
+        self._load_cup_and_bowl()
+        self.memory.flag("poured_low")
+
+    def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
+        super()._initialize_episode(env_idx, options)
+        with torch.device(self.device):
+            self._place_cup_and_bowl(len(env_idx))
+
+    def _update_memory(self):
+        super()._update_memory()
+        pouring = particles.fraction_inside(self.particles.positions(), self.bowl.pose, self.bowl_shape) > 0
+        self.memory.latch("poured_low", pouring & (self.bowl.pose.p[:, 2] < self.lift_height))
+
+    def _get_obs_extra(self, info: dict):
+        obs = dict(left_tcp_pose=self.ee.tcp("left").raw_pose, right_tcp_pose=self.ee.tcp("right").raw_pose,
+                   receiving_cup_held=info["receiving_cup_held"], source_cup_held=info["source_cup_held"])
+        if "state" in self.obs_mode:
+            obs.update(self._cup_and_bowl_obs())
+        return obs
+
+    def evaluate(self):
+        metrics = self.held_pour_metrics()  # receiving_cup_held, source_cup_held, *_let_go
+        tilt = basket.tilt(self.bowl)
+        upright = tilt <= np.deg2rad(self.max_tilt)
+        poured_low = self.memory["poured_low"]
+        metrics.update(
+            success=metrics["success"] & upright & ~poured_low,
+            receiver_upright=upright,
+            receiver_tilt=tilt,
+            poured_low=poured_low,
+            receiver_lifted=self.bowl.pose.p[:, 2] >= self.lift_height,
+            source_lifted=self.cup.pose.p[:, 2] >= self.lift_height,
+            fraction_in_receiver=metrics["fraction_in_bowl"],
+            fraction_in_source=metrics["fraction_in_cup"],
+        )
+        return metrics
+
+    def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
+        # each arm reaches and holds its cup; the receiver lifted and upright, the source lifted and above it;
+        # then the water in the receiver
+        mid = torch.tensor([0, 0, 0.05], device=self.device)
+        reach_l = 1 - torch.tanh(5 * torch.linalg.norm(self.bowl.pose.p + mid - self.ee.tcp("left").p, dim=1))
+        reach_r = 1 - torch.tanh(5 * torch.linalg.norm(self.cup.pose.p + mid - self.ee.tcp("right").p, dim=1))
+        held_l, held_r = info["receiving_cup_held"].float(), info["source_cup_held"].float()
+        lifted = held_l * info["receiver_lifted"] * info["receiver_upright"]
+        carry = 1 - torch.tanh(5 * torch.linalg.norm((self.bowl.pose.p - self.cup.pose.p)[:, :2], dim=1))
+        reward = 0.5 * (reach_l + reach_r) + 0.5 * (held_l + held_r) + 0.5 * lifted
+        reward += 0.5 * carry * held_r * info["source_lifted"]
+        reward += 2 * self.pour_reward(info) * lifted
+        reward[info["success"]] = self.max_dense_reward
+        return reward
+
+
+GRASP_HEIGHT = 0.05  # TCP height above each cup's bottom for the level side grasps
+SOURCE_YAW = np.pi / 3  # the right gripper's pointing (as PourWaterHoldBowl's pourer)
+RECEIVER_YAW = -np.pi / 2  # the left gripper points -y: it holds the receiver from its outer side
+LIFT = 0.1
+# where the left arm holds the receiver for the pour: its bottom at this height, its axis here (x, y)
+RECEIVER_AT, RECEIVER_BOTTOM = (-0.06, 0.06), 0.1
+SOURCE_BACK = 0.08  # the upright source's mouth this far from the receiver's, against the pour direction
+SOURCE_ABOVE = 0.05  # the source's bottom this far above the receiver's rim while carried
+MOUTH_ABOVE = 0.02  # the end of the mouth's path above the receiver's rim
+POUR_ROLL, POUR_ROLL_STEPS, POUR_HOLD_STEPS = 3.0, 50, 40
+CLEAR = 0.015
+
+
+def _level_grasp(cup: torch.Tensor, yaw: float, closing_sign: float, height: float):
+    n, device = cup.shape[0], cup.device
+    pointing = torch.tensor([[np.cos(yaw), np.sin(yaw), 0.0]], device=device, dtype=torch.float32).expand(n, 3)
+    closing = closing_sign * torch.tensor([[np.sin(yaw), -np.cos(yaw), 0.0]], device=device,
+                                          dtype=torch.float32).expand(n, 3)
+    return cup + torch.tensor([0.0, 0.0, height], device=device), tcp_quat(pointing, closing), pointing
+
+
+@register_solver("PourWaterBimanual", control_modes=TCP_DELTA_MODES)
+def solve_pour_water_bimanual(env, seed: int) -> dict:
+    """Both grippers take level side grasps on their cups, lift them; the left brings the receiver to the
+    middle, the right carries the source beside and above it and rolls it, the mouth steered over the
+    receiver's."""
+    with DrivenSolver.episode(env, seed) as s:
+        task: PourWaterBimanualEnv = env.unwrapped
+        device = task.device
+        rp, rq, rpoint = _level_grasp(task.bowl.pose.p, RECEIVER_YAW, -1.0, GRASP_HEIGHT)
+        sp, sq, spoint = _level_grasp(task.cup.pose.p, SOURCE_YAW, 1.0, GRASP_HEIGHT)
+        grasps = [Grasp("left_arm", "left_gripper", rp, rq, -0.1 * rpoint),
+                  Grasp("right_arm", "right_gripper", sp, sq, -0.1 * spoint)]
+        s.move({g.arm: (s.above(g.lined_up[0], 0.1), g.q) for g in grasps}, max_steps=60)
+        reach(s, grasps, line_up_steps=30)
+        grasp_together(s, ["left_gripper", "right_gripper"])
+        up = torch.tensor([0.0, 0.0, LIFT], device=device)
+        s.move({"left_arm": (rp + up, rq), "right_arm": (sp + up, sq)}, max_steps=25, pos_tol=0.01)
+        # the receiver to the middle, the source beside it, its bottom above the receiver's rim
+        held_l = s.tcp("left_arm").p - task.bowl.pose.p
+        goal_l = torch.tensor([[*RECEIVER_AT, RECEIVER_BOTTOM]], device=device) + held_l
+        rim_z = RECEIVER_BOTTOM + task.bowl_shape.height
+        # a positive turn about the pointing axis swings the mouth towards pointing x up
+        pour_dir = torch.linalg.cross(spoint, torch.tensor([[0.0, 0.0, 1.0]], device=device).expand_as(spoint))
+        held_r = s.tcp("right_arm").p - task.cup.pose.p
+        goal_r = torch.tensor([[*RECEIVER_AT, rim_z + SOURCE_ABOVE]], device=device) - SOURCE_BACK * pour_dir + held_r
+        goal_r[:, 2] = rim_z + SOURCE_ABOVE + held_r[:, 2]
+        glide(s, {"left_arm": (s.tcp("left_arm").p, goal_l, rq), "right_arm": (s.tcp("right_arm").p, goal_r, sq)},
+              step_length=0.012, settle_steps=15)
+        mouth = task.bowl.pose.p + quaternion_apply(
+            task.bowl.pose.q, torch.tensor([[0.0, 0.0, task.bowl_shape.height + MOUTH_ABOVE]], device=device))
+        steer_roll(s, task, "right_arm", spoint, sq, mouth, task.bowl.pose.p[:, 2] + task.bowl_shape.height,
+                   POUR_ROLL, POUR_ROLL_STEPS, POUR_HOLD_STEPS, CLEAR)
+        s.hold_until_success(max_steps=30)
+        return s.info
