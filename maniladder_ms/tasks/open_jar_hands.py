@@ -8,10 +8,9 @@ import torch
 from maniladder_ms.envs import register_task
 from maniladder_ms.objects.jar import JarShape
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
-from maniladder_ms.solvers.bimanual import Grasp, close_hands
+from maniladder_ms.solvers.bimanual import READY_ARM_JOINTS, Grasp, close_hands, side_grasp
 from maniladder_ms.solvers.driven import DrivenSolver
 from maniladder_ms.solvers.twist import is_wound_up, rise_first, unscrew, wind_up_target
-from maniladder_ms.tasks.pour_grains_hand_to_cup import READY_ARM_JOINTS, side_grasp
 
 from .unscrew_cap import UnscrewCapTask
 
@@ -56,7 +55,7 @@ class OpenJarHandsEnv(UnscrewCapTask):
     body_color, lid_color = (0.85, 0.75, 0.55, 1), (0.2, 0.45, 0.8, 1)
 
 
-# The holding hand's side grasp on the jar's body (`side_grasp`, PourGrainsHandToCup's pourer grasp and ready
+# The holding hand's side grasp on the jar's body (`solvers.bimanual.side_grasp`, PourGrainsHandToCup's pourer grasp and ready
 # pose): palm normal along -y, level, thumb low, the TCP 4.5 cm past the jar's axis so the palm meets the body
 # (palm off the jar, inwards 0: the jar tipped 15-40 deg in the fingertip grip while the other hand closed and
 # twisted; with the palm on it, 4-7 deg). The grasp centre 9.5 cm up the 16 cm body (7 cm: seeds 100-103 1/4,
