@@ -51,6 +51,33 @@ def tcp_quat(pointing: torch.Tensor, closing: torch.Tensor) -> torch.Tensor:
     return matrix_to_quaternion(torch.stack([torch.cross(y, z, dim=1), y, z], dim=2))
 
 
+# LEAP side grasps on an upright container (PourGrainsHandToCup, OpenJarHands): arm joints 1-7 of a ready pose per
+# side of `ml_dual_panda_leap`, each hand 10 cm above its line-up point for PourGrainsHandToCup's containers, turned
+# for its side grasp (pinocchio IK; of 200 random starts, the solution furthest from the joint limits: 1.08 rad left,
+# 0.96 rad right). From the top-down rest pose that is a ~180 degree wrist turn, which pd_ee_delta_pose servoing
+# landed on a wrong IK branch on ~30 % of seeds. The left one is for a side grasp with the thumb low (palm normal
+# along -y), the right one for the thumb high (palm normal along +y)
+READY_ARM_JOINTS = {"left": (0.487, 0.683, -0.076, -1.836, -1.191, 1.363, -1.379),
+                    "right": (0.664, 0.602, -0.869, -2.112, 1.569, 1.393, -0.213)}
+
+
+def side_grasp(vessel_p: torch.Tensor, spec: dict) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """(TCP p, q, palm normal) of a LEAP side grasp `spec` on an upright container standing at `vessel_p`
+    (n, 3). `spec`: `yaw` of the palm normal, `pitch` (its tilt below the horizontal), `up` (+-1: which way
+    the finger row runs, the TCP's y along +-z: the thumb low or high), `height` of the TCP above the
+    container's floor, `shift` along the TCP's x (towards where the fingers start to curl) and `inwards`
+    along the palm normal (past the axis)."""
+    n, device = vessel_p.shape[0], vessel_p.device
+    c = np.cos(spec["pitch"])
+    pointing = torch.tensor([[c * np.cos(spec["yaw"]), c * np.sin(spec["yaw"]), -np.sin(spec["pitch"])]],
+                            dtype=torch.float32, device=device).expand(n, 3)
+    up = torch.tensor([[0.0, 0.0, spec["up"]]], device=device).expand(n, 3)
+    q = tcp_quat(pointing, up)
+    tcp_x = torch.linalg.cross(up, pointing)
+    p = vessel_p + torch.tensor([0.0, 0.0, spec["height"]], device=device)
+    return p - spec["shift"] * tcp_x + spec["inwards"] * pointing, q, pointing
+
+
 def line_up(s: DrivenSolver, grasp: Grasp):
     """Send an arm towards its approach pose without waiting: it keeps servoing there while the solver
     runs other phases (the taker of a handover lines up while the giver picks the object)."""

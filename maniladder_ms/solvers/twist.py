@@ -45,14 +45,15 @@ def grip_target(position: torch.Tensor, yaw: torch.Tensor, offset=None):
     return position - quaternion_apply(q, torch.as_tensor(offset, device=position.device).expand_as(position)), q
 
 
-def turn_wrist(s: DrivenSolver, arm: str, position, direction: int, stop, max_steps: int, offset=None):
+def turn_wrist(s: DrivenSolver, arm: str, position, direction: int, stop, max_steps: int, offset=None, lead=None):
     """Turn a top-down TCP about the vertical through its grip point (`offset`, see `grip_target`) held at
     `position()` (n, 3), counter-clockwise from above for `direction` +1, as fast as the controller goes,
-    until `stop()` (a bool) or `max_steps`."""
+    until `stop()` (a bool) or `max_steps`; `lead()`, if given, is this step's (n,) lead instead of `LEAD`."""
     for _ in range(max_steps):
         if stop():
             return
-        s.step({arm: grip_target(position(), tcp_yaw(s, arm) + direction * LEAD, offset)})
+        ahead = LEAD if lead is None else lead()
+        s.step({arm: grip_target(position(), tcp_yaw(s, arm) + direction * ahead, offset)})
 
 
 def wind_up_target(s: DrivenSolver, arm: str, position: torch.Tensor, offset=None):
@@ -88,7 +89,9 @@ def lid_points(task):
 def unscrew(s: DrivenSolver, task, arm: str, ee: str, max_strokes: int = 4, stroke_steps: int = 200,
             offset=None, synergy: str | None = None, ramp_steps: int = 40, preshape: str | None = None,
             follow: float = 1.0, measured_axis: bool = False,
-            rise_back: float | None = None):
+            rise_back: float | None = None, release_steps: int = 5, still_release: bool = False,
+            back_margin: float = BACK_MARGIN, soft_end: bool = False,
+            stop_on_release: bool = False):
     """Unscrew `task.jar`'s lid (UnscrewCapTask) in strokes with `arm` / `ee` (see the module docstring);
     the hand winds up first unless it already has (`wind_up_target`). `offset`: the grip point in the TCP
     frame (`grip_target`; None: the TCP); `synergy`: the LEAP grasp that grips the lid, closed over
@@ -100,7 +103,15 @@ def unscrew(s: DrivenSolver, task, arm: str, ee: str, max_strokes: int = 4, stro
     point would drag the lid round a circle and tip the container), not about the planned grip point;
     `rise_back`: the opened hand first rises to this height (m) above the lid's top, then turns back there
     (None: it turns back as it rises to `ABOVE_LID`; on a held container, which tilts a little in its
-    holder's grip, the hanging thumb then dragged the lid back)."""
+    holder's grip, the hanging thumb then dragged the lid back); `release_steps`: control steps the hand
+    opens over after a stroke; `still_release`: the arm holds the TCP where it is while the hand opens
+    (otherwise it keeps turning to the stroke's last target, which leads by `LEAD`: on a held container
+    the opening hand then spun it in its holder's grip); `back_margin`: how much further (rad) than the
+    rest of the turn the open hand turns back (a regrasp on a lid off its home stop turns it back a little
+    as the hand closes); `soft_end`: the stroke's yaw target leads by no more than joint 7 has left before
+    the stroke's end (with `LEAD` past it, the arm's other joints turned the TCP on, and off the lid's axis,
+    tipping a held container); `stop_on_release`: stop if the task succeeds as the hand lets go (the last
+    bit of the turn can come with the opening hand; a needless regrasp then risked the held container)."""
     release = float(torch.deg2rad(torch.tensor(float(task.release_angle))))
     grip_point, above = lid_points(task)
 
@@ -126,18 +137,24 @@ def unscrew(s: DrivenSolver, task, arm: str, ee: str, max_strokes: int = 4, stro
             tcp = s.tcp(arm)
             grip = quaternion_apply(quaternion_invert(tcp.q), point - tcp.p)  # the lid's axis point in the TCP frame
             axis = lambda: point  # noqa: E731
+        ahead = (lambda: (_j7(s, arm) + J7_LIMIT - J7_MARGIN).clamp(0.05, LEAD)) if soft_end else None
         turn_wrist(s, arm, axis, 1, lambda: done() or bool((_j7(s, arm) <= -J7_LIMIT + J7_MARGIN).all()),
-                   max_steps=stroke_steps, offset=grip)
+                   max_steps=stroke_steps, offset=grip, lead=ahead)
         if done():
             return
-        s.release(ee, steps=5)
+        if still_release:
+            tcp = s.tcp(arm)
+            s.arm_targets[arm] = (tcp.p.clone(), tcp.q.clone())
+        s.release(ee, steps=release_steps)
+        if stop_on_release and done():
+            return
         back = above
         if rise_back is not None:
             high = task.lid_top() + torch.tensor([0.0, 0.0, rise_back], device=task.device)
             back = lambda: high  # noqa: E731
             s.move({arm: grip_target(high, tcp_yaw(s, arm), offset)}, max_steps=25, pos_tol=0.01)
         # turn back as far as the rest of the turn needs (or the wrist allows)
-        back_to = _j7(s, arm) + ((release - task.memory["held_turn"][:, 0]) / follow + BACK_MARGIN)
+        back_to = _j7(s, arm) + ((release - task.memory["held_turn"][:, 0]) / follow + back_margin)
         turn_wrist(s, arm, back, -1,
                    lambda: bool(((_j7(s, arm) >= back_to) | (_j7(s, arm) >= J7_LIMIT - J7_MARGIN)).all()),
                    max_steps=stroke_steps, offset=offset)

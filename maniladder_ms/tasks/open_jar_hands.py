@@ -8,10 +8,9 @@ import torch
 from maniladder_ms.envs import register_task
 from maniladder_ms.objects.jar import JarShape
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
-from maniladder_ms.solvers.bimanual import Grasp, close_hands
+from maniladder_ms.solvers.bimanual import READY_ARM_JOINTS, Grasp, close_hands, side_grasp
 from maniladder_ms.solvers.driven import DrivenSolver
 from maniladder_ms.solvers.twist import is_wound_up, rise_first, unscrew, wind_up_target
-from maniladder_ms.tasks.pour_grains_hand_to_cup import READY_ARM_JOINTS, side_grasp
 
 from .unscrew_cap import UnscrewCapTask
 
@@ -42,7 +41,7 @@ class OpenJarHandsEnv(UnscrewCapTask):
     against the thread's torque throughout while the other turns the lid a full turn, 360 degrees, more
     than the Panda's wrist turns in one go with the lid slipping in the grip, so it takes two strokes with a
     regrasp between them: 6 stages (hold the jar, grip the lid, twist, let go and turn back, grip again,
-    twist), 306-470 control steps (mean 361) in the unfinished solver's successes so far; the twisting grasp must
+    twist), 306-590 control steps (mean 386) in the unfinished solver's successes so far; the twisting grasp must
     stay centred on the lid's axis within ~1 cm while the wrist turns ~8 rad, and the jar, held only by the
     other hand, must not tip or turn in that hand's grip.
     """
@@ -56,11 +55,11 @@ class OpenJarHandsEnv(UnscrewCapTask):
     body_color, lid_color = (0.85, 0.75, 0.55, 1), (0.2, 0.45, 0.8, 1)
 
 
-# The holding hand's side grasp on the jar's body (`side_grasp`, PourGrainsHandToCup's pourer grasp and ready
-# pose): palm normal along -y, level, thumb low, the TCP 4.5 cm past the jar's axis so the palm meets the body
-# (palm off the jar, inwards 0: the jar tipped 15-40 deg in the fingertip grip while the other hand closed and
-# twisted; with the palm on it, 4-7 deg). The grasp centre 9.5 cm up the 16 cm body (7 cm: seeds 100-103 1/4,
-# 9.5: 3/4, 11: 0/2 of the failures); the ring finger stays open (curled, it reached the lid)
+# The holding hand's side grasp on the jar's body (`solvers.bimanual.side_grasp`, PourGrainsHandToCup's pourer
+# grasp and ready pose): palm normal along -y, level, thumb low, the TCP 4.5 cm past the jar's axis so the palm
+# meets the body (palm off the jar, inwards 0: the jar tipped 15-40 deg in the fingertip grip while the other
+# hand closed and twisted; with the palm on it, 4-7 deg). The grasp centre 9.5 cm up the 16 cm body (7 cm:
+# seeds 100-103 1/4, 9.5: 3/4, 11: 0/2 of the failures); the ring finger stays open (curled, it reached the lid)
 HOLD_GRASP = dict(yaw=-np.pi / 2, pitch=0.0, up=-1.0, height=0.095, shift=0.04, inwards=0.045,
                   approach="preshape", close=np.array([0.0, 1.5, 0.6, 0.4] * 2 + [0.0] * 4 + [1.6, 0.3, 0.3, 0.3]))
 LINE_UP_DISTANCE = 0.1  # m out from the grasp (along the palm normal) where the holding hand lines up
@@ -74,6 +73,17 @@ FOLLOW = 0.7  # UnscrewCapHand's
 CLEARANCE = 0.1  # m above the lid top where the twisting hand winds its wrist up
 WIND_UP_STEPS = 80
 RISE_BACK = 0.08  # m above the lid top where the opened hand turns back between strokes
+# between strokes the hand opens over 15 steps with the arm held where it is (`still_release`), the stroke's yaw
+# target never leads past joint 7's end (`soft_end`), the solver stops if the lid comes off as the hand opens
+# (`stop_on_release`), and the open hand turns back 1.2 rad past the rest of the turn (a regrasp on a lid off its
+# home stop turned it back 0.8-0.9 rad as the hand closed): seeds 100-115 8/16 (7/16 before).
+# Tried and not kept (seeds 100-115 or a subset): a wider, heavier jar with a neck (body 8 cm wide, 12 cm tall,
+# 0.9 kg; UnscrewCapHand's neck and cap, its grip offset): the jar tilted only 5-8 deg in the strokes, but at each
+# stroke's end, as the hand opened, the lid snapped back 1-1.4 rad and the jar spun 20-70 deg out of the left grip
+# (1/6 on 100-105); the left hand's three fingers closed harder: the close itself spun the jar 50 deg (0/3); the
+# power grasp closed over 80 steps and the stroke turned at half speed (lead 0.15 rad): 4/16
+RELEASE_STEPS = 15
+BACK_MARGIN = 1.2
 
 
 @register_solver("OpenJarHands", control_modes=TCP_DELTA_MODES)
@@ -102,6 +112,7 @@ def solve_open_jar_hands(env, seed: int) -> dict:
         close_hands(s, {hold.ee: HOLD_GRASP["close"]}, ramp_steps=20)
         unscrew(s, task, twist_arm, f"{TWISTER}_hand", offset=GRIP_OFFSET, synergy="power", ramp_steps=RAMP_STEPS,
                 preshape="preshape", follow=FOLLOW, measured_axis=True,
-                rise_back=RISE_BACK)
+                rise_back=RISE_BACK, release_steps=RELEASE_STEPS, still_release=True, back_margin=BACK_MARGIN,
+                soft_end=True, stop_on_release=True)
         s.hold_until_success()
         return s.info

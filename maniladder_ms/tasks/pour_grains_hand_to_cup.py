@@ -15,7 +15,7 @@ from maniladder_ms.deformables.pouring import CupToBowl
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.objects import containers
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
-from maniladder_ms.solvers.bimanual import Grasp, close_hands, glide, tcp_quat
+from maniladder_ms.solvers.bimanual import READY_ARM_JOINTS, Grasp, close_hands, glide, side_grasp
 from maniladder_ms.solvers.driven import DrivenSolver
 
 # The left hand pours and the right holds. Both take side grasps, palm level with the container, the finger row
@@ -24,12 +24,8 @@ from maniladder_ms.solvers.driven import DrivenSolver
 # it left the arm 0.5-0.6 rad short on ~30 % of seeds. For the left Panda, joint 7 is at -1.4 rad, with >= 0.8 rad
 # to every limit over the reach, carry and roll. The right hand holds the cup with its thumb high (margin 0.96).
 POURER, HOLDER = "left", "right"
-# arm joints 1-7 of the ready pose: each hand 10 cm above its line-up point for the middle of its container's
-# placement range, turned for its side grasp (pinocchio IK; of 200 random starts, the solution furthest from
-# the joint limits: 1.08 rad left, 0.96 rad right). From the top-down rest pose that is a ~180 degree wrist turn,
-# which pd_ee_delta_pose servoing landed on a wrong IK branch on ~30 % of seeds
-READY_ARM_JOINTS = {POURER: (0.487, 0.683, -0.076, -1.836, -1.191, 1.363, -1.379),
-                    HOLDER: (0.664, 0.602, -0.869, -2.112, 1.569, 1.393, -0.213)}
+# the ready pose (`solvers.bimanual.READY_ARM_JOINTS`): each hand raised above its container, turned for its side
+# grasp (the pourer's with the thumb low, the holder's high)
 
 
 @register_task("PourGrainsHandToCup")
@@ -59,8 +55,8 @@ class PourGrainsHandToCupEnv(CupToBowl, ManiLadderEnv):
     SUPPORTED_ROBOTS = ["ml_dual_panda_leap"]
     max_dense_reward = 6
     TASK_REGION = (-0.25, 0.12, -0.25, 0.25)
-    READY_JOINTS = {f"{side}_panda_joint{i}": angle for side, angles in READY_ARM_JOINTS.items()
-                    for i, angle in enumerate(angles, 1)}
+    READY_JOINTS = {f"{side}_panda_joint{i}": angle for side in (POURER, HOLDER)
+                    for i, angle in enumerate(READY_ARM_JOINTS[side], 1)}
     # tall enough for the LEAP hand's side grasp: the thumb closes low on it, the three fingers above
     cup_shape = containers.glass(bottom_radius=0.027, top_radius=0.029, height=0.13)
     bowl_shape = containers.cup(radius=0.035, height=0.11, wall=0.004)
@@ -151,20 +147,6 @@ CARRY_BOTTOM, MOUTH_HEIGHT = 0.18, 0.19
 # Panda's joint 7 from -1.5 to ~1.0 rad (the other sign would need -3.9, past its limit)
 POUR_ROLL, POUR_ROLL_STEPS, POUR_HOLD_STEPS = 2.4, 70, 60
 CLEAR = 0.02  # the glass' lower bottom edge clears the cup's rim by this during the roll
-
-
-def side_grasp(vessel_p: torch.Tensor, spec: dict) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
-    """(TCP p, q, palm normal) of a side grasp `spec` (a SIDE_GRASP entry) on an upright container standing
-    at `vessel_p` (n, 3)."""
-    n, device = vessel_p.shape[0], vessel_p.device
-    c = np.cos(spec["pitch"])
-    pointing = torch.tensor([[c * np.cos(spec["yaw"]), c * np.sin(spec["yaw"]), -np.sin(spec["pitch"])]],
-                            dtype=torch.float32, device=device).expand(n, 3)
-    up = torch.tensor([[0.0, 0.0, spec["up"]]], device=device).expand(n, 3)
-    q = tcp_quat(pointing, up)
-    tcp_x = torch.linalg.cross(up, pointing)
-    p = vessel_p + torch.tensor([0.0, 0.0, spec["height"]], device=device)
-    return p - spec["shift"] * tcp_x + spec["inwards"] * pointing, q, pointing
 
 
 def glass_mouth(task: PourGrainsHandToCupEnv) -> torch.Tensor:
