@@ -43,7 +43,7 @@ class CableIntoClipHandEnv(rope.RopeTask, ManiLadderEnv):
 
     **Success:** at least `min_segments` of the cable's capsules lie inside the clip's slot (`metrics.
     inside_channel_fraction` times the capsule count: the capsule's centre between the walls, at most half of
-    `slot_width` from the slot's axis sideways, between the clip's ends, and below the walls' top, `clip_depth`
+    `slot_width` from the slot's axis sideways, between the clip's ends (`clip_length` long), and below the walls' top, `clip_depth`
     above the slot's floor); the hand does not touch the cable (`ee.touches`: let go); and earlier in the episode
     the hand touched the cable while at least `min_segments` of its capsules lay in the slot (episode memory
     `pressed`: the cable was pressed home by the hand, not left to fall in).
