@@ -40,8 +40,8 @@ OUT_DIR = REPO / "agents" / "meshes" / "leap"
 # our segment -> the official link whose visual it takes (the thumb's first link carries pip.stl)
 SEGMENT_LINK = {"mcp": "mcp_joint", "pip": "pip", "dip": "dip", "tip": "fingertip", "thumb_base": "pip_4",
                 "thumb_pip": "thumb_pip", "thumb_dip": "thumb_dip", "thumb_tip": "thumb_fingertip"}
-TARGET_FACES = 600  # triangles per link after decimation
-CREASE_DEG = 35.0  # edges sharper than this stay hard
+TARGET_FACES = 300  # triangles per link (600, 9.7k per hand, cost LiftBottleHand ~40% of its RGB steps/s, loaded)
+CREASE_DEG = 60.0  # edges sharper than this stay hard (few: split vertices cost render time)
 PALM_CHAMFER = 0.006  # m (chosen)
 VOXEL_PITCH = 0.0007  # m
 VOXEL_BLUR = 0.8  # voxels (Gaussian sigma)
@@ -73,7 +73,7 @@ def decimate(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
     printed parts have screw holes, slots and motor cavities) with a quarter of the volume eaten, so the mesh
     is first voxelized (VOXEL_PITCH, interior filled), its occupancy blurred (VOXEL_BLUR voxels) and re-meshed
     with marching cubes (PyMCubes): a closed surface without the sub-millimetre features, which then
-    decimates cleanly to TARGET_FACES (bounding box within 1 mm of the source)."""
+    decimates cleanly to TARGET_FACES (bounding box within 2.5 mm of the source)."""
     import fast_simplification
     import mcubes
     from scipy import ndimage
@@ -86,7 +86,7 @@ def decimate(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
     v, f = fast_simplification.simplify(np.asarray(surface.vertices, np.float32), np.asarray(surface.faces, np.int32),
                                         target_count=TARGET_FACES)
     out = trimesh.Trimesh(v, f, process=True)
-    assert np.allclose(out.bounds, welded.bounds, atol=1.5e-3), (out.bounds, welded.bounds)
+    assert np.allclose(out.bounds, welded.bounds, atol=2.5e-3), (out.bounds, welded.bounds)
     return out
 
 

@@ -45,7 +45,8 @@ def test_registered():
     assert set(AGENT_UIDS) <= set(REGISTERED_AGENTS)
 
 
-def test_generated_descriptions_up_to_date():
+def _make_agents_module():
+    """scripts/make_agents.py as a module (the generator of agents/*.urdf)."""
     import importlib.util
 
     from maniladder_ms.paths import REPO_DIR
@@ -53,7 +54,11 @@ def test_generated_descriptions_up_to_date():
     spec = importlib.util.spec_from_file_location("make_agents", REPO_DIR / "scripts" / "make_agents.py")
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
-    assert module.main(["--check"]) == 0
+    return module
+
+
+def test_generated_descriptions_up_to_date():
+    assert _make_agents_module().main(["--check"]) == 0
 
 
 @pytest.mark.parametrize("uid", AGENT_UIDS)
@@ -336,22 +341,11 @@ def test_loaded_copy_changes_visual_meshes_only(uid):
 LEAP_UIDS = ("ml_panda_leap", "ml_dual_panda_leap")
 
 
-def _make_agents_module():
-    import importlib.util
-
-    from maniladder_ms.paths import REPO_DIR
-
-    spec = importlib.util.spec_from_file_location("make_agents", REPO_DIR / "scripts" / "make_agents.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
 @pytest.mark.parametrize("uid", LEAP_UIDS)
 def test_leap_visuals_are_the_committed_meshes(uid):
     """Every LEAP link of the loaded URDF is drawn with its committed mesh (agents/meshes/leap/<side>/), and
-    that mesh fills the link's collision box (the box is the bounding box of the official mesh: 1.5 mm, the
-    re-meshing's tolerance), so what a camera sees is where the hand collides."""
+    that mesh fills the link's collision box (the box is the bounding box of the official mesh, to within the
+    re-meshing and decimation: 2.5 mm), so what a camera sees is where the hand collides."""
     import re
 
     import trimesh
@@ -380,12 +374,13 @@ def test_leap_visuals_are_the_committed_meshes(uid):
                 lo, hi = lo * [1, -1, 1], hi * [1, -1, 1]
                 lo, hi = np.minimum(lo, hi), np.maximum(lo, hi)
             bounds = trimesh.load(expected, force="mesh").bounds
-            assert np.allclose(bounds, [lo, hi], atol=1.5e-3), (prefix, segment, bounds, lo, hi)
+            assert np.allclose(bounds, [lo, hi], atol=2.5e-3), (prefix, segment, bounds, lo, hi)
 
 
 # sha1 of each LEAP agent's URDF with its <visual> elements removed, as committed when the LEAP links were
 # drawn as their collision boxes (fbab311): collision shapes, inertials, joints and materials are still those
-SHA1_WITHOUT_VISUALS = {"ml_panda_leap": "1a2f501543f54dca56259b4cf42cb6c90970ae18", "ml_dual_panda_leap": "cfbd201fd541d6b91d83e3c98c691f302cfac268"}
+SHA1_WITHOUT_VISUALS = {"ml_panda_leap": "1a2f501543f54dca56259b4cf42cb6c90970ae18",
+                        "ml_dual_panda_leap": "cfbd201fd541d6b91d83e3c98c691f302cfac268"}
 
 
 @pytest.mark.parametrize("uid", LEAP_UIDS)

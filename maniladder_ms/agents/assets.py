@@ -18,6 +18,12 @@ arm. Measured, 128 px, the three scene cameras, median capture per camera (loade
 conditions; PickCube-v1's camera: 74 ms there, 37 ms on a quiet one): PickPlacePen 63 -> 15 ms,
 HandoverCube 119 -> 23 ms, LiftBasketHands 102 -> 21 ms. Only `<visual>` mesh paths change: collision
 shapes and everything physical are as written, so physics and the committed demos are unchanged.
+The LEAP hands' links are drawn with the official finger meshes, decimated to 300 triangles each
+(`agents/meshes/leap/`, scripts/make_leap_meshes.py; 4.9k triangles / 4.4k vertices per hand); the generated
+URDFs name them relative to agents/ and `_write_resolved` makes the paths absolute. Their links collide as
+the boxes they were drawn as before. RGB steps/s (`maniladder bench --obs-mode rgb`, ratio to PickCube-v1,
+2-core machine at load 3-13, so +-20% noise): LiftBottleHand 2.89 / 2.38 (boxes) -> 2.11 (meshes),
+LiftBasketHands 1.29 / 0.96 -> 1.47.
 """
 
 from __future__ import annotations
