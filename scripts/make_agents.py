@@ -4,7 +4,9 @@
     .venv/bin/python scripts/make_agents.py          # writes agents/*.urdf
     .venv/bin/python scripts/make_agents.py --check  # exit 1 if a committed file is out of date
 
-Outputs (all geometry is URDF primitives -- boxes and cylinders -- so there are no mesh files):
+Outputs (all collision geometry is URDF primitives -- boxes and cylinders; the LEAP links' visuals are
+the official finger meshes, decimated, in agents/meshes/leap/ (scripts/make_leap_meshes.py), named
+relative to agents/ and resolved by maniladder_ms.agents.assets):
 
 - `agents/ml_panda_leap.urdf`       Panda arm + right LEAP hand on the flange
 - `agents/ml_dual_panda.urdf`       one articulation: a base plate and two Panda arms with grippers
@@ -22,7 +24,7 @@ Sources of the numbers
     (xyz / rpy), joint axes, joint limits, velocity / effort limits, link masses and inertias.
 [LEAP-STL]  the link meshes of the same folder (dip/fingertip/mcp_joint/pip/thumb_*.stl): the
     axis-aligned bounding box of each mesh, placed with its URDF visual origin, measured in the link
-    frame; each link is modelled as that box. palm_lower.stl is not in the public snapshot, so the
+    frame; each link collides as that box and is drawn with the mesh itself (decimated). palm_lower.stl is not in the public snapshot, so the
     palm box is bounded by the finger / thumb base joints of [LEAP-URDF] (see LEAP_PALM_BOX).
 [LEAP-PAPER] Shaw, Agarwal, Pathak, "LEAP Hand: Low-Cost, Efficient, and Anthropomorphic Hand for
     Robot Learning", RSS 2023: 4 fingers x 4 joints (MCP side, MCP forward, PIP, DIP), thumb
@@ -54,6 +56,8 @@ from scipy.spatial.transform import Rotation
 import mani_skill
 
 REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+from maniladder_ms.agents.assets import LEAP_MESH_DIR, LEAP_WRIST_VIEW_TILT, LEAP_WRIST_VIEW_XYZ  # noqa: E402
 OUT_DIR = REPO / "agents"
 PANDA_URDF = Path(mani_skill.__file__).parent / "assets" / "robots" / "panda" / "panda_v3.urdf"
 
@@ -137,8 +141,10 @@ ADAPTER_RADIUS, ADAPTER_THICKNESS, ADAPTER_MASS = 0.0315, 0.01, 0.1
 # finger / thumb postures; it lies between the curled fingers and the thumb, 3 cm to the thumb side
 # of the palm centre and 15 cm out from the flange. The left hand mirrors y.
 LEAP_TCP_OFFSET = (0.03, -0.03, 0.15)
-# Wrist camera (chosen): on the adapter rim at the wrist end of the palm, looking out along the
-# flange axis, tilted 0.35 rad towards the fingers.
+# Wrist camera link (chosen, first version): on the adapter rim at the wrist end of the palm, looking out
+# along the flange axis, tilted 0.35 rad towards the fingers. From there the palm hid the grasp; the
+# link (0.05 kg) stays here so that physics is unchanged, and the sensor and the camera's drawn body use
+# LEAP_WRIST_VIEW (maniladder_ms/agents/assets.py) instead.
 LEAP_CAMERA_XYZ = (-0.075, 0.0, 0.0)
 LEAP_CAMERA_TILT = 0.35
 
@@ -198,11 +204,18 @@ class Urdf:
             self.materials.add(name)
         return name
 
-    def link(self, name, mass=None, inertia=None, com=(0, 0, 0), shapes=()):
-        """shapes: (kind, params, xyz, rpy, material, collide) with kind box (size) / cylinder (radius, length)."""
+    def link(self, name, mass=None, inertia=None, com=(0, 0, 0), shapes=(), meshes=()):
+        """shapes: (kind, params, xyz, rpy, material, collide) with kind box (size) / cylinder (radius, length);
+        collide: True (a visual and a collision shape), False (visual only) or "only" (collision only).
+        meshes: (filename, material) visual meshes, placed at the link frame, written first."""
         link = ET.SubElement(self.root, "link", name=name)
+        for filename, material in meshes:
+            el = ET.SubElement(link, "visual")
+            ET.SubElement(el, "origin", xyz="0 0 0", rpy="0 0 0")
+            ET.SubElement(ET.SubElement(el, "geometry"), "mesh", filename=filename)
+            ET.SubElement(el, "material", name=material)
         for kind, params, xyz, rpy, material, collide in shapes:
-            tags = ("visual", "collision") if collide else ("visual",)
+            tags = {True: ("visual", "collision"), False: ("visual",), "only": ("collision",)}[collide]
             for tag in tags:
                 el = ET.SubElement(link, tag)
                 ET.SubElement(el, "origin", xyz=_fmt(xyz), rpy=_fmt(rpy))
@@ -315,14 +328,16 @@ def add_leap_hand(urdf: Urdf, prefix: str, parent: str, palm_tf: np.ndarray, mir
     axis = -(m[:3, :3] @ np.array(LEAP_JOINT_AXIS)) if mirror else np.array(LEAP_JOINT_AXIS)
 
     def seg_link(name, segment, boxes, color):
+        # collision: the boxes (unchanged since the boxes were also the visuals); visual: the link's mesh
         shapes = []
         for lo, hi in boxes:
             lo, hi = np.array(lo), np.array(hi)
-            shapes.append(("box", hi - lo, m[:3, :3] @ ((lo + hi) / 2), (0, 0, 0), f"leap_{color}", True))
+            shapes.append(("box", hi - lo, m[:3, :3] @ ((lo + hi) / 2), (0, 0, 0), None, "only"))
         mass, (ixx, iyy, izz, ixy, ixz, iyz) = _SEGMENT_INERTIA[segment]
         if mirror:
             ixy, iyz = -ixy, -iyz
-        urdf.link(name, mass, (ixx, iyy, izz, ixy, ixz, iyz), shapes=shapes)
+        mesh = f"{LEAP_MESH_DIR}/{'left' if mirror else 'right'}/{segment}.glb"
+        urdf.link(name, mass, (ixx, iyy, izz, ixy, ixz, iyz), shapes=shapes, meshes=[(mesh, f"leap_{color}")])
 
     palm = f"{prefix}leap_palm"
     seg_link(palm, "palm", LEAP_PALM_BOXES, "palm")
@@ -375,8 +390,15 @@ def add_leap_on_panda(urdf: Urdf, prefix: str, mirror: bool):
     urdf.joint(f"{prefix}leap_tcp_joint", "fixed", mount, f"{prefix}leap_tcp", (tx, -ty if mirror else ty, tz))
     urdf.material("camera_grey", (0.3, 0.3, 0.32, 1))
     cam = f"{prefix}camera_link"
+    # the camera link (its mass) stays where it was first placed, so physics is unchanged; its body is
+    # drawn at the view the sensor uses (LEAP_WRIST_VIEW, in the mount frame; the sensor is mounted there)
+    link_tf = _tf(LEAP_CAMERA_XYZ, (0, -np.pi / 2 + LEAP_CAMERA_TILT, 0))
+    view_tf = _tf(LEAP_WRIST_VIEW_XYZ, (0, -np.pi / 2 + LEAP_WRIST_VIEW_TILT, 0))
+    if mirror:  # the left hand's view is the mirror image (its rotation is about y: its own mirror image)
+        view_tf = MIRROR_Y @ view_tf @ MIRROR_Y
+    body_xyz, body_rpy = _xyz_rpy(np.linalg.inv(link_tf) @ view_tf @ _tf((-0.0125, 0, 0), (0, 0, 0)))
     urdf.link(cam, 0.05, _box_inertia(0.05, (0.025, 0.09, 0.025)),
-              shapes=[("box", (0.025, 0.09, 0.025), (-0.0125, 0, 0), (0, 0, 0), "camera_grey", False)])
+              shapes=[("box", (0.025, 0.09, 0.025), body_xyz, body_rpy, "camera_grey", False)])
     # camera x axis (its viewing direction in ManiSkill) = mount +z tilted towards +x
     urdf.joint(f"{prefix}camera_joint", "fixed", mount, cam, LEAP_CAMERA_XYZ, (0, -np.pi / 2 + LEAP_CAMERA_TILT, 0))
 

@@ -45,7 +45,8 @@ def test_registered():
     assert set(AGENT_UIDS) <= set(REGISTERED_AGENTS)
 
 
-def test_generated_descriptions_up_to_date():
+def _make_agents_module():
+    """scripts/make_agents.py as a module (the generator of agents/*.urdf)."""
     import importlib.util
 
     from maniladder_ms.paths import REPO_DIR
@@ -53,7 +54,11 @@ def test_generated_descriptions_up_to_date():
     spec = importlib.util.spec_from_file_location("make_agents", REPO_DIR / "scripts" / "make_agents.py")
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
-    assert module.main(["--check"]) == 0
+    return module
+
+
+def test_generated_descriptions_up_to_date():
+    assert _make_agents_module().main(["--check"]) == 0
 
 
 @pytest.mark.parametrize("uid", AGENT_UIDS)
@@ -331,3 +336,75 @@ def test_loaded_copy_changes_visual_meshes_only(uid):
     assert not [m for m in meshes if assets.PANDA_VISUAL_DIR in m or assets.CAMERA_MESH in m]  # no stock ones
     assert sum(m.startswith(str(assets.LIGHT_MESH_DIR)) for m in meshes) >= 8  # an arm (link0-7) at least
     assert all(pathlib.Path(m).is_file() for m in meshes)
+
+
+LEAP_UIDS = ("ml_panda_leap", "ml_dual_panda_leap")
+
+
+@pytest.mark.parametrize("uid", LEAP_UIDS)
+def test_leap_visuals_are_the_committed_meshes(uid):
+    """Every LEAP link of the loaded URDF is drawn with its committed mesh (agents/meshes/leap/<side>/), and
+    that mesh fills the link's collision box (the box is the bounding box of the official mesh, to within the
+    re-meshing and decimation: 2.5 mm), so what a camera sees is where the hand collides."""
+    import re
+
+    import trimesh
+
+    from maniladder_ms.agents import assets
+
+    ma = _make_agents_module()
+    text = open(assets.urdf_path(uid)).read()
+    links = dict(re.findall(r'<link name="([^"]*leap_[a-z_]+)">(.*?)</link>', text, re.S))
+    sides = ("left_", "right_") if "dual" in uid else ("",)
+    segments = [f"{f}_{s}" for f in ("index", "middle", "ring") for s in ("mcp", "pip", "dip", "tip")] + \
+        ["thumb_base", "thumb_pip", "thumb_dip", "thumb_tip"]
+    for prefix in sides:
+        side = "left" if prefix == "left_" else "right"
+        for segment in ["palm"] + segments:
+            body = links[f"{prefix}leap_{segment}"]
+            kind = segment.split("_", 1)[1] if segment.split("_")[0] in ("index", "middle", "ring") else segment
+            visuals = re.findall(r'<visual>.*?filename="([^"]*)".*?</visual>', body, re.S)
+            expected = assets.AGENTS_DIR / assets.LEAP_MESH_DIR / side / f"{kind}.glb"
+            assert visuals == [str(expected)], (prefix, segment, visuals)
+            assert expected.is_file()
+            boxes = ma.LEAP_PALM_BOXES if kind == "palm" else [ma._SEGMENT_BOX[kind]]
+            lo = np.min([b[0] for b in boxes], axis=0)
+            hi = np.max([b[1] for b in boxes], axis=0)
+            if side == "left":
+                lo, hi = lo * [1, -1, 1], hi * [1, -1, 1]
+                lo, hi = np.minimum(lo, hi), np.maximum(lo, hi)
+            bounds = trimesh.load(expected, force="mesh").bounds
+            assert np.allclose(bounds, [lo, hi], atol=2.5e-3), (prefix, segment, bounds, lo, hi)
+
+
+# sha1 of each LEAP agent's URDF with its <visual> elements removed, as committed when the LEAP links were
+# drawn as their collision boxes (fbab311): collision shapes, inertials, joints and materials are still those
+SHA1_WITHOUT_VISUALS = {"ml_panda_leap": "1a2f501543f54dca56259b4cf42cb6c90970ae18",
+                        "ml_dual_panda_leap": "cfbd201fd541d6b91d83e3c98c691f302cfac268"}
+
+
+@pytest.mark.parametrize("uid", LEAP_UIDS)
+def test_leap_meshes_changed_visuals_only(uid):
+    """Drawing the LEAP hands with meshes (and moving the wrist camera's drawn body) changed only <visual>
+    elements of the generated URDFs: everything else is byte for byte the box version's. And the loaded
+    hands collide as boxes: 17 links per hand, 18 boxes (the palm has two), no meshes."""
+    import hashlib
+    import re
+
+    from maniladder_ms.agents import assets
+
+    text = assets.source_urdf(uid).read_text()
+    stripped = re.sub(r"\s*<visual>.*?</visual>", "", text, flags=re.S)
+    assert hashlib.sha1(stripped.encode()).hexdigest() == SHA1_WITHOUT_VISUALS[uid]
+
+    env = make(uid)
+    try:
+        env.reset(seed=0)
+        links = [link for link in env.unwrapped.agent.robot.links if "leap_" in link.name
+                 and not link.name.endswith(("leap_mount", "leap_tcp"))]
+        shapes = [s for link in links for s in link._objs[0].collision_shapes]
+        hands = 2 if "dual" in uid else 1
+        assert len(links) == 17 * hands
+        assert len(shapes) == 18 * hands and all(isinstance(s, sapien.physx.PhysxCollisionShapeBox) for s in shapes)
+    finally:
+        env.close()

@@ -18,6 +18,12 @@ arm. Measured, 128 px, the three scene cameras, median capture per camera (loade
 conditions; PickCube-v1's camera: 74 ms there, 37 ms on a quiet one): PickPlacePen 63 -> 15 ms,
 HandoverCube 119 -> 23 ms, LiftBasketHands 102 -> 21 ms. Only `<visual>` mesh paths change: collision
 shapes and everything physical are as written, so physics and the committed demos are unchanged.
+The LEAP hands' links are drawn with the official finger meshes, decimated to 300 triangles each
+(`agents/meshes/leap/`, scripts/make_leap_meshes.py; 4.9k triangles / 4.4k vertices per hand); the generated
+URDFs name them relative to agents/ and `_write_resolved` makes the paths absolute. Their links collide as
+the boxes they were drawn as before. RGB steps/s (`maniladder bench --obs-mode rgb`, ratio to PickCube-v1,
+2-core machine at load 3-13, so +-20% noise): LiftBottleHand 2.89 / 2.38 (boxes) -> 2.11 (meshes),
+LiftBasketHands 1.29 / 0.96 -> 1.47.
 """
 
 from __future__ import annotations
@@ -37,6 +43,19 @@ PANDA_VISUAL_DIR = "franka_description/meshes/visual"
 PANDA_VISUALS = ("link0", "link1", "link2", "link3", "link4", "link5", "link6", "link7", "hand", "finger")
 # the decimated visuals, committed (written by scripts/make_panda_meshes.py); a wheel carries them
 LIGHT_MESH_DIR = AGENTS_DIR / "meshes"
+# the LEAP hands' visuals (scripts/make_leap_meshes.py: the official finger meshes, decimated, in their link
+# frames; left/ and right/): the generated URDFs name them relative to agents/, as `meshes/leap/...`
+LEAP_MESH_DIR = "meshes/leap"
+# The LEAP wrist cameras' view (chosen), in the right hand's flange adapter frame (`leap_mount`: z along the
+# flange axis, out of the arm; fingers along +x; the palm spans x -0.048..0.048, z 0.01..0.069; the thumb
+# and index finger on the -y side): 3 cm behind the palm's wrist end, 2.6 cm beyond its grasping face, on the
+# ring finger's side (away from the thumb, which otherwise fills the view), looking along the flange axis
+# tilted 1.15 rad towards the fingers: the fingertips and the held object (the tcp, 15 cm out) are in view
+# rather than the palm. A left hand's is the mirror image (y -> -y). The sensor is mounted there
+# (agents/robots.py); the camera link, its mass, stays where it was (scripts/make_agents.py), so physics is
+# unchanged.
+LEAP_WRIST_VIEW_XYZ = (-0.08, 0.035, 0.095)
+LEAP_WRIST_VIEW_TILT = 1.15
 
 
 def camera_hull_path() -> Path:
@@ -51,6 +70,7 @@ def _write_resolved(text: str, name: str) -> str:
     meshes and everything physical stay as written. See the module docstring for the measured costs.
     """
     text = text.replace(f"{PANDA_ASSET_DIR}/{CAMERA_MESH}", str(camera_hull_path()))
+    text = text.replace(f'filename="{LEAP_MESH_DIR}/', f'filename="{AGENTS_DIR / LEAP_MESH_DIR}/')  # made absolute
     for mesh in PANDA_VISUALS:  # decimated Franka visuals: 17k triangles per arm instead of 135k
         text = text.replace(f'filename="{PANDA_ASSET_DIR}/{PANDA_VISUAL_DIR}/{mesh}.glb"',
                             f'filename="{LIGHT_MESH_DIR / "panda" / mesh}.glb"')

@@ -36,7 +36,7 @@ from mani_skill.agents.registration import register_agent
 from mani_skill.agents.robots.panda.panda_wristcam import PandaWristCam
 from mani_skill.sensors.camera import CameraConfig
 
-from .assets import panda_wristcam_urdf, source_urdf, urdf_path
+from .assets import LEAP_WRIST_VIEW_TILT, LEAP_WRIST_VIEW_XYZ, panda_wristcam_urdf, source_urdf, urdf_path
 
 ARM_JOINTS = [f"panda_joint{i}" for i in range(1, 8)]
 GRIPPER_JOINTS = ["panda_finger_joint1", "panda_finger_joint2"]
@@ -143,8 +143,19 @@ def combine(**parts) -> dict:
     return deepcopy_dict(out)
 
 
-def wrist_camera(uid: str, link) -> CameraConfig:
-    return CameraConfig(uid=uid, pose=sapien.Pose(), width=128, height=128, fov=np.pi / 2, near=0.01, far=100, mount=link)
+def wrist_camera(uid: str, link, pose: sapien.Pose | None = None) -> CameraConfig:
+    return CameraConfig(uid=uid, pose=pose or sapien.Pose(), width=128, height=128, fov=np.pi / 2, near=0.01,
+                        far=100, mount=link)
+
+
+def leap_wrist_camera(uid: str, mount, left: bool = False) -> CameraConfig:
+    """A LEAP hand's wrist camera on its flange adapter `mount` (`<side>_leap_mount`), at LEAP_WRIST_VIEW
+    (agents/assets.py): looking past the palm at the fingertips and the grasped object. The camera's x axis
+    (its viewing direction) is the mount's +z tilted towards +x (the fingers), a rotation about the mount's y;
+    a left hand's is the mirror image (y -> -y; a rotation about y is its own mirror image)."""
+    angle = -np.pi / 2 + LEAP_WRIST_VIEW_TILT
+    x, y, z = LEAP_WRIST_VIEW_XYZ
+    return wrist_camera(uid, mount, sapien.Pose([x, -y if left else y, z], [np.cos(angle / 2), 0.0, np.sin(angle / 2), 0.0]))
 
 
 class _MLAgent(BaseAgent):
@@ -236,6 +247,10 @@ class MLPandaLeap(_MLAgent):
         self.tcp = self.link(self.ee_link_name)
         self.palm = self.link("leap_palm")
         self.tip_links = [self.link(f"leap_{f}_tip") for f in ("index", "middle", "ring", "thumb")]
+
+    @property
+    def _sensor_configs(self):
+        return [leap_wrist_camera("hand_camera", self.robot.links_map["leap_mount"])]
 
 
 # ==================================================================================================
@@ -336,6 +351,11 @@ class MLDualPandaLeap(_DualArm):
 
     def _end_effector_config(self, prefix: str):
         return leap_config(prefix)
+
+    @property
+    def _sensor_configs(self):
+        return [leap_wrist_camera(f"{s}_hand_camera", self.robot.links_map[f"{s}_leap_mount"], left=s == "left")
+                for s in self.sides]
 
 
 # ==================================================================================================
