@@ -11,7 +11,7 @@ import torch
 from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.deformables import metrics, rope
-from maniladder_ms.envs import ManiLadderEnv, register_task
+from maniladder_ms.envs import ManiLadderEnv, register_task  # noqa: F401 (the task is not registered yet)
 from maniladder_ms.geometry import yaw_of, yaw_quat
 from maniladder_ms.objects.tabletop import build_channel
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
@@ -26,7 +26,8 @@ ROPE_WAVE = 0.1  # rad: amplitude bound of the cable's in-plane S (`rope.wavy_tu
 CLIP_COLOR, CLIP_FLOOR_COLOR = (0.15, 0.35, 0.75, 1), (0.1, 0.2, 0.45, 1)
 
 
-@register_task("CableIntoClipHand")
+# UNFINISHED: not registered until its solver reaches the bar (29/50 on seeds 100-149; see the catalog row)
+# @register_task("CableIntoClipHand")
 class CableIntoClipHandEnv(rope.RopeTask, ManiLadderEnv):
     """**Task:** a cable lies on the table and beside it a short U-shaped clip is fixed to the table; pinch the
     cable with the LEAP hand, lift it over the clip, lay it along the clip's slot, let go and press it down into

@@ -13,7 +13,8 @@ from mani_skill.utils.geometry.rotation_conversions import quaternion_apply
 from maniladder_ms.deformables import particles
 from maniladder_ms.deformables.pouring import CupToBowl
 from maniladder_ms.envs import ManiLadderEnv, register_task
-from maniladder_ms.objects import basket, containers
+from maniladder_ms.geometry import tilt
+from maniladder_ms.objects import containers
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.bimanual import Grasp, glide, grasp_together, reach, tcp_quat
 from maniladder_ms.solvers.driven import DrivenSolver
@@ -92,13 +93,13 @@ class PourWaterBimanualEnv(CupToBowl, ManiLadderEnv):
 
     def evaluate(self):
         metrics = self.held_pour_metrics()  # receiving_cup_held, source_cup_held, *_let_go
-        tilt = basket.tilt(self.bowl)
-        upright = tilt <= np.deg2rad(self.max_tilt)
+        receiver_tilt = tilt(self.bowl)
+        upright = receiver_tilt <= np.deg2rad(self.max_tilt)
         poured_low = self.memory["poured_low"]
         metrics.update(
             success=metrics["success"] & upright & ~poured_low,
             receiver_upright=upright,
-            receiver_tilt=tilt,
+            receiver_tilt=receiver_tilt,
             poured_low=poured_low,
             receiver_lifted=self.bowl.pose.p[:, 2] >= self.lift_height,
             source_lifted=self.cup.pose.p[:, 2] >= self.lift_height,

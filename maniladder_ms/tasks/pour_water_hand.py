@@ -13,10 +13,9 @@ from maniladder_ms.deformables.pouring import CupToBowl, base_inside
 from maniladder_ms.envs import ManiLadderEnv
 from maniladder_ms.objects import containers
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver  # noqa: F401
-from maniladder_ms.solvers.bimanual import close_hands, glide
+from maniladder_ms.solvers.bimanual import close_hands, glide, side_grasp
 from maniladder_ms.solvers.driven import DrivenSolver
 from maniladder_ms.solvers.pouring import steer_roll
-from maniladder_ms.tasks.pour_grains_hand_to_cup import side_grasp
 
 # arm joints 1-7 of the ready pose: the hand 10 cm above its line-up point for the middle of the cup's placement
 # range, palm turned in (+y) for the side grasp (pinocchio IK, of 100 random starts the solution furthest from the

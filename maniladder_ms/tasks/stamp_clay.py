@@ -14,6 +14,7 @@ from maniladder_ms.agents.helpers import top_down_quat
 from maniladder_ms.deformables import clay
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.geometry import yaw_of, yaw_quat
+from maniladder_ms.objects.tabletop import place_at_rest
 from maniladder_ms.objects.tools import StarStampShape, build_star_stamp
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.driven import DrivenSolver
@@ -71,9 +72,7 @@ class StampClayEnv(clay.ClayEnvMixin, ManiLadderEnv):
             b = len(env_idx)
             p = torch.stack([-0.1 + 0.1 * torch.rand(b), -0.2 + 0.04 * torch.rand(b), torch.zeros(b)], dim=1)
             yaw = torch.rand(b) * 2 * np.pi / self.stamp_shape.arms
-            self.stamp.set_pose(Pose.create_from_pq(p, yaw_quat(yaw)))
-            self.stamp.set_linear_velocity(torch.zeros(b, 3))
-            self.stamp.set_angular_velocity(torch.zeros(b, 3))
+            place_at_rest(self.stamp, Pose.create_from_pq(p, yaw_quat(yaw)))
 
     def slab_centre(self) -> torch.Tensor:
         """The slab's start centre on the table, [B, 2]."""
