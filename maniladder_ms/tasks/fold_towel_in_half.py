@@ -52,6 +52,9 @@ class FoldTowelInHalfEnv(ManiLadderEnv):
     TASK_REGION = (-0.28, 0.14, -0.22, 0.22)  # towel centres plus the towel's half diagonal (14.6 cm) and a radius
     cloth_config = cloth.ClothConfig(radius=0.010)
     PARAMS = ("fold_tol", "max_height")
+    # 60 particles resting on the table (and, folded, on each other): two restores of one state part by
+    # 5e-5 within 5 steps on PhysX contact caches alone (test_state_round_trip_after_50_steps)
+    RESTORES_NEED_FRESH_SCENE = True
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
