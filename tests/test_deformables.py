@@ -384,6 +384,35 @@ def test_cloth_metrics_flat_and_folded():
     assert cloth.fraction_beyond(flat, torch.zeros(3), torch.tensor([1.0, 0, 0]))[0] == pytest.approx(0.5)
 
 
+def test_top_down_fold_distance_of_a_towel_folded_in_half_along_its_short_axis():
+    """`cloth.fold_distance(..., top_down=True)` on a 10 x 6 towel (FoldTowelInHalf's) folded in half by
+    construction (`cloth.fold_edge` at its middle row, the folded rows shifted to lie right over their
+    partners): 0 seen from above, while the full distance is the layers' gap; flat it is the mean
+    mirrored distance; folded along the long axis instead (columns paired) the short-axis pairs stay apart."""
+    spacing, rows, cols = 0.025, 10, 6
+    layout = cloth.towel(rows, cols, spacing)
+    pairs = cloth.fold_pairs(rows, cols, axis=0)
+    assert len(pairs) == 30 and (0, 54) in pairs and (29, 35) in pairs  # row k with row 9 - k
+    flat = torch.as_tensor(layout.positions, dtype=torch.float32)[None]
+    # flat: pairs (k, 9 - k) lie (9 - 2k) spacings apart, mean over k = 0..4: 5 spacings
+    assert cloth.fold_distance(flat, pairs, top_down=True)[0] == pytest.approx(5 * spacing, abs=1e-6)
+    folded, _ = cloth.fold_edge(layout, rows, cols, rows // 2)  # rows 0-3 turned over, row 4 in the crease
+    folded = torch.as_tensor(folded, dtype=torch.float32)
+    r = torch.arange(rows * cols) // cols
+    folded[r < rows // 2 - 1, 0] += spacing  # fold_edge lays row 3 over row 5: shift the layer onto its partners
+    folded[r == rows // 2 - 1, 0] += spacing / 2  # and the crease row over row 5, half a spacing up
+    folded = folded[None]
+    assert cloth.fold_distance(folded, pairs, top_down=True)[0] == pytest.approx(0.0, abs=1e-6)
+    full = cloth.fold_distance(folded, pairs)[0]  # the two layers one spacing apart (crease half of it)
+    assert full == pytest.approx((4 * spacing + spacing / 2) / 5, abs=1e-6)
+    lengthwise = flat.clone()  # folded along the long axis: columns 3-5 over columns 0-2
+    right = lengthwise[0, :, 1] > 0
+    lengthwise[0, right, 1] = -lengthwise[0, right, 1]
+    lengthwise[0, right, 2] += 0.02
+    assert cloth.fold_distance(lengthwise, pairs, top_down=True)[0] == pytest.approx(5 * spacing, abs=1e-6)
+    assert cloth.fold_distance(lengthwise, cloth.fold_pairs(rows, cols, axis=1), top_down=True)[0] < 1e-6
+
+
 def test_fold_edge_keeps_every_link_at_rest_length():
     """`cloth.fold_edge`: the drive frames of every linked pair meet (they sit at the rest midpoint in each
     particle's frame), the folded rows lie one spacing above the sheet, upside down, and the footprint

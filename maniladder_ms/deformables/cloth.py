@@ -19,7 +19,8 @@ Metrics on particle positions [B, N, 3] (`Cloth.positions()`); the footprint one
 - `metrics.footprint_area`: area (m^2) the sheet covers seen from above (flat: N * spacing^2);
 - `metrics.region_coverage`: fraction of a table rectangle that the sheet covers;
 - `coverage`: the share of the flat sheet's area it covers seen from above, in its own grid axes;
-- `fold_distance`: mean distance between particles paired by a fold (0 when perfectly folded);
+- `fold_distance`: mean distance between particles paired by a fold (0 when perfectly folded; `top_down`:
+  seen from above, leaving out the two layers' thickness);
 - `flatness`: standard deviation of particle heights (0 for a flat sheet);
 - `fraction_below`: fraction of particles lower than a height (hanging below a bar);
 - `fraction_beyond`: fraction of particles on the far side of a vertical plane (one side of a bar).
@@ -331,10 +332,18 @@ def fold_pairs(rows: int, cols: int, axis: int = 0) -> list[tuple[int, int]]:
     return list(zip(index[:half].ravel().tolist(), index[::-1][:half].ravel().tolist()))
 
 
-def fold_distance(points: torch.Tensor, pairs: list[tuple[int, int]]) -> torch.Tensor:
-    """Mean distance (m) between the particles of each pair, [B]: 0 when the fold is perfect."""
+def fold_distance(points: torch.Tensor, pairs: list[tuple[int, int]], top_down: bool = False) -> torch.Tensor:
+    """Mean distance (m) between the particles of each pair, [B]: 0 when the fold is perfect.
+
+    `top_down`: the distance seen from above (x, y only). A sheet of particles folded onto itself keeps
+    its two layers about two particle radii apart (2 cm at radius 10 mm: a layer resting right above the
+    other, or 1.6-2 cm nested in its hollows), so the full distance of a perfect fold is that thickness;
+    seen from above it is 0 when each particle lies over its partner."""
     a, b = zip(*pairs)
-    return torch.linalg.norm(points[:, list(a)] - points[:, list(b)], dim=-1).mean(dim=1)
+    d = points[:, list(a)] - points[:, list(b)]
+    if top_down:
+        d = d[..., :2]
+    return torch.linalg.norm(d, dim=-1).mean(dim=1)
 
 
 def flatness(points: torch.Tensor) -> torch.Tensor:
