@@ -294,6 +294,10 @@ def test_wheel_install_replays_coacd_samples(convex_lookups, tmp_path):
     shipped = {name for t in users for name, _ in convex_lookups[t]}
     packed = set(zipfile.ZipFile(wheel).namelist())
     assert all(f"maniladder_ms/data/convex/{name}/visual.obj" in packed for name in shipped), shipped
+    # every robot description and mesh the agents load is in the wheel (they live in agents/, linked as data/agents)
+    agent_files = {f"maniladder_ms/data/agents/{p.relative_to(repo / 'agents').as_posix()}"
+                   for p in (repo / "agents").rglob("*") if p.suffix in (".urdf", ".glb")}
+    assert agent_files and not agent_files - packed, sorted(agent_files - packed)[:10]
     site = tmp_path / "site"
     subprocess.run([*pip, "install", "--no-deps", "--target", str(site), str(wheel)],
                    check=True, capture_output=True, timeout=300)
