@@ -136,6 +136,21 @@ def test_rope_in_groove_fraction():
     assert (turned <= 0.1).all()
 
 
+def test_channel_coords():
+    """Points placed at known distances along and across a turned, moved channel's axis read those distances back
+    (across: left of the axis positive), batched over two channels."""
+    yaws = torch.tensor([0.3, -2.0])
+    centres = torch.tensor([[0.05, -0.02, 0.0], [-0.1, 0.04, 0.0]])
+    offsets = torch.tensor([[0.03, 0.004], [-0.02, -0.009], [0.0, 0.0]])  # (along, across)
+    c, s = torch.cos(yaws)[:, None], torch.sin(yaws)[:, None]
+    x = centres[:, None, 0] + offsets[:, 0] * c - offsets[:, 1] * s
+    y = centres[:, None, 1] + offsets[:, 0] * s + offsets[:, 1] * c
+    points = torch.stack([x, y, torch.full_like(x, 0.01)], dim=-1)
+    along, across = metrics.channel_coords(points, centres, yaws)
+    assert torch.allclose(along, offsets[:, 0].expand(2, 3), atol=1e-6)
+    assert torch.allclose(across, offsets[:, 1].expand(2, 3), atol=1e-6)
+
+
 def test_rope_built_straight_is_straight():
     env = _make("rope")
     try:

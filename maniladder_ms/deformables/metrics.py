@@ -100,12 +100,18 @@ def inside_channel_fraction(points: torch.Tensor, centre: torch.Tensor, yaw: tor
     (the middle of its axis); a point is inside when it lies between its walls (at most `half_width` from the
     axis, sideways), between its ends (at most `half_length` from `centre` along the axis) and below the walls'
     top (z at most `top`, world)."""
-    rel = points[..., :2] - centre[:, None, :2]
-    c, s = torch.cos(yaw)[:, None], torch.sin(yaw)[:, None]
-    along = rel[..., 0] * c + rel[..., 1] * s
-    across = -rel[..., 0] * s + rel[..., 1] * c
+    along, across = channel_coords(points, centre, yaw)
     inside = (across.abs() <= half_width) & (along.abs() <= half_length) & (points[..., 2] <= top)
     return inside.float().mean(dim=1)
+
+
+def channel_coords(points: torch.Tensor, centre: torch.Tensor, yaw: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """Top-down coordinates of `points` [B, N, 2+] in a straight channel's frame (`inside_channel_fraction`): the
+    distance along its axis from `centre` [B, 2+] and the signed distance across it (left of the axis positive),
+    each [B, N]."""
+    rel = points[..., :2] - centre[:, None, :2]
+    c, s = torch.cos(yaw)[:, None], torch.sin(yaw)[:, None]
+    return rel[..., 0] * c + rel[..., 1] * s, -rel[..., 0] * s + rel[..., 1] * c
 
 
 def inside_star(xy: torch.Tensor, outer: float, inner: float, arms: int) -> torch.Tensor:

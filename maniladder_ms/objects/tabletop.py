@@ -7,8 +7,12 @@ import numpy as np
 import sapien
 import sapien.physx as physx
 import sapien.render
+import torch
 
 from mani_skill.envs.scene import ManiSkillScene
+
+from maniladder_ms.deformables import metrics
+from maniladder_ms.geometry import yaw_of
 
 WOOD_DENSITY = 600.0
 
@@ -174,6 +178,38 @@ def build_channel(scene: ManiSkillScene, name: str, inner_width: float, depth: f
                                    material=sapien.render.RenderMaterial(base_color=list(part_color), roughness=0.6))
     builder.initial_pose = sapien.Pose()
     return builder.build_kinematic(name=name)
+
+
+class Channel:
+    """A U-shaped channel fixed to the table (`build_channel`, its actor in `actor`) and what a task asks of it
+    (RopeIntoGroove's groove, CableIntoClipHand's clip): its axis, its walls' top, the share of points inside
+    (`metrics.inside_channel_fraction`), how far points lie off its axis."""
+
+    def __init__(self, scene: ManiSkillScene, name: str, inner_width: float, depth: float, length: float, wall: float,
+                 floor: float, color, floor_color=None):
+        self.actor = build_channel(scene, name, inner_width, depth, length, wall, floor, color, floor_color)
+        self.half_width, self.half_length = inner_width / 2, length / 2
+        self.top = floor + depth  # the walls' top above the table
+
+    @property
+    def pose(self):
+        return self.actor.pose
+
+    def set_pose(self, pose):
+        self.actor.set_pose(pose)
+
+    def axis(self) -> torch.Tensor:
+        """Yaw of the channel's axis (its local x), [B]."""
+        return yaw_of(self.actor.pose.q)
+
+    def inside_fraction(self, points: torch.Tensor) -> torch.Tensor:
+        """Share of `points` [B, N, 3] inside the channel: between its walls and its ends, below the walls' top; [B]."""
+        return metrics.inside_channel_fraction(points, self.actor.pose.p, self.axis(), self.half_width,
+                                               self.half_length, self.top)
+
+    def off_axis(self, points: torch.Tensor) -> torch.Tensor:
+        """Top-down distance of `points` [B, N, 2+] from the channel's axis line, [B, N]."""
+        return metrics.channel_coords(points, self.actor.pose.p, self.axis())[1].abs()
 
 
 def place_at_rest(actor, pose):

@@ -10,10 +10,10 @@ import torch
 from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.agents.helpers import top_down_quat
-from maniladder_ms.deformables import metrics, rope
+from maniladder_ms.deformables import rope
 from maniladder_ms.envs import ManiLadderEnv, register_task
-from maniladder_ms.geometry import yaw_of, yaw_quat
-from maniladder_ms.objects.tabletop import build_channel
+from maniladder_ms.geometry import yaw_quat
+from maniladder_ms.objects.tabletop import Channel
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.bimanual import RELEASE_WAIT_STEPS, SET_DOWN_STEP, Grasp, glide, grasp_together, reach
 from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver
@@ -73,8 +73,8 @@ class RopeIntoGrooveEnv(rope.RopeBetweenArmsTask, ManiLadderEnv):
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)  # the rope (rope.RopeTask)
-        self.groove = build_channel(self.scene, "groove", self.groove_width, self.groove_depth, GROOVE_LENGTH,
-                                    GROOVE_WALL, GROOVE_FLOOR, GROOVE_COLOR, GROOVE_FLOOR_COLOR)
+        self.groove = Channel(self.scene, "groove", self.groove_width, self.groove_depth, GROOVE_LENGTH, GROOVE_WALL,
+                              GROOVE_FLOOR, GROOVE_COLOR, GROOVE_FLOOR_COLOR)
         self.memory.flag("both_held")  # both grippers held the rope's ends at the same time
 
     def place_by_rope(self, centres: torch.Tensor):
@@ -89,10 +89,6 @@ class RopeIntoGrooveEnv(rope.RopeBetweenArmsTask, ManiLadderEnv):
         farthest = (centres[..., 0] - (centres[..., 1] - y[:, None]) * slope[:, None]).amax(dim=1)
         x = farthest + self.rope_config.radius + (self.groove_width / 2 + GROOVE_WALL) / torch.sin(axis) + gap
         self.groove.set_pose(Pose.create_from_pq(torch.stack([x, y, torch.zeros(b)], dim=1), yaw_quat(axis)))
-
-    def groove_axis(self) -> torch.Tensor:
-        """Yaw of the groove's axis (its local x), [B]."""
-        return yaw_of(self.groove.pose.q)
 
     def end_points(self) -> dict[str, torch.Tensor]:
         """Centres of the second capsule from each end (where the solver grasps), keyed by side, [B, 3]."""
@@ -112,13 +108,9 @@ class RopeIntoGrooveEnv(rope.RopeBetweenArmsTask, ManiLadderEnv):
 
     def evaluate(self):
         centres = self.rope.points()[:, 1:-1]
-        fraction = metrics.inside_channel_fraction(centres, self.groove.pose.p, self.groove_axis(),
-                                                   self.groove_width / 2, GROOVE_LENGTH / 2,
-                                                   GROOVE_FLOOR + self.groove_depth)
-        # distance of the rope's capsules from the groove's axis line (top-down), for the reward
-        rel = centres[..., :2] - self.groove.pose.p[:, None, :2]
-        axis = self.groove_axis()
-        off_axis = (-rel[..., 0] * torch.sin(axis)[:, None] + rel[..., 1] * torch.cos(axis)[:, None]).abs().mean(dim=1)
+        fraction = self.groove.inside_fraction(centres)
+        # mean distance of the rope's capsules from the groove's axis line (top-down), for the reward
+        off_axis = self.groove.off_axis(centres).mean(dim=1)
         in_groove = fraction >= self.min_fraction
         touched = self.ee.touches(self.rope.links)
         grasped = self.end_holds()
@@ -184,7 +176,7 @@ def solve_rope_into_groove(env, seed: int) -> dict:
         lifted = {"left": middle + up + across * SPREAD / 2, "right": middle + up - across * SPREAD / 2}
         glide(s, {g.arm: (g.p, lifted[side], g.q) for side, g in zip(task.SIDES, grasps)})
         # over the groove: its axis points to +y (the left arm's side) within 20 degrees
-        axis = task.groove_axis()
+        axis = task.groove.axis()
         along = torch.stack([torch.cos(axis), torch.sin(axis), torch.zeros_like(axis)], dim=1)
         # each gripper turns the short way onto the axis (the fingers are symmetric: a half turn is no turn)
         qs = {side: top_down_quat(yaws[side] + DrivenSolver.neutral_yaw(axis - yaws[side], np.pi), n, device)
@@ -192,8 +184,7 @@ def solve_rope_into_groove(env, seed: int) -> dict:
         centre = task.groove.pose.p * flat
         over = {"left": centre + up + along * SPREAD / 2, "right": centre + up - along * SPREAD / 2}
         glide(s, {g.arm: (lifted[side], over[side], qs[side]) for side, g in zip(task.SIDES, grasps)})
-        down = torch.tensor([0.0, 0.0, GROOVE_FLOOR + task.groove_depth + RELEASE_ABOVE_TOP + GRASP_CLEARANCE],
-                            device=device)
+        down = torch.tensor([0.0, 0.0, task.groove.top + RELEASE_ABOVE_TOP + GRASP_CLEARANCE], device=device)
         low = {side: centre + down + along * (SPREAD / 2 if side == "left" else -SPREAD / 2) for side in task.SIDES}
         glide(s, {g.arm: (over[side], low[side], qs[side]) for side, g in zip(task.SIDES, grasps)},
               step_length=SET_DOWN_STEP)
