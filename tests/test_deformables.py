@@ -151,6 +151,36 @@ def test_channel_coords():
     assert torch.allclose(across, offsets[:, 1].expand(2, 3), atol=1e-6)
 
 
+def test_rope_through_ring():
+    """A ring standing upright (axis along x, 3 cm inner radius) at a different place per env: a 40 cm rope along
+    its axis through its centre, 14.9 cm on one side, counts one crossing with 14.9 cm on the shorter side; the same
+    rope 5 cm to the side of the ring (past it, outside the disc) none; a rope threaded through and back (a
+    hairpin, its bend 10 cm past the ring) two crossings; a rope through the ring's plane but across the ring's
+    rim (4 cm off the centre) none."""
+    centres = torch.tensor([[0.0, 0.0, 0.05], [0.1, -0.05, 0.06], [0.0, 0.1, 0.05], [-0.05, 0.0, 0.05]])
+    normal = torch.tensor([1.0, 0.0, 0.0]).expand(4, 3)
+    x = torch.linspace(-0.15, 0.25, 21) + 0.001  # 2 cm segments, the ring's plane between points (none on it)
+
+    def line(centre, dy, dz):
+        return torch.stack([centre[0] + x, torch.full_like(x, centre[1] + dy), torch.full_like(x, centre[2] + dz)],
+                           dim=1)
+
+    straight = line(centres[0], 0.0, 0.0)
+    beside = line(centres[1], 0.05, 0.0)
+    out_x = centres[2, 0] + torch.linspace(-0.149, 0.101, 11)  # 11 points out, the bend at 10 cm past the ring
+    hairpin = torch.cat([torch.stack([out_x, torch.full_like(out_x, centres[2, 1] + 0.01),
+                                      torch.full_like(out_x, centres[2, 2])], dim=1),
+                         torch.stack([out_x.flip(0), torch.full_like(out_x, centres[2, 1] - 0.01),
+                                      torch.full_like(out_x, centres[2, 2])], dim=1)])[:21]
+    rim = line(centres[3], 0.0, 0.04)
+    points = torch.stack([straight, beside, hairpin, rim])
+    count, shorter = rope.through_ring(points, centres, normal, 0.03)
+    assert count.tolist() == [1, 0, 2, 0]
+    assert shorter[0] == pytest.approx(0.149, abs=1e-4)  # from its first point, 1 mm short of 15 cm, to the ring
+    assert shorter[1] == 0 and shorter[3] == 0
+    assert shorter[2] > 0.1  # the hairpin's arms: ~25 cm of rope before its first crossing and after its last
+
+
 def test_rope_built_straight_is_straight():
     env = _make("rope")
     try:

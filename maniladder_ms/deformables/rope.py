@@ -10,6 +10,7 @@ last tip) so they also serve any other polyline:
 - `end_to_end_distance`: distance between the two tips (m);
 - `straightness`: end-to-end distance / arc length, 1 for a straight rope, smaller when bent or coiled;
 - `winding_number`: signed turns of the rope about a vertical axis (wrap count around a peg/post);
+- `through_ring`: whether the rope passes through a ring's disc, and how much of it lies on each side;
 - `crossings` / `is_knotted`: self-crossings of the top-down projection and a knot test on them.
 """
 
@@ -360,6 +361,28 @@ def winding_number(points: torch.Tensor, axis_xy: torch.Tensor) -> torch.Tensor:
     step = torch.diff(angle, dim=1)
     step = (step + np.pi) % (2 * np.pi) - np.pi  # each step is the short way round
     return step.sum(dim=1) / (2 * np.pi)
+
+
+def through_ring(points: torch.Tensor, centre: torch.Tensor, normal: torch.Tensor, radius: float):
+    """Where the polyline `points` [B, N, 3] passes through a ring: the ring's disc (centre `centre` [B, 3], unit
+    axis `normal` [B, 3], inner radius `radius`). A crossing is a polyline segment whose ends lie on the two sides
+    of the disc's plane and which meets the plane less than `radius` from the centre. Returns (count [B]: the
+    number of crossings (long): one for a rope threaded once, two for one threaded through and back; shorter [B]:
+    over the crossings, the largest arc length (m) of the shorter of the rope's two parts on either side of it,
+    0 without a crossing: a rope threaded with at least L on each side has shorter >= L)."""
+    d = ((points - centre[:, None]) * normal[:, None]).sum(dim=-1)  # signed distance from the plane, [B, N]
+    d0, d1 = d[:, :-1], d[:, 1:]
+    sides = (d0 * d1 < 0) | ((d0 == 0) & (d1 != 0))
+    t = (d0 / (d0 - d1).where(d0 != d1, torch.ones_like(d0))).clamp(0, 1)  # where each segment meets the plane
+    seg = points[:, 1:] - points[:, :-1]
+    hit = points[:, :-1] + t[..., None] * seg
+    off = hit - centre[:, None]
+    off = off - (off * normal[:, None]).sum(dim=-1, keepdim=True) * normal[:, None]
+    crossing = sides & (torch.linalg.norm(off, dim=-1) < radius)
+    lengths = torch.linalg.norm(seg, dim=-1)
+    before = torch.cumsum(lengths, dim=1) - lengths + t * lengths  # arc length from the first point to the crossing
+    shorter = torch.minimum(before, lengths.sum(dim=1, keepdim=True) - before)
+    return crossing.sum(dim=1), torch.where(crossing, shorter, torch.zeros_like(shorter)).amax(dim=1)
 
 
 def crossings(points: np.ndarray) -> list[tuple[float, float, bool]]:
