@@ -19,21 +19,10 @@ import time
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(REPO))  # this checkout's package, whatever the venv has installed
+from maniladder_ms.demos.wheel import build_wheel_site  # noqa: E402
+
 SAVED = re.compile(r"(\d+)/(\d+)=[\d.]+% demos saved")
-
-
-def build_wheel_site(tmp: Path) -> Path:
-    """A wheel of this tree, installed with --target into `tmp/site` (a copy of the tree builds it: no build/ or
-    egg-info is written into the checkout)."""
-    src = tmp / "src"
-    shutil.copytree(REPO / "maniladder_ms", src / "maniladder_ms", ignore=shutil.ignore_patterns("__pycache__"))
-    for name in ("setup.cfg", "pyproject.toml", "README.md"):
-        shutil.copy(REPO / name, src / name)
-    pip = [sys.executable, "-m", "pip", "-q", "--disable-pip-version-check"]
-    subprocess.run([*pip, "wheel", "--no-deps", "--no-build-isolation", str(src), "-w", str(tmp / "wheel")], check=True)
-    (wheel,) = (tmp / "wheel").glob("maniladder_ms-*.whl")
-    subprocess.run([*pip, "install", "--no-deps", "--target", str(tmp / "site"), str(wheel)], check=True)
-    return tmp / "site"
 
 
 def replay(path: Path, install: Path, tmp: Path, kind: str) -> tuple[bool, str]:
@@ -62,7 +51,7 @@ def main(tasks: list[str]) -> int:
     failed = 0
     with tempfile.TemporaryDirectory(prefix="maniskill_replay_") as name:
         tmp = Path(name)
-        installs = {"source": REPO, "wheel": build_wheel_site(tmp)}
+        installs = {"source": REPO, "wheel": build_wheel_site(tmp, REPO)[1]}
         for i, path in enumerate(files, 1):
             for kind, install in installs.items():
                 start = time.time()

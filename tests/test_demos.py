@@ -15,6 +15,7 @@ from maniladder_ms.demos import DemoFileError, dataset_stats, generate, verify
 from maniladder_ms.demos import recording as generate_module
 from maniladder_ms.demos.files import demo_path, load_demo_json
 from maniladder_ms.demos.stats import plot_stats
+from maniladder_ms.demos.wheel import build_wheel_site
 from maniladder_ms.solvers import solver_for
 
 from conftest import sampled_tasks, task_sample
@@ -282,14 +283,7 @@ def test_wheel_install_replays_coacd_samples(convex_lookups, tmp_path):
 
     start = time.time()
     repo = COMMITTED_DEMOS.parent
-    src = tmp_path / "src"  # a copy, so the build writes no build/ or egg-info into the checkout
-    shutil.copytree(repo / "maniladder_ms", src / "maniladder_ms", ignore=shutil.ignore_patterns("__pycache__"))
-    for name in ("setup.cfg", "pyproject.toml", "README.md"):
-        shutil.copy(repo / name, src / name)
-    pip = [sys.executable, "-m", "pip", "--disable-pip-version-check", "-q"]
-    subprocess.run([*pip, "wheel", "--no-deps", "--no-build-isolation", str(src), "-w", str(tmp_path / "wheel")],
-                   check=True, capture_output=True, timeout=300)
-    (wheel,) = (tmp_path / "wheel").glob("maniladder_ms-*.whl")
+    wheel, site = build_wheel_site(tmp_path, repo)
     users = sorted(t for t, names in convex_lookups.items() if names)
     shipped = {name for t in users for name, _ in convex_lookups[t]}
     packed = set(zipfile.ZipFile(wheel).namelist())
@@ -298,9 +292,6 @@ def test_wheel_install_replays_coacd_samples(convex_lookups, tmp_path):
     agent_files = {f"maniladder_ms/data/agents/{p.relative_to(repo / 'agents').as_posix()}"
                    for p in (repo / "agents").rglob("*") if p.suffix in (".urdf", ".glb")}
     assert agent_files and not agent_files - packed, sorted(agent_files - packed)[:10]
-    site = tmp_path / "site"
-    subprocess.run([*pip, "install", "--no-deps", "--target", str(site), str(wheel)],
-                   check=True, capture_output=True, timeout=300)
 
     files = [str(p) for t in users for p in sorted((COMMITTED_DEMOS / t).glob("trajectory.*.h5"))]
     report = tmp_path / "verify.json"
