@@ -10,6 +10,8 @@ needed a nudge). Seeds 100-149: 33/50 (solved in 634-915 steps, mean 714; catalo
 a YAML comment when the task is registered), below the bar: see the solver section's notes for what fails.
 Session 13: the carry at 6 mm a step (was 4): seeds 100-149 34/50 (574-1136 steps, mean 720); the mug still turns
 in the taker's grip (a pivot near its centre of mass), which the notes trace phase by phase.
+Session 14: a set-down on the table after the pass and a square regrasp (PlaceMugOnCoasterHand's phases) solved
+31/50 (commit 02b5d2f on helper/mughands4; notes below): no better, so this solver (34/50) stays.
 """
 
 from __future__ import annotations
@@ -215,6 +217,25 @@ class HandoverMugHandsEnv(HandoverTask):
 # off after the nudges (113). Still the grip: the next thing to try is a grip that does not pivot (a different
 # taker posture, e.g. a side power grasp around the body below the rim once the left is aside, or a check of the
 # mug's tilt in the grip with a set-down and regrasp), not the carry's speed.
+# Session 14 (helper/mughands4, commit 02b5d2f; ~50-70 s a seed on the loaded machine): a set-down and regrasp after
+# the pass, in place of the carry to the coaster. The right straightened the mug once, carried it level at CARRY_STEP
+# to (-8, -8 cm) (between the pass and the coasters; lowered straight down below the pass it met the giver's open
+# fingers and fell, seed 100), lowered it to 3 cm, straightened again, lowered it closed loop onto the table
+# (`solvers.mug.lower_mug`), let go (let_go), then ran PlaceMugOnCoasterHand's phases with the right hand
+# (`solvers.mug.mug_to_coaster`: a square top-down power grasp 4.7 cm above the bottom, the handle along the finger
+# row, lift, straighten, carry at 1 cm a step, closed-loop set-down, fingers then thumb open), then nudge.
+# Seeds 100-149 (run to 1500 steps): 31/50, solved in 701-1081 steps (mean 829; this solver: 34/50, mean 720). The
+# 19 failures: the same 5 before the pass (114, 116, 119, 143 in the swap, 142 the pick), and 14 lost after it (107,
+# 109, 113, 115, 117, 122, 124, 128, 130, 133, 135, 139, 144, 145); it solved 105, 131, 136, 137 (lost here) and lost
+# 109, 115, 122, 128, 133, 139, 145 (solved here). Traced: 107 (43 deg in the grip after the swap; the straightening
+# turned it to 67 and it fell in the descent) and 122 (15 deg in the grip; fell out in the 33 cm descent to the
+# table): the pivoting grip loses the mug on the way down as on the carry; 115 reached the table upright but held 28
+# deg askew and let_go flung it (61 -> 117 deg); 109 was set down and regrasped upright, but the mug turned 12 -> 32
+# deg in the regrasp's grip (4.7 cm above the bottom, ~1 cm above the centre of mass) in the carry and toppled at the
+# coaster. So the regrasp does not cure the pivot: the taker must first hold the mug square (a grip spanning the
+# centre of mass, or fingers under the body) before any long move; not tried for lack of time: a side power grasp
+# (`solvers.bimanual.side_grasp`) on the mug once set down, and a set-down straight after the swap only where the
+# measured tilt in the grip exceeds a threshold (keeping the direct carry otherwise).
 # ----------------------------------------------------------------------------------------------------
 GIVER_TCP_HEIGHT = 0.065  # the giver's top-down TCP above the table at the pick (the upside-down mug's base at 9 cm)
 GIVER_ROLL_SIGN = -1.0  # about the TCP y axis (the finger row, world x): the left Panda's joint 7 stays mid-range
