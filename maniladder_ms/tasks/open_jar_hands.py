@@ -87,9 +87,11 @@ RISE_BACK = 0.08  # m above the lid top where the opened hand turns back between
 # spinning at 5 or 20 rad/s on a still jar stops within one control step, 0.0 / 0.045 rad on (dry friction
 # predicts 0.008 / 0.13 rad); the drive has no stiffness and no target angle. Two contact causes:
 # 1. the LEFT hand holds the lid too: its palm and its middle and ring fingers (mcp to tip) touch the lid in
-#    273/306, 272/309 and 1773/1808 control steps on seeds 101, 102, 103 (the hand reaches past the body's top,
-#    6.5 cm above its grasp centre, and the 6.6 cm lid stands 3 mm proud of the 6 cm body). So the twist
-#    turns the lid against the left hand as well as the thread, and what the left hand's fingers do (the jar
+#    273/306, 272/309 and 1773/1808 control steps on seeds 101, 102, 103 (the side grasp stands the finger row
+#    upright: index knuckle 4.1 cm, middle 8.7, ring 13.2 cm above the jar's base on seed 101 once it holds; the
+#    ring finger's knuckle and proximal link and the palm's top edge meet the lid's lower edge at 15.7-16.5 cm,
+#    the rim at 16, and the 6.6 cm lid stands 3 mm proud of the 6 cm body). So the
+#    twist turns the lid against the left hand as well as the thread, and what the left hand's fingers do (the jar
 #    gives in its grip, the hand re-settles) turns the lid back: on seed 103 (a failure) the lid went back 13.1
 #    rad in all in steps the left hand touched it, held_turn ended at -1.5 rad. That contact also brakes the lid,
 #    and the solver leans on it: with left-hand/lid collisions filtered out (a diagnostic, not a fix) seed 103 is
@@ -107,10 +109,10 @@ RISE_BACK = 0.08  # m above the lid top where the opened hand turns back between
 # lid, set 4 mm in from the body's side, with a 0.3 N m thread (middle and ring fingers and palm still on the lid
 # in 1339 / 763 steps, the jar toppled). The power grasp closed to 0.6 of the way from preshape to power (less
 # squeeze): seed 100 failed, the lid went back 1.4 rad with only the left hand on it.
-# Next: a left grasp whose fingers cannot reach the lid (the hand's top edge measured below the rim: a taller body,
-# or a lower grasp with the jar kept standing on the table so that it does not topple), with a thread torque high
-# enough that brushes do not spin the lid (0.3 N m, as OpenJarBimanual; the row's 0.05 is UnscrewCapHand's, whose
-# bottle is clamped)
+# Next: a left grasp whose hand cannot reach the lid (its top, the ring knuckle and palm edge, measured below the
+# rim: the finger row turned from upright, a taller body, or a lower grasp with the jar kept standing on the table
+# so that it does not topple), with a thread torque high enough that brushes do not spin the lid (0.3 N m, as
+# OpenJarBimanual; the row's 0.05 is UnscrewCapHand's, whose bottle is clamped)
 RELEASE_STEPS = 15
 BACK_MARGIN = 1.2
 
