@@ -104,7 +104,8 @@ RISE_BACK = 0.08  # m above the lid top where the opened hand turns back between
 #    fingers left (seed 100 then failed); a thread of 0.3 N m (OpenJarBimanual's) stopped the fling at the
 #    release (5.87 -> 5.89) but seeds 100-102 were not solved within the horizon.
 # Tried to move the left hand off the lid, not kept (seeds 101 and 103, both failed): grasp centre 6.5 cm up
-# (ring finger and palm still on the lid in 578 / 228 steps, the jar toppled); body 19 cm tall (ring finger and
+# (ring finger and palm still on the lid in 578 / 228 steps, the jar toppled), 7.5 cm up with a 0.3 N m thread
+# (the jar toppled, 129-146 deg); body 19 cm tall (ring finger and
 # palm on the lid in 642 / 234 steps); body 7 cm wide under a 6 cm lid at 1000 kg/m^3 (the jar toppled); a 5.2 cm
 # lid, set 4 mm in from the body's side, with a 0.3 N m thread (middle and ring fingers and palm still on the lid
 # in 1339 / 763 steps, the jar toppled). The power grasp closed to 0.6 of the way from preshape to power (less
