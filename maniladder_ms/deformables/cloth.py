@@ -260,6 +260,11 @@ class Cloth(SphereSet):
         self.layout = layout
         self.config = config
 
+    def corner_spheres(self) -> list[Actor]:
+        """The particles (actors) the layout names `corners`, in its order (a towel's: (-x,-y), (-x,+y),
+        (+x,-y), (+x,+y))."""
+        return [self.spheres[i] for i in self.layout.named["corners"]]
+
     def set_rest_shape(self, pose: Pose):
         """Lay the sheet in its rest shape at `pose` (batched over the envs being reset), at rest."""
         self.set_shape(torch.as_tensor(self.layout.positions, dtype=torch.float32, device=pose.device), None, pose)

@@ -1,5 +1,22 @@
 """The HangTowel family (L2 deformable): hang a towel over a horizontal bar. HangTowelOnBar (DG): both
-grippers lift a flat towel by two corners and drape it over the bar."""
+grippers lift a flat towel by two corners and drape it over the bar.
+
+NOT BUILT YET (work in progress, helper/towelbar, session 14): HangTowelOnBar is not registered (the
+`register_task` line below is commented out) until its solver passes 45 of seeds 100-149. Seeds 100-149:
+36/50 (successes in 172-208 steps, mean 188; horizon 300). Failures, by kind (seeds 102, 106, 112, 120, 122,
+123, 127 diagnosed): (1) a corner pinch misses or slips (corners never held by both at once, or the towel
+dropped on the near side: 102, 120, 122, 123); a re-aimed second pinch (open to 4 cm, approach 4 cm above the
+corner where it lies now, close) did not fix 122 / 123 and was dropped; (2) after the release the towel's
+far part lies over a finger and the backing-off hand lifts it off the bar again (106, 112: far side 0-6%);
+(3) the towel slides off to the far side onto the table after the release (127). Tried (dev seeds 100-120):
+release 6 cm past the rod 4 cm under its top (the hand bodies rest on the towel over the rod and drag it
+when backing off), 9 cm past / 2 cm under (far side too heavy), opening only to 4 cm at the release (the
+back-off drags the corner), sinking the opened hands 5 cm before backing off (no better); kept: 11 cm past,
+1 cm over the top, full opening, back-off along the corner's outward diagonal, then rise.
+Next steps: a release that cannot catch the sheet (turn the wrists so the fingers close along y before the
+lowering: the hand bodies then reach only 3.2 cm along x, but at 17.5 cm between the corners the two hands
+then overlap by ~3 cm in y: needs a 10-column towel); a closed-loop check of the sides before opening.
+"""
 
 from __future__ import annotations
 
@@ -12,7 +29,8 @@ from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.agents.helpers import top_down_quat
 from maniladder_ms.deformables import cloth
-from maniladder_ms.envs import ManiLadderEnv, register_task
+from maniladder_ms.envs import ManiLadderEnv, register_task  # noqa: F401 (the task is not registered yet)
+from maniladder_ms.envs.memory import latch_held_by_both
 from maniladder_ms.geometry import yaw_quat
 from maniladder_ms.objects.tabletop import build_towel_bar
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
@@ -60,7 +78,7 @@ class HangTowelEnv(ManiLadderEnv):
                     is_touching=touching, success=hung & off_table & ~touching)
 
 
-@register_task("HangTowelOnBar")
+# @register_task("HangTowelOnBar")  -- not yet: solver 36/50 on seeds 100-149 (module docstring)
 class HangTowelOnBarEnv(HangTowelEnv):
     """**Task:** a towel lies flat on the table in front of a horizontal bar (a rod along y on two posts);
     each gripper takes the towel's corner on its side of the edge nearest the bar, together they lift the
@@ -82,12 +100,14 @@ class HangTowelOnBarEnv(HangTowelEnv):
     (episode memory `corners_held`: the towel was carried by two corners, not dragged over by one arm).
 
     **Why Level 2:** its Level-1 DG suite-mate SpreadTowelBimanual pulls a towel's two corners back over
-    the table, 8 cm up, and lays them down (2 stages, horizon 150, a 75% coverage target). Here the towel
-    leaves the table: 5 stages (both corners pinched, lifted 24 cm, carried 25-30 cm over a bar whose top is
-    20 cm up with the towel dragging over it, lowered on the far side, released), both arms in lock-step the
-    whole way (one arm ahead tears its corner out or twists the sheet on the bar), and the result is
-    judged after letting go: the 22.5 cm towel must split at least 30/70 over a 2 cm rod (its halves
-    hang ~10 cm, so a towel off centre by 7 cm fails) and must clear the table on both sides.
+    the table, 8 cm up, and lays them down (2 stages, horizon 150, a 75% coverage target, T = 10 log10 N + 2).
+    Here the towel leaves the table: 5 stages (both corners pinched; lifted until the pinches are 24 cm up,
+    4 cm over the 20 cm bar; carried 22-25 cm over it, the towel dragging up and over the 2 cm rod; lowered
+    to 1 cm over its top on the far side; released and backed off without catching the sheet), both arms in
+    lock-step the whole way (one arm ahead twists the sheet on the rod), and the result is judged after
+    letting go: the 22.5 cm towel must leave at least 30% of its 80 particles hanging on each side of the rod
+    (24 particles, three of its ten rows, below the rod's top; its halves hang ~10 cm) and clear the table on
+    both sides; demos take ~230 steps of a 300-step horizon.
     """
 
     SUPPORTED_ROBOTS = ["ml_dual_panda"]
@@ -111,23 +131,18 @@ class HangTowelOnBarEnv(HangTowelEnv):
 
     def corner_particles(self) -> dict:
         """The corner particle (actor) each arm takes, keyed by side."""
-        return {side: self.towel.spheres[self.towel.layout.named["corners"][k]] for side, k in CORNER.items()}
+        return {side: self.towel.corner_spheres()[k] for side, k in CORNER.items()}
 
     def _update_memory(self):
-        if self.memory["corners_held"].all():
-            return  # latched for good
-        corners = [self.towel.spheres[i] for i in self.towel.layout.named["corners"]]
-        left = self.ee.holds(corners, "left")
-        if left.any():  # the right arm's contact queries only where the left holds a corner
-            self.memory.latch("corners_held", left & self.ee.holds(corners, "right"))
+        latch_held_by_both(self, "corners_held", self.towel.corner_spheres())
 
     def _get_obs_extra(self, info: dict):
-        obs = {f"{side}_tcp_pose": self.ee.tcp(side).raw_pose for side in SIDES}
+        tcps = {side: self.ee.tcp(side) for side in SIDES}
+        obs = {f"{side}_tcp_pose": tcp.raw_pose for side, tcp in tcps.items()}
         if "state" in self.obs_mode:
-            obs["towel_points"] = self.towel.positions().flatten(1)
-            obs["bar_pos"] = self.bar.pose.p
-            for side, particle in self.corner_particles().items():
-                obs[f"{side}_tcp_to_corner"] = particle.pose.p - self.ee.tcp(side).p
+            corners = self.corner_particles()
+            obs.update(towel_points=self.towel.positions().flatten(1), bar_pos=self.bar.pose.p,
+                       **{f"{side}_tcp_to_corner": corners[side].pose.p - tcp.p for side, tcp in tcps.items()})
         return obs
 
     def evaluate(self):
@@ -152,14 +167,17 @@ class HangTowelOnBarEnv(HangTowelEnv):
 
 FINGER_GAP_CMD = 0.2  # normalised gripper command: fingers 4 cm apart, around the corner particle only
 CARRY_ABOVE_BAR = 0.04  # TCP height above the bar's top while the corners go over it
-BEYOND_BAR = 0.10  # the corners are carried this far past the bar's axis: about half the towel's length
-RELEASE_ABOVE_BAR = 0.0  # then lowered until the TCPs are this far below the bar's top (the hand bodies still clear the towel on the rod), and let go
+BEYOND_BAR = 0.11  # the corners are carried this far past the bar's axis: about half the towel's length
+RELEASE_ABOVE_BAR = 0.01  # then lowered until the TCPs are this high above the bar's top (the hand bodies, turned
+# along the corners' diagonals and reaching 3.7 cm above the TCP, clear the towel on the rod), and let go
 LIFT_STEP, CARRY_STEP, LOWER_STEP = 0.01, 0.008, 0.006  # metres per control step
 RELEASE_STEPS = 8
-# after letting go, the opened hands first back off horizontally, away from the bar (+x) and outwards (each
-# to its side), out of the towel's reach, then rise: rising first lifted the towel's far edge, lying over a
-# finger after the release, off the bar again (seed 106)
-BACK_OFF, OUTWARDS, RISE = 0.06, 0.03, 0.05
+# after letting go, the opened hands back off horizontally along the corner's outward diagonal (the fingers'
+# open gap: they slide past the corner particle without pushing it), then rise. Rising first lifted the towel's
+# far edge, lying over a finger after the release, off the bar again (seed 106); backing off along x dragged
+# the towel (a finger pushes the corner); with the TCPs 4 cm under the bar's top at the release the hand
+# bodies rest on the towel over the rod and drag it
+BACK_OFF, RISE = 0.08, 0.05
 
 
 @register_solver("HangTowelOnBar", control_modes=TCP_DELTA_MODES)
@@ -167,8 +185,8 @@ def solve_hang_towel_on_bar(env, seed: int) -> dict:
     """Each arm pinches the corner on its side of the towel's edge nearest the bar top-down (fingers opened
     to 4 cm, closing along the corner's diagonal, as SpreadTowelBimanual), both close, rise together until
     the TCPs are `CARRY_ABOVE_BAR` over the bar's top, carry the corners over the bar to `BEYOND_BAR` past
-    its axis (the towel slides up and over the rod), lower them to `DROP_BELOW_BAR` under its top, open,
-    and back off away from the towel."""
+    its axis (the towel slides up and over the rod), lower them to `RELEASE_ABOVE_BAR` over its top, open
+    fully, back off along the corners' outward diagonals and rise."""
     with DrivenSolver.episode(env, seed) as s:
         task: HangTowelOnBarEnv = env.unwrapped
         n, device = task.num_envs, task.device
@@ -204,7 +222,12 @@ def solve_hang_towel_on_bar(env, seed: int) -> dict:
         for _ in range(RELEASE_STEPS):
             s.step()
         up = torch.tensor([0.0, 0.0, RISE], device=device)
-        away = {f"{side}_arm": torch.tensor([BACK_OFF, sign * OUTWARDS, 0.0], device=device) for side, sign in SIDES.items()}
+        points = task.towel.positions()
+        away = {}
+        for side in SIDES:
+            outwards = task.corner_particles()[side].pose.p - points.mean(dim=1)
+            outwards[:, 2] = 0
+            away[f"{side}_arm"] = torch.nn.functional.normalize(outwards, dim=1) * BACK_OFF
         glide(s, {g.arm: (low[g.arm], low[g.arm] + away[g.arm], g.q) for g in grasps}, step_length=LOWER_STEP,
               settle_steps=0)
         glide(s, {g.arm: (low[g.arm] + away[g.arm], low[g.arm] + away[g.arm] + up, g.q) for g in grasps},
