@@ -6,7 +6,9 @@ NOT BUILT YET (work in progress, helper/towelbar, session 14): HangTowelOnBar is
 36/50 (successes in 172-208 steps, mean 188; horizon 300). Failures, by kind (seeds 102, 106, 112, 120, 122,
 123, 127 diagnosed): (1) a corner pinch misses or slips (corners never held by both at once, or the towel
 dropped on the near side: 102, 120, 122, 123); a re-aimed second pinch (open to 4 cm, approach 4 cm above the
-corner where it lies now, close) did not fix 122 / 123 and was dropped; (2) after the release the towel's
+corner where it lies now, close) did not fix 122 / 123 and was dropped, nor did pinching 3 mm above the particle centre (FoldTowelInHalf's
+GRASP_ABOVE: 102, 120, 122, 123 still fail; in 102 / 120 both corners were held, then one slipped and the
+towel fell on the near side); (2) after the release the towel's
 far part lies over a finger and the backing-off hand lifts it off the bar again (106, 112: far side 0-6%);
 (3) the towel slides off to the far side onto the table after the release (127). Tried (dev seeds 100-120):
 release 6 cm past the rod 4 cm under its top (the hand bodies rest on the towel over the rod and drag it
