@@ -429,6 +429,34 @@ def test_cloth_metrics_flat_and_folded():
     assert cloth.fraction_beyond(flat, torch.zeros(3), torch.tensor([1.0, 0, 0]))[0] == pytest.approx(0.5)
 
 
+def test_hanging_fractions_of_a_towel_draped_over_a_bar_and_lying_flat():
+    """`cloth.hanging_fractions` on constructed 10 x 8 towels (HangTowelOnBar's) beside a bar along y with its
+    axis at x = 0.05, top 0.2 m up: draped symmetrically over it (rows 0-3 hanging on the -x side, rows 4-5 on
+    top, rows 6-9 hanging on the +x side) gives 40% / 40%; lying flat on the table on the -x side gives 1 / 0;
+    the same drape shifted by two rows to the +x side 20% / 60%; batched over the three."""
+    spacing, rows, cols = 0.025, 10, 8
+    layout = cloth.towel(rows, cols, spacing)
+    r, c = np.divmod(np.arange(rows * cols), cols)
+    y = layout.positions[:, 1]
+
+    def draped(shift):
+        rr = r + shift  # rows that hang on the -x side: rr < 4; on top: 4, 5; +x side: rr > 5
+        x = np.where(rr < 4, 0.05 - 0.02, np.where(rr > 5, 0.05 + 0.02, 0.05 + (rr - 4.5) * 0.02))
+        z = np.where(rr < 4, 0.2 - (4 - rr) * spacing, np.where(rr > 5, 0.2 - (rr - 5) * spacing, 0.21))
+        return np.stack([x, y, z], axis=1)
+
+    flat = layout.positions + np.array([-0.1, 0.0, 0.01])
+    points = torch.tensor(np.stack([draped(0), flat, draped(2)]), dtype=torch.float32)
+    bar = torch.tensor([[0.05, 0.0, 0.19]] * 3)
+    sides = cloth.hanging_fractions(points, bar, torch.tensor([0.0, 1.0, 0.0]), 0.2)
+    assert sides[0].tolist() == pytest.approx([0.4, 0.4])
+    assert sides[1].tolist() == pytest.approx([1.0, 0.0])
+    assert sides[2].tolist() == pytest.approx([0.2, 0.6])
+    # the bar turned end for end (axis along -y): the sides swap
+    swapped = cloth.hanging_fractions(points, bar, torch.tensor([0.0, -1.0, 0.0]), torch.full((3,), 0.2))
+    assert torch.allclose(swapped[:, [1, 0]], sides)
+
+
 def test_top_down_fold_distance_of_a_towel_folded_in_half_along_its_short_axis():
     """`cloth.fold_distance(..., top_down=True)` on a 10 x 6 towel (FoldTowelInHalf's) folded in half by
     construction (`cloth.fold_edge` at its middle row, the folded rows shifted to lie right over their

@@ -23,7 +23,8 @@ Metrics on particle positions [B, N, 3] (`Cloth.positions()`); the footprint one
   seen from above, leaving out the two layers' thickness);
 - `flatness`: standard deviation of particle heights (0 for a flat sheet);
 - `fraction_below`: fraction of particles lower than a height (hanging below a bar);
-- `fraction_beyond`: fraction of particles on the far side of a vertical plane (one side of a bar).
+- `fraction_beyond`: fraction of particles on the far side of a vertical plane (one side of a bar);
+- `hanging_fractions`: per env, the fractions of particles hanging on each side of a horizontal bar.
 """
 
 from __future__ import annotations
@@ -259,6 +260,11 @@ class Cloth(SphereSet):
         self.layout = layout
         self.config = config
 
+    def corner_spheres(self) -> list[Actor]:
+        """The particles (actors) the layout names `corners`, in its order (a towel's: (-x,-y), (-x,+y),
+        (+x,-y), (+x,+y))."""
+        return [self.spheres[i] for i in self.layout.named["corners"]]
+
     def set_rest_shape(self, pose: Pose):
         """Lay the sheet in its rest shape at `pose` (batched over the envs being reset), at rest."""
         self.set_shape(torch.as_tensor(self.layout.positions, dtype=torch.float32, device=pose.device), None, pose)
@@ -360,6 +366,26 @@ def fraction_beyond(points: torch.Tensor, point: torch.Tensor, normal: torch.Ten
     """Fraction of particles on the side of the plane through `point` [3] facing `normal` [3], [B]
     (with a vertical plane through a bar: the share of the sheet on that side of the bar)."""
     return (((points - point) * normal).sum(dim=-1) > 0).float().mean(dim=1)
+
+
+def hanging_fractions(points: torch.Tensor, bar_point: torch.Tensor, bar_axis: torch.Tensor,
+                      bar_top: torch.Tensor | float) -> torch.Tensor:
+    """Fractions of particles hanging on each side of a horizontal bar, [B, 2]: a particle hangs on a
+    side if it lies beyond the vertical plane through the bar's axis on that side (column 0: the side
+    the horizontal normal `bar_axis x z` points away from, column 1: the side it points to; a bar along +y:
+    -x, +x) and lower
+    than the bar's top `bar_top` ([B] or a float; particles over the bar count for neither side).
+    `points` [B, N, 3]; `bar_point` [B, 3] a point on the bar's axis; `bar_axis` [B, 3] or [3] its
+    direction. A towel draped symmetrically over the bar gives about (0.5, 0.5); one lying flat on the
+    table on one side gives 1 on that side and 0 on the other."""
+    axis = torch.as_tensor(bar_axis, dtype=points.dtype, device=points.device).expand(points.shape[0], 3)
+    normal = torch.stack([axis[:, 1], -axis[:, 0], torch.zeros_like(axis[:, 0])], dim=1)  # bar_axis x z
+    normal = torch.nn.functional.normalize(normal, dim=1)
+    signed = ((points - bar_point[:, None]) * normal[:, None]).sum(dim=-1)  # [B, N]
+    top = torch.as_tensor(bar_top, dtype=points.dtype, device=points.device)
+    below = points[..., 2] < (top[:, None] if top.dim() else top)
+    return torch.stack([((signed < 0) & below).float().mean(dim=1), ((signed > 0) & below).float().mean(dim=1)],
+                       dim=1)
 
 
 def grid_yaw(points: torch.Tensor, links: list[tuple[int, int]]) -> torch.Tensor:

@@ -109,3 +109,15 @@ class EpisodeMemory:
             self._fields[name][env_idx] = value
 
         return set_field
+
+
+def latch_held_by_both(env, flag: str, parts: list) -> None:
+    """Latch the memory flag `flag` of `env` (a two-arm ManiLadderEnv) where its left and its right end effector
+    each hold (`ee.holds`) one of `parts` (actors, links, cloth particles) at this step: an object taken by
+    both arms at once (a towel by two corners). The right side's contact queries run only where the left holds
+    one; once latched everywhere, nothing is queried."""
+    if env.memory[flag].all():
+        return
+    left = env.ee.holds(parts, "left")
+    if left.any():
+        env.memory.latch(flag, left & env.ee.holds(parts, "right"))

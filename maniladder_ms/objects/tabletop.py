@@ -218,3 +218,30 @@ def place_at_rest(actor, pose):
     actor.set_pose(pose)
     actor.set_linear_velocity(pose.p.new_zeros(pose.p.shape))
     actor.set_angular_velocity(pose.p.new_zeros(pose.p.shape))
+
+
+def build_towel_bar(scene: ManiSkillScene, name: str, top_height: float, bar_radius: float, half_length: float,
+                    color, post_radius: float = 0.012, friction: float = 1.0) -> "Actor":
+    """A fixed (kinematic) towel bar: a horizontal round rod along y, its top `top_height` above the table,
+    `half_length` to each side of its middle, on two upright posts under its ends (each on a thin foot plate).
+    The actor origin is on the table under the rod's middle. `friction`: static and dynamic, of its surface."""
+    builder = scene.create_actor_builder()
+    material = physx.PhysxMaterial(friction, friction, 0.0)
+    along_y = sapien.Pose(q=[np.cos(np.pi / 4), 0, 0, np.sin(np.pi / 4)])  # SAPIEN cylinders lie along x
+    along_z = sapien.Pose(q=[np.cos(np.pi / 4), 0, np.sin(np.pi / 4), 0])
+    axis_height = top_height - bar_radius
+    cylinders = [(sapien.Pose(p=[0, 0, axis_height]) * along_y, bar_radius, half_length + post_radius)]
+    cylinders += [(sapien.Pose(p=[0, sign * half_length, axis_height / 2]) * along_z, post_radius, axis_height / 2)
+                  for sign in (1, -1)]
+    feet = [(sapien.Pose(p=[0, sign * half_length, 0.004]), [0.03, 0.03, 0.004]) for sign in (1, -1)]
+    mat = sapien.render.RenderMaterial(base_color=list(color), roughness=0.4) if scene.can_render() else None
+    for pose, radius, half in cylinders:
+        builder.add_cylinder_collision(pose, radius=radius, half_length=half, material=material)
+        if mat is not None:
+            builder.add_cylinder_visual(pose, radius=radius, half_length=half, material=mat)
+    for pose, half in feet:
+        builder.add_box_collision(pose, half_size=half, material=material)
+        if mat is not None:
+            builder.add_box_visual(pose, half_size=half, material=mat)
+    builder.initial_pose = sapien.Pose()
+    return builder.build_kinematic(name=name)

@@ -14,6 +14,7 @@ from mani_skill.utils.structs.pose import Pose
 from maniladder_ms.agents.helpers import top_down_quat
 from maniladder_ms.deformables import cloth, metrics
 from maniladder_ms.envs import ManiLadderEnv, register_task
+from maniladder_ms.envs.memory import latch_held_by_both
 from maniladder_ms.geometry import yaw_quat
 from maniladder_ms.objects.markers import MARKER_THICKNESS, build_zone_marker
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
@@ -85,15 +86,10 @@ class SpreadTowelBimanualEnv(ManiLadderEnv):
 
     def corner_particles(self) -> dict:
         """The corner particle (actor) each arm takes, keyed by side."""
-        return {side: self.towel.spheres[self.towel.layout.named["corners"][k]] for side, k in CORNER.items()}
+        return {side: self.towel.corner_spheres()[k] for side, k in CORNER.items()}
 
     def _update_memory(self):
-        if self.memory["corners_held"].all():
-            return  # latched for good
-        corners = [self.towel.spheres[i] for i in self.towel.layout.named["corners"]]
-        left = self.ee.holds(corners, "left")
-        if left.any():  # the right arm's contact queries only where the left holds a corner
-            self.memory.latch("corners_held", left & self.ee.holds(corners, "right"))
+        latch_held_by_both(self, "corners_held", self.towel.corner_spheres())
 
     def _get_obs_extra(self, info: dict):
         obs = {f"{side}_tcp_pose": self.ee.tcp(side).raw_pose for side in SIDES}
