@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 from typing import Any
 
 import numpy as np
@@ -61,22 +60,11 @@ class PourWaterHandEnv(CupToBowl, ManiLadderEnv):
     READY_JOINTS = {f"panda_joint{i}": angle for i, angle in enumerate(READY_ARM_JOINTS, 1)}
     # PourGrainsHandToCup's glass (a tall, slightly flared cup): tall enough for a LEAP side grasp below the water's surface
     cup_shape = containers.glass(bottom_radius=0.027, top_radius=0.029, height=0.13)
-    particle_name = "water"
     placement = {"cup": ((-0.2, -0.14), (-0.1, -0.04)), "bowl": ((-0.06, 0.0), (0.08, 0.14))}
-
-    @property
-    def particle_config(self) -> particles.ParticleConfig:
-        return dataclasses.replace(particles.LIQUID, count=self.particle_count, radius=0.004)
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
-        self._load_cup_and_bowl()
         self.memory.value("poured_held", 1)
-
-    def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
-        super()._initialize_episode(env_idx, options)
-        with torch.device(self.device):
-            self._place_cup_and_bowl(len(env_idx))
 
     def cup_held_up(self) -> torch.Tensor:
         """(B,) the hand holds the cup and its bottom is at least `lift_height` above the table."""
