@@ -1,8 +1,10 @@
 """What the pouring tasks share: a cup full of particles, a bowl to pour them into, and their metrics.
 
-`CupToBowl` is a mixin for `ManiLadderEnv` tasks (before it in the bases): it builds the cup, the bowl
-and the particles, places them, and measures where the particles are (`pour_metrics`, on which the
-tasks' success rules stand).
+`CupToBowl` is a mixin for `ManiLadderEnv` tasks (before it in the bases): its `_load_scene` builds the
+cup, the bowl and the particles, its `_initialize_episode` places them, and it measures where the
+particles are (`pour_metrics`, on which the tasks' success rules stand). A task sets what differs (shapes,
+names, `placement`, `particle_material`, ...) and extends `_load_scene` (after `super()`) with its own
+episode memory.
 
 The PourParticles family's rule, `held_pour_metrics`: at least `success_fraction` of the particles lie in
 the receiving container, and every container named in `held_containers` was held (`ee.holds`) by its end
@@ -14,6 +16,8 @@ at success included. A pour that tips a container over, or lets go of the held b
 from __future__ import annotations
 
 from typing import ClassVar
+
+import dataclasses
 
 import torch
 
@@ -41,8 +45,11 @@ class CupToBowl:
     # (that side drawn first)
     placement: ClassVar[dict[str, tuple]]
     cup_either_side: ClassVar[bool] = False
-    particle_config: ClassVar[particles.ParticleConfig]
-    particle_name: ClassVar[str]  # names the particle actors (<name>_<i>) and their obs entry
+    # the particles: `particle_material`'s spheres, `particle_radius` each, the task's `particle_count` param of
+    # them (`particle_config`; a task whose params name them otherwise overrides that property)
+    particle_material: ClassVar[particles.ParticleConfig] = particles.LIQUID
+    particle_radius: ClassVar[float] = 0.004
+    particle_name: ClassVar[str] = "water"  # names the particle actors (<name>_<i>) and their obs entry
     success_fraction: ClassVar[float] = 0.8
     # two restores of one state into a scene that simulated on part by 4e-5 to 4e-4 m over 5 steps (PhysX
     # solver data outside the env state; measured on 80 beans resting in the cup): state checks use fresh scenes
@@ -54,6 +61,19 @@ class CupToBowl:
     # "cup" / "bowl" (the roles) -> the side (`ee.sides`) that must hold that container while particles land
     # in the bowl (`held_pour_metrics`); empty: nothing need be held
     held_containers: ClassVar[dict[str, str]] = {}
+
+    @property
+    def particle_config(self) -> particles.ParticleConfig:
+        return dataclasses.replace(self.particle_material, count=self.particle_count, radius=self.particle_radius)
+
+    def _load_scene(self, options: dict):
+        super()._load_scene(options)
+        self._load_cup_and_bowl()
+
+    def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
+        super()._initialize_episode(env_idx, options)
+        with torch.device(self.device):
+            self._place_cup_and_bowl(len(env_idx))
 
     def _load_cup_and_bowl(self):
         self.cup = containers.build_container(self.scene, self.cup_name, self.cup_shape, color=(0.9, 0.9, 0.92, 1),

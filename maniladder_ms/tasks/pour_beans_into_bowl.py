@@ -52,13 +52,7 @@ class PourBeansIntoBowlEnv(CupToBowl, ManiLadderEnv):
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
-        self._load_cup_and_bowl()
         self.memory.value("in_bowl_unheld")
-
-    def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
-        super()._initialize_episode(env_idx, options)
-        with torch.device(self.device):
-            self._place_cup_and_bowl(len(env_idx))
 
     def _in_bowl(self) -> torch.Tensor:
         return particles.fraction_inside(self.particles.positions(), self.bowl.pose, self.bowl_shape)

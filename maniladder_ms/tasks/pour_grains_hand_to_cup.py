@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 from typing import Any
 
 import numpy as np
@@ -70,18 +69,8 @@ class PourGrainsHandToCupEnv(CupToBowl, ManiLadderEnv):
     bowl_color = (0.8, 0.35, 0.3, 1)
     placement = {"bowl": ((-0.06, 0.0), (-0.06, 0.0)), "cup": ((-0.16, -0.1), (0.14, 0.2))}
 
-    @property
-    def particle_config(self) -> particles.ParticleConfig:
-        return dataclasses.replace(particles.GRANULAR, count=self.particle_count, radius=0.004)
-
-    def _load_scene(self, options: dict):
-        super()._load_scene(options)
-        self._load_cup_and_bowl()
-
-    def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
-        super()._initialize_episode(env_idx, options)
-        with torch.device(self.device):
-            self._place_cup_and_bowl(len(env_idx))
+    particle_material = particles.GRANULAR
+    particle_radius = 0.004
 
     def _get_obs_extra(self, info: dict):
         obs = dict(left_tcp_pose=self.ee.tcp("left").raw_pose, right_tcp_pose=self.ee.tcp("right").raw_pose,

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 from typing import Any
 
 import numpy as np
@@ -61,23 +60,12 @@ class PourWaterBimanualEnv(CupToBowl, ManiLadderEnv):
     bowl_shape = containers.cup(radius=0.03, height=0.08, wall=0.004)
     bowl_density = CupToBowl.cup_density
     bowl_color = (0.85, 0.45, 0.35, 1)
-    particle_name = "water"
     held_containers = {"bowl": "left", "cup": "right"}
     placement = {"bowl": ((-0.16, -0.1), (0.18, 0.26)), "cup": ((-0.16, -0.1), (-0.26, -0.18))}
 
-    @property
-    def particle_config(self) -> particles.ParticleConfig:
-        return dataclasses.replace(particles.LIQUID, count=self.particle_count, radius=0.004)
-
     def _load_scene(self, options: dict):
         super()._load_scene(options)
-        self._load_cup_and_bowl()
         self.memory.flag("poured_low")
-
-    def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
-        super()._initialize_episode(env_idx, options)
-        with torch.device(self.device):
-            self._place_cup_and_bowl(len(env_idx))
 
     def _update_memory(self):
         super()._update_memory()

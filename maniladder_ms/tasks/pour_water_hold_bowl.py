@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 from typing import Any
 
 import numpy as np
@@ -11,7 +10,6 @@ import torch
 from mani_skill.utils.geometry.rotation_conversions import axis_angle_to_quaternion, quaternion_multiply
 
 from maniladder_ms.agents.helpers import top_down_quat
-from maniladder_ms.deformables import particles
 from maniladder_ms.deformables.pouring import CupToBowl
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
@@ -42,24 +40,10 @@ class PourWaterHoldBowlEnv(CupToBowl, ManiLadderEnv):
     max_dense_reward = 6
     TASK_REGION = (-0.25, 0.15, -0.32, 0.15)
     PARAMS = ("success_fraction", "particle_count")
-    particle_name = "water"
     held_containers = {"bowl": "left", "cup": "right"}
     bowl_density = CupToBowl.cup_density  # ~0.1 kg: light, worth holding
     bowl_color = (0.85, 0.75, 0.55, 1)
     placement = {"bowl": ((0.0, 0.06), (-0.04, 0.04)), "cup": ((-0.16, -0.1), (-0.26, -0.18))}
-
-    @property
-    def particle_config(self) -> particles.ParticleConfig:
-        return dataclasses.replace(particles.LIQUID, count=self.particle_count, radius=0.004)
-
-    def _load_scene(self, options: dict):
-        super()._load_scene(options)
-        self._load_cup_and_bowl()
-
-    def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
-        super()._initialize_episode(env_idx, options)
-        with torch.device(self.device):
-            self._place_cup_and_bowl(len(env_idx))
 
     def rim_point(self) -> torch.Tensor:
         """The middle of the bowl's wall at its left (+y) rim, 1 cm below the rim: where the left arm holds it."""
