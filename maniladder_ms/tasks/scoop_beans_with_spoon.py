@@ -52,7 +52,7 @@ class ScoopBeansWithSpoonEnv(ManiLadderEnv):
 
     **Level 2:** against its Level 1 suite-mate PourBeansIntoBowl (2 stages, ~120 steps: grasp a cup and
     roll it over a bowl; the beans travel in a closed container and 80% of them may land anywhere in a bowl
-    16 cm wide): 5 stages in ~270 of 300 steps (grasp a 1.6 cm handle; dig the head's edge, 25 degrees
+    16 cm wide): 5 stages in ~234 of 300 steps (grasp a 1.6 cm handle; dig the head's edge, 25 degrees
     front down, into a pile ~2 beans deep; drag it 6-7 cm through the pile and up the far wall, the edge
     1-3 mm over the floor and wall; turn the head 35 degrees about its edge to 10 degrees front up and
     lift it out; carry it 0.2 m and tip it 60 degrees over an 8 cm cup). The beans ride loose on an open
