@@ -62,7 +62,7 @@ class ScoopBeansWithSpoonEnv(ManiLadderEnv):
     """
 
     max_dense_reward = 6
-    TASK_REGION = (-0.17, 0.1, -0.38, 0.24)
+    TASK_REGION = (-0.17, 0.13, -0.38, 0.24)
     PARAMS = ("bean_count", "bean_radius", "min_beans")
     # piles of beans: PhysX contact caches are not env state (as the pour tasks)
     RESTORES_NEED_FRESH_SCENE = True
