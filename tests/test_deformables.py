@@ -12,6 +12,7 @@ import maniladder_ms  # noqa: F401
 from maniladder_ms.deformables import clay, cloth, metrics, particles, rope
 from maniladder_ms.deformables.showcase import SHOWCASE_ENV_IDS
 from maniladder_ms.objects import containers
+from mani_skill.utils.geometry.rotation_conversions import quaternion_apply
 from mani_skill.utils.structs.pose import Pose
 
 RANDOM_STEPS = 1000
@@ -668,6 +669,32 @@ def test_base_inside_a_bowl():
     bases = torch.tensor([[0.12, -0.19, 0.01], [0.1, 0.0, 0.0], [0.1, -0.2, bowl.height + 0.02],
                           [0.1 + bowl.rim_radius + 0.01, -0.2, 0.02]])
     assert base_inside(bases, pose, bowl).tolist() == [True, False, False, False]
+
+
+def test_beans_resting_in_a_tipped_spoon_head_are_inside_its_box():
+    from maniladder_ms.objects.tools import SpoonShape
+
+    spoon = SpoonShape()
+    centre, half = spoon.bowl_box(0.01)
+    # two spoons: one level at the origin, one turned 90 degrees about z and tipped 30 degrees about its
+    # own y (front down), 0.2 m away; beans laid on each plate (one bean radius up) in the head's frame
+    tilt = np.radians(30)
+    qz = [np.cos(np.pi / 4), 0, 0, np.sin(np.pi / 4)]
+    qy = [np.cos(tilt / 2), 0, np.sin(tilt / 2), 0]
+    q = torch.tensor([[1.0, 0, 0, 0], [qz[0] * qy[0], -qz[3] * qy[2], qz[0] * qy[2], qz[3] * qy[0]]])
+    pose = Pose.create_from_pq(torch.tensor([[0.0, 0.0, 0.0], [0.2, 0.1, 0.3]]), q)
+    r = 0.004
+    on_plate = torch.tensor([[0.02, 0.018, spoon.plate + r], [-0.02, -0.018, spoon.plate + r],
+                             [0.0, 0.0, spoon.plate + 3 * r]])
+    beside = torch.tensor([[0.0, spoon.head_half[1] + 0.01, spoon.plate + r],  # outside the side rim
+                           [spoon.front_x + r, 0.0, r],  # just past the front lip
+                           [0.0, 0.0, -r]])  # under the plate
+    local = torch.cat([on_plate, beside])[None].expand(2, -1, -1)
+    world = pose.p[:, None] + quaternion_apply(pose.q[:, None].expand(-1, 6, -1), local)
+    assert particles.inside_box(world, pose, centre, half).tolist() == [[True] * 3 + [False] * 3] * 2
+    # the same beans counted against the other spoon's pose: none inside
+    swapped = Pose.create_from_pq(pose.p.flip(0), pose.q.flip(0))
+    assert not particles.inside_box(world, swapped, centre, half).any()
 
 
 def test_container_decomposition_is_cached(monkeypatch):

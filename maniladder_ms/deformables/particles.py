@@ -7,7 +7,9 @@ high friction, so they pile and pour in clumps. Cost is dominated by sphere-sphe
 Metrics (success rules of pouring tasks), on positions [B, N, 3]:
 - `fraction_inside(positions, container_pose, shape)`: share of particles inside a container's inner
   volume (`maniladder_ms.objects.containers.ContainerShape.inside`);
-- `fraction_spilled(positions, containers)`: share of particles inside none of the given containers.
+- `fraction_spilled(positions, containers)`: share of particles inside none of the given containers;
+- `inside_box(positions, pose, centre, half_size)`: which particles lie in a box fixed in a moving body
+  (the hollow of a spoon's head), [B, N].
 """
 
 from __future__ import annotations
@@ -121,3 +123,13 @@ def fraction_spilled(positions: torch.Tensor, containers: list[tuple[Pose, Conta
     for pose, shape in containers:
         held |= shape.inside(positions, pose)
     return 1 - held.float().mean(dim=1)
+
+
+def inside_box(positions: torch.Tensor, pose: Pose, centre, half_size) -> torch.Tensor:
+    """Which particles [B, N, 3] (world) lie inside a box fixed in a body at `pose` (batched, B): the box's
+    `centre` and `half_size` (3 floats each) in the body's frame, axes along the body's; [B, N] bool."""
+    m = pose.to_transformation_matrix()  # [B, 4, 4]
+    local = torch.einsum("bij,bni->bnj", m[:, :3, :3], positions - m[:, None, :3, 3])
+    c = torch.as_tensor(centre, dtype=local.dtype, device=local.device)
+    h = torch.as_tensor(half_size, dtype=local.dtype, device=local.device)
+    return ((local - c).abs() <= h).all(dim=-1)

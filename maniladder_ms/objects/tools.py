@@ -161,3 +161,89 @@ def build_rolling_pin(scene: ManiSkillScene, name: str, shape: RollingPinShape, 
                                     material=handle_mat)
     builder.initial_pose = sapien.Pose(p=[0, 0, shape.barrel_radius])
     return builder.build(name=name)
+
+
+@dataclass(frozen=True)
+class SpoonShape:
+    """A flat-bottomed spoon (a scoop, like a dustpan) lying along its local x: the head, a base plate
+    (inner area 2 x `head_half`, `plate` thick, its front edge bevelled over `bevel` down to `edge` thick,
+    so it slides under a bean instead of pushing it) walled by rims `rim` thick and `rim_height` above the
+    plate's top at the back and the sides and open at the front (+x), and behind it a straight handle
+    (`handle_length` long, 2 x `handle_half` wide and high, its centre `handle_z` up: a riser on the back
+    rim carries it, so it clears a bowl's rim while the head is down in the bowl) resting on a small foot
+    at its far end, so the spoon lies level on the table. The origin is the centre of the plate's bottom
+    face."""
+
+    head_half: tuple[float, float] = (0.025, 0.022)
+    plate: float = 0.004
+    bevel: float = 0.012
+    edge: float = 0.001
+    rim: float = 0.004
+    rim_height: float = 0.022
+    handle_length: float = 0.1
+    handle_half: float = 0.008
+    handle_z: float = 0.05
+
+    @property
+    def back_x(self) -> float:
+        """Local x of the back rim's outer face, where the handle starts."""
+        return -self.head_half[0] - self.rim
+
+    @property
+    def front_x(self) -> float:
+        """Local x of the plate's front edge."""
+        return self.head_half[0]
+
+    def plate_vertices(self) -> np.ndarray:
+        """[10, 3] corners of the bevelled plate (a convex prism) in the spoon frame."""
+        hx, hy = self.head_half
+        p, b, e = self.plate, self.bevel, self.edge
+        return np.array([[x, y, z] for y in (-hy - self.rim, hy + self.rim)
+                         for x, z in ((-hx, 0.0), (hx, 0.0), (hx, e), (hx - b, p), (-hx, p))], dtype=float)
+
+    def parts(self) -> list[tuple[list[float], list[float]]]:
+        """(centre, half size) boxes in the spoon frame (the plate is `plate_vertices`): back rim, side rims,
+        riser, handle, foot."""
+        hx, hy = self.head_half
+        t, p = self.rim, self.plate
+        wall = (p + self.rim_height) / 2
+        h = self.handle_half
+        handle_x = self.back_x - self.handle_length / 2
+        foot_top = self.handle_z - h
+        riser = (p + self.rim_height + self.handle_z + h) / 2  # from the back rim's top to the handle's top
+        return [
+            ([-hx - t / 2, 0.0, wall], [t / 2, hy + t, wall]),
+            ([0.0, hy + t / 2, wall], [hx, t / 2, wall]),
+            ([0.0, -hy - t / 2, wall], [hx, t / 2, wall]),
+            ([-hx - t / 2, 0.0, riser], [t / 2, h, self.handle_z + h - riser]),
+            ([handle_x, 0.0, self.handle_z], [self.handle_length / 2, h, h]),
+            ([self.back_x - self.handle_length + 0.006, 0.0, foot_top / 2], [0.006, h, foot_top / 2]),
+        ]
+
+    def bowl_box(self, above: float) -> tuple[list[float], list[float]]:
+        """(centre, half size) in the spoon frame of the head's hollow: the plate's inner area, from its bottom
+        up to `above` over the rims' top (what a bean resting in the head occupies)."""
+        top = self.plate + self.rim_height + above
+        return [0.0, 0.0, top / 2], [self.head_half[0], self.head_half[1], top / 2]
+
+
+def build_spoon(scene: ManiSkillScene, name: str, shape: SpoonShape, density: float, color,
+                friction: float = 0.8) -> "Actor":
+    """The spoon as a dynamic actor lying level on the table (origin at the plate's bottom centre, z = 0).
+    The plate's convex prism is written once as a mesh file into the cache (`paths.cache_dir`), keyed by
+    its corners."""
+    builder = scene.create_actor_builder()
+    material = sapien.render.RenderMaterial(base_color=list(color), roughness=0.4)
+    surface = physx.PhysxMaterial(friction, friction, 0.0)
+    vertices = shape.plate_vertices()
+    key = hashlib.sha1(np.round(vertices, 6).tobytes()).hexdigest()[:16]
+    path = cache_dir("meshes", f"spoon_plate_{key}") / "plate.obj"
+    if not path.exists():
+        trimesh.Trimesh(vertices).convex_hull.export(path)
+    builder.add_convex_collision_from_file(str(path), material=surface, density=density)
+    builder.add_visual_from_file(str(path), material=material)
+    for centre, half in shape.parts():
+        builder.add_box_collision(sapien.Pose(p=centre), half_size=half, material=surface, density=density)
+        builder.add_box_visual(sapien.Pose(p=centre), half_size=half, material=material)
+    builder.initial_pose = sapien.Pose(p=[0, 0, 0.001])
+    return builder.build(name=name)
