@@ -14,12 +14,12 @@ from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.agents.helpers import top_down_quat
 from maniladder_ms.deformables import particles
-from maniladder_ms.envs import ManiLadderEnv, register_task
+from maniladder_ms.envs import ManiLadderEnv, register_task  # noqa: F401 (registered once finished)
 from maniladder_ms.geometry import yaw_of, yaw_quat
 from maniladder_ms.objects import containers
 from maniladder_ms.objects.tabletop import place_at_rest
 from maniladder_ms.objects.tools import SpoonShape, build_spoon
-from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
+from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver  # noqa: F401
 from maniladder_ms.solvers.driven import DrivenSolver
 
 SPOON_DENSITY = 500.0  # kg/m^3 (a light wooden spoon)
@@ -27,7 +27,9 @@ SPOON_FRICTION = 2.0  # a grippy handle: the fingers' pads hold its pitch agains
 BOWL_DENSITY = 2400.0  # kg/m^3 (a heavy stoneware bowl: the spoon scrapes its floor and wall)
 
 
-@register_task("ScoopBeansWithSpoon")
+# NOT REGISTERED (unfinished: the solver delivers >= min_beans = 10 beans on 3 of seeds 100-109; it reached
+# 47/50 only with min_beans lowered to 5, which the catalog does not take: see its row). Register with
+# @register_task("ScoopBeansWithSpoon") once a solver passes at 10 (a second scoop, or a deeper haul)
 class ScoopBeansWithSpoonEnv(ManiLadderEnv):
     """**Task:** a bowl of beans, a cup and a spoon stand on the table. Grasp the spoon by its handle, scoop
     beans out of the bowl with its head, carry them level to the cup and tip them into it.
@@ -189,7 +191,7 @@ def _rotation(axis: torch.Tensor, angle: float) -> torch.Tensor:
     return axis_angle_to_quaternion(axis * angle)
 
 
-@register_solver("ScoopBeansWithSpoon", control_modes=TCP_DELTA_MODES)
+# @register_solver("ScoopBeansWithSpoon", control_modes=TCP_DELTA_MODES)  (with the task)
 def solve_scoop_beans_with_spoon(env, seed: int) -> dict:
     """Grasp the handle top-down behind the head; tilt the head front down, lower it into the near side of
     the pile and drag it through to the far side; level it, lift and carry it over the cup; tip it front
