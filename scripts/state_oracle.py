@@ -1,0 +1,120 @@
+"""The reference policy's state oracle: the same LadderFlow network and training as `maniladder calibrate`, fed
+the task's privileged state (obs_mode "state": robot joints and velocities plus object poses) instead of image
+features. It separates "the policy cannot see well enough" from "20 demos and this network cannot do the task
+even with perfect perception".
+
+It reads a calibration work folder (`maniladder calibrate --work W` made `W/<task>/features.npz` and the demos):
+the demos' joint-target actions are replayed from each episode's reset in a state-obs env, the states before the
+frames the visual policy trained on are its inputs (normalised per dimension), and the trained policy is
+evaluated on the protocol's selection seeds (1,010,000 + k) with the catalog horizon.
+
+    python scripts/state_oracle.py PickPlacePen --work runs/calibration_v3 --episodes 20
+    python scripts/state_oracle.py PickPlacePen --work runs/calibration_v3 --noise 0   # deterministic sampling
+
+Measured (session 14, protocol v3 settings, 3000 steps): see the issue-20 note.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+import torch
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+
+SELECTION_SEED_BASE = 1_010_000  # `maniladder eval --seed 1`: the protocol's selection seeds
+
+
+def state_episodes(env, features, meta, n):
+    """(normalised-later states (F, 1, D), joint-target actions (T, A), frames (F,)) per demo, and the
+    replay success count."""
+    from maniladder_ms.demos.files import episode_reset_kwargs
+
+    episodes, replayed = [], 0
+    for i, ep in enumerate(meta["episodes"][:n]):
+        actions = torch.from_numpy(features[f"actions_{i}"]).float()
+        frames = torch.from_numpy(features[f"frames_{i}"].astype(np.int64))
+        obs, _ = env.reset(**episode_reset_kwargs(ep))
+        states, success = [obs[0].float()], False
+        for a in actions:
+            obs, _, _, _, info = env.step(a[None])
+            states.append(obs[0].float())
+            success |= bool(info["success"][0])
+        replayed += success
+        episodes.append((torch.stack(states)[frames][:, None], actions, frames))
+    return episodes, replayed
+
+
+def sample_chunk(policy, state, noise: float, generator):
+    """An action chunk from the flow integrated from `noise` x N(0, I) (1: the protocol's sampling; 0: from the
+    chunk space's centre, deterministic)."""
+    net = policy.net
+    with torch.no_grad():
+        memory = net.encode_obs(state.reshape(1, 1, -1))
+        x = noise * torch.randn(1, net.config.chunk, net.action_dim, generator=generator)
+        steps = net.config.integration_steps
+        for k in range(steps):
+            x = x + net.velocity(memory, x, torch.full((1,), k / steps)) / steps
+    return policy.normalizer.denormalize(x[0])[: net.config.execute]
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("task")
+    ap.add_argument("--work", default="runs/calibration_v3", help="calibration work folder holding <task>/features.npz")
+    ap.add_argument("--steps", type=int, default=3000, help="training steps")
+    ap.add_argument("--episodes", type=int, default=20, help="evaluation episodes on the selection seeds")
+    ap.add_argument("--noise", type=float, default=1.0, help="scale of the flow's initial noise at inference")
+    ap.add_argument("--out", default=None, help="save the trained checkpoint here")
+    args = ap.parse_args(argv)
+
+    import maniladder_ms
+    from maniladder_ms.demos.files import demo_path, load_demo_json, replay_env_kwargs
+    from maniladder_ms.policy.calibrate import POLICY_CONTROL_MODE, CalibrationProtocol, demo_control_mode_for
+    from maniladder_ms.policy.flow import LadderFlowConfig, LadderFlowTrainer
+    from tqdm import tqdm
+
+    torch.set_num_threads(1)
+    work = Path(args.work) / args.task
+    if not (work / "features.npz").is_file():
+        sys.exit(f"{work}/features.npz not found: run `maniladder calibrate --tasks {args.task} --work {args.work}` first")
+    features = np.load(work / "features.npz")
+    meta = load_demo_json(demo_path(work / "demos", args.task, "none", demo_control_mode_for(args.task)))
+    env = maniladder_ms.make(args.task, obs_mode="state", control_mode=POLICY_CONTROL_MODE, **{
+        k: v for k, v in replay_env_kwargs(meta).items() if k != "control_mode"})
+    episodes, replayed = state_episodes(env, features, meta, CalibrationProtocol().demos)
+    print(f"{args.task}: {replayed}/{len(episodes)} demos replay to success from their joint targets")
+    states = torch.cat([e[0] for e in episodes])
+    mean, std = states.mean(0), states.std(0).clamp(min=1e-2)  # near-constant dims are not blown up
+    episodes = [((s - mean) / std, a, f) for s, a, f in episodes]
+    trainer = LadderFlowTrainer(LadderFlowConfig(keypoints=0, grid=1, train_steps=args.steps), episodes)
+    losses = trainer.train(args.steps, progress=True)
+    print(f"loss: first 50 steps {np.mean(losses[:50]):.3f}, last 200 {np.mean(losses[-200:]):.3f}")
+    if args.out:
+        trainer.save(args.out, meta={"task": args.task, "state_mean": mean, "state_std": std})
+    policy, generator = trainer.policy(), torch.Generator()
+    horizon = maniladder_ms.default_catalog().get(args.task).horizon
+    successes = []
+    for k in tqdm(range(args.episodes), desc="evaluate"):
+        seed = SELECTION_SEED_BASE + k
+        obs, _ = env.reset(seed=seed)
+        generator.manual_seed(seed)
+        steps, done = 0, False
+        while steps < horizon and not done:
+            for a in sample_chunk(policy, (obs[0].float() - mean) / std, args.noise, generator):
+                obs, _, _, _, info = env.step(a[None])
+                steps += 1
+                done = bool(info["success"][0])
+                if done or steps >= horizon:
+                    break
+        successes.append(done)
+    print(f"STATE ORACLE {args.task}: {sum(successes)}/{len(successes)} on selection seeds "
+          f"(noise {args.noise}, {args.steps} steps)")
+
+
+if __name__ == "__main__":
+    main()
