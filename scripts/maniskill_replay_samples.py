@@ -9,10 +9,7 @@ CI runs the same check on a sample (tests/test_demos.py::test_wheel_install_repl
 rgbd conversion test); this is the full sweep (~2-5 min a task on a loaded 2-core machine).
 """
 
-import os
 import re
-import shutil
-import subprocess
 import sys
 import tempfile
 import time
@@ -20,20 +17,13 @@ from pathlib import Path
 
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))  # this checkout's package, whatever the venv has installed
-from maniladder_ms.demos.wheel import build_wheel_site  # noqa: E402
+from maniladder_ms.demos.wheel import build_wheel_site, maniskill_replay  # noqa: E402
 
 SAVED = re.compile(r"(\d+)/(\d+)=[\d.]+% demos saved")
 
 
 def replay(path: Path, install: Path, tmp: Path, kind: str) -> tuple[bool, str]:
-    work = tmp / kind / path.parent.name
-    work.mkdir(parents=True, exist_ok=True)
-    for suffix in (".h5", ".json"):  # a copy: the replay writes its output beside the file it reads
-        shutil.copy(path.with_suffix(suffix), work / path.with_suffix(suffix).name)
-    env = {**os.environ, "PYTHONPATH": str(install), "MANILADDER_CACHE": str(tmp / f"cache_{kind}")}
-    result = subprocess.run([sys.executable, "-m", "mani_skill.trajectory.replay_trajectory", "--traj-path",
-                             str(work / path.name), "-o", "state", "--save-traj", "-b", "physx_cpu"],
-                            capture_output=True, text=True, env=env, cwd=tmp)
+    result = maniskill_replay(path, install, tmp / kind / path.parent.name, tmp / f"cache_{kind}", cwd=tmp)
     found = SAVED.search(result.stdout + result.stderr)
     if found is None:
         return False, f"no result (exit {result.returncode}): {(result.stdout + result.stderr)[-800:]}"

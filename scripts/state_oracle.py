@@ -49,19 +49,6 @@ def state_episodes(env, features, meta, n):
     return episodes, replayed
 
 
-def sample_chunk(policy, state, noise: float, generator):
-    """An action chunk from the flow integrated from `noise` x N(0, I) (1: the protocol's sampling; 0: from the
-    chunk space's centre, deterministic)."""
-    net = policy.net
-    with torch.no_grad():
-        memory = net.encode_obs(state.reshape(1, 1, -1))
-        x = noise * torch.randn(1, net.config.chunk, net.action_dim, generator=generator)
-        steps = net.config.integration_steps
-        for k in range(steps):
-            x = x + net.velocity(memory, x, torch.full((1,), k / steps)) / steps
-    return policy.normalizer.denormalize(x[0])[: net.config.execute]
-
-
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("task")
@@ -105,7 +92,8 @@ def main(argv=None):
         generator.manual_seed(seed)
         steps, done = 0, False
         while steps < horizon and not done:
-            for a in sample_chunk(policy, (obs[0].float() - mean) / std, args.noise, generator):
+            state = ((obs[0].float() - mean) / std).reshape(1, -1)  # one observation token
+            for a in policy.act(state, generator=generator, noise=args.noise):
                 obs, _, _, _, info = env.step(a[None])
                 steps += 1
                 done = bool(info["success"][0])

@@ -15,7 +15,7 @@ from maniladder_ms.demos import DemoFileError, dataset_stats, generate, verify
 from maniladder_ms.demos import recording as generate_module
 from maniladder_ms.demos.files import demo_path, load_demo_json
 from maniladder_ms.demos.stats import plot_stats
-from maniladder_ms.demos.wheel import build_wheel_site
+from maniladder_ms.demos.wheel import build_wheel_site, maniskill_replay
 from maniladder_ms.solvers import solver_for
 
 from conftest import sampled_tasks, task_sample
@@ -315,15 +315,7 @@ def test_wheel_install_replays_coacd_samples(convex_lookups, tmp_path):
     # ManiSkill's own replay_trajectory, from the wheel install, replays one of them to success from its actions
     # (a copy: the replay writes its output beside the file it reads)
     first = Path(files[0])
-    copy = tmp_path / "maniskill_replay" / first.name
-    copy.parent.mkdir()
-    for suffix in (".h5", ".json"):
-        shutil.copy(first.with_suffix(suffix), copy.with_suffix(suffix))
-    replay = subprocess.run(
-        [sys.executable, "-m", "mani_skill.trajectory.replay_trajectory", "--traj-path", str(copy), "-o", "state",
-         "--save-traj", "-b", "physx_cpu"], cwd=run,
-        env={**os.environ, "PYTHONPATH": str(site), "MANILADDER_CACHE": str(cache)},
-        capture_output=True, text=True, timeout=900)
+    replay = maniskill_replay(first, site, tmp_path / "maniskill_replay", cache, cwd=run, timeout=900)
     assert replay.returncode == 0, replay.stderr[-3000:]
     with h5py.File(first, "r") as f:
         count = len([k for k in f if k.startswith("traj_")])

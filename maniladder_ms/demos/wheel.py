@@ -1,7 +1,9 @@
-"""A wheel of a source checkout, built and installed into a bare folder: what the wheel-install checks replay
-demos from (scripts/maniskill_replay_samples.py, tests/test_demos.py::test_wheel_install_replays_coacd_samples).
-Needs a checkout (setup.cfg, pyproject.toml, README.md beside the package), not an installed wheel."""
+"""A wheel of a source checkout, built and installed into a bare folder, and ManiSkill's own `replay_trajectory`
+run from such an install: what the install checks use (scripts/maniskill_replay_samples.py,
+tests/test_demos.py::test_wheel_install_replays_coacd_samples). `build_wheel_site` needs a checkout (setup.cfg,
+pyproject.toml, README.md beside the package), not an installed wheel."""
 
+import os
 import shutil
 import subprocess
 import sys
@@ -24,3 +26,19 @@ def build_wheel_site(tmp: Path, repo: Path = REPO_DIR) -> tuple[Path, Path]:
     site = tmp / "site"
     subprocess.run([*pip, "install", "--no-deps", "--target", str(site), str(wheel)], check=True, timeout=300)
     return wheel, site
+
+
+def maniskill_replay(path: Path, install: Path, work: Path, cache: Path, cwd: Path,
+                     timeout: float | None = None) -> subprocess.CompletedProcess:
+    """ManiSkill's `replay_trajectory` (from actions, state obs, saving the replayed trajectory, CPU physics) of a
+    copy of the demo file `path` in `work` (the replay writes its output beside the file it reads), with the
+    package imported from `install` (a source tree or `build_wheel_site`'s site) and convex decompositions cached
+    in `cache`; its stdout and stderr captured as text."""
+    work.mkdir(parents=True, exist_ok=True)
+    for suffix in (".h5", ".json"):
+        shutil.copy(path.with_suffix(suffix), work / path.with_suffix(suffix).name)
+    return subprocess.run(
+        [sys.executable, "-m", "mani_skill.trajectory.replay_trajectory", "--traj-path", str(work / path.name),
+         "-o", "state", "--save-traj", "-b", "physx_cpu"], cwd=cwd,
+        env={**os.environ, "PYTHONPATH": str(install), "MANILADDER_CACHE": str(cache)},
+        capture_output=True, text=True, timeout=timeout)

@@ -170,11 +170,13 @@ class LadderFlowNet(nn.Module):
         return ((self.velocity(self.encode_obs(features), x_t, t) - (actions - x0)) ** 2).mean()
 
     @torch.no_grad()
-    def sample(self, features: torch.Tensor, generator: Optional[torch.Generator] = None) -> torch.Tensor:
-        """Normalised action chunks (B, chunk, A) by Euler integration from noise."""
+    def sample(self, features: torch.Tensor, generator: Optional[torch.Generator] = None,
+               noise: float = 1.0) -> torch.Tensor:
+        """Normalised action chunks (B, chunk, A) by Euler integration from `noise` x N(0, I) (1: the protocol;
+        0: from the chunk space's centre, deterministic - an ablation, `scripts/state_oracle.py --noise`)."""
         b, steps = features.shape[0], self.config.integration_steps
         memory = self.encode_obs(features)
-        x = torch.randn(b, self.config.chunk, self.action_dim, generator=generator, device=features.device)
+        x = noise * torch.randn(b, self.config.chunk, self.action_dim, generator=generator, device=features.device)
         for k in range(steps):
             t = torch.full((b,), k / steps, device=features.device)
             x = x + self.velocity(memory, x, t) / steps
@@ -288,6 +290,6 @@ class LadderFlowPolicy:
         return cls(config, net, ActionNormalizer(**ckpt["normalizer"]), ckpt.get("meta"))
 
     @torch.no_grad()
-    def act(self, features: torch.Tensor, generator: Optional[torch.Generator] = None) -> torch.Tensor:
-        chunk = self.net.sample(features.float()[None], generator=generator)[0]
+    def act(self, features: torch.Tensor, generator: Optional[torch.Generator] = None, noise: float = 1.0) -> torch.Tensor:
+        chunk = self.net.sample(features.float()[None], generator=generator, noise=noise)[0]
         return self.normalizer.denormalize(chunk)[: self.config.execute]

@@ -64,14 +64,15 @@ class HangTowelEnv(ManiLadderEnv):
         self.towel = cloth.build_cloth(self.scene, "towel", layout, self.cloth_config)
         self.bar = build_towel_bar(self.scene, "bar", self.bar_height, self.bar_radius, BAR_HALF_LENGTH, BAR_COLOR)
 
-    def hanging(self) -> torch.Tensor:
-        """Fractions of the towel's particles hanging on the near (-x) and far (+x) side of the bar, [B, 2]."""
-        return cloth.hanging_fractions(self.towel.positions(), self.bar.pose.p, torch.tensor(BAR_AXIS),
-                                       self.bar_height)
+    def hanging(self, points: torch.Tensor | None = None) -> torch.Tensor:
+        """Fractions of the towel's particles (`points`, default: their positions now) hanging on the near (-x)
+        and far (+x) side of the bar, [B, 2]."""
+        points = self.towel.positions() if points is None else points
+        return cloth.hanging_fractions(points, self.bar.pose.p, torch.tensor(BAR_AXIS), self.bar_height)
 
     def evaluate_hang(self) -> dict:
         points = self.towel.positions()
-        sides = self.hanging()
+        sides = self.hanging(points)
         lowest = points[..., 2].amin(dim=1) - self.cloth_config.radius
         touching = self.ee.touches(self.towel.spheres)
         hung = (sides >= self.min_side).all(dim=1)

@@ -12,7 +12,7 @@ import torch
 from mani_skill.utils.geometry.rotation_conversions import axis_angle_to_quaternion, quaternion_apply, quaternion_multiply
 from mani_skill.utils.structs.pose import Pose
 
-from maniladder_ms.agents.helpers import top_down_quat
+from maniladder_ms import geometry
 from maniladder_ms.deformables import particles
 from maniladder_ms.envs import ManiLadderEnv, register_task  # noqa: F401 (registered once finished)
 from maniladder_ms.geometry import yaw_of, yaw_quat
@@ -123,10 +123,6 @@ class ScoopBeansWithSpoonEnv(ManiLadderEnv):
         self.memory.store("carried", carried.float())
         self.memory.latch("let_go", carried.any(dim=1) & ~held)
 
-    def spoon_tilt(self) -> torch.Tensor:
-        """Angle (rad) between the spoon's up axis and the world's, [B]."""
-        return torch.acos(self.spoon.pose.to_transformation_matrix()[:, 2, 2].clamp(-1, 1))
-
     def _get_obs_extra(self, info: dict):
         obs = dict(tcp_pose=self.ee.tcp().raw_pose, is_grasped=info["spoon_grasped"])
         if "state" in self.obs_mode:
@@ -149,7 +145,7 @@ class ScoopBeansWithSpoonEnv(ManiLadderEnv):
             "spoon_grasped": held,
             "let_go": let_go,
             "spoon_lifted": self.spoon.pose.p[:, 2] > 0.03,
-            "spoon_tilt": self.spoon_tilt(),
+            "spoon_tilt": geometry.tilt(self.spoon),
         }
 
     def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
