@@ -23,7 +23,9 @@ corner leaves the fingers freely but the towel then slides off the rod entirely,
 past the axis, to the near side at 6 cm (seeds 100, 106, 127, 141: 0/4 each). So the inner finger's hook on the
 corner is what balances the towel over the rod at the release in the current solver; a solver that releases
 freely needs a balanced drape before opening (e.g. the release point chosen from `cloth.hanging_fractions`/the
-towel's mass over the rod, closed loop), which was not reached in this session.
+towel's mass over the rod, closed loop), which was not reached in this session. Sliding the opened hands 3 cm
+towards the rod (along the corner's pull) before backing off: 127 / 139 no longer slide to the far side (near /
+far 25-29%, a finger still touching), 106 / 138 still lifted (far 0%), 100 still succeeds (1/5, not kept).
 Tried in session 14: release 6 cm past the rod 4 cm under its top (the hand bodies rest on the towel over the
 rod and drag it when backing off), 9 cm past / 2 cm under (far side too heavy), opening only to 4 cm at the
 release (the back-off drags the corner), sinking the opened hands 5 cm before backing off (no better), a
