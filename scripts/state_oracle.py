@@ -11,6 +11,11 @@ evaluated on the protocol's selection seeds (1,010,000 + k) with the catalog hor
     python scripts/state_oracle.py PickPlacePen --work runs/calibration_v3 --episodes 20
     python scripts/state_oracle.py PickPlacePen --work runs/calibration_v3 --noise 0   # deterministic sampling
 
+`--demo-file` trains on another demo file's first `--num-demos` episodes instead (recorded in pd_joint_pos, e.g.
+`maniladder demos generate PickPlacePen --num 80 --control-mode pd_joint_pos --out /tmp/d80`): is 20 the limit?
+
+    python scripts/state_oracle.py PickPlacePen --demo-file /tmp/d80/PickPlacePen/trajectory.none.pd_joint_pos.physx_cpu.h5 --num-demos 80 --steps 6000
+
 Measured (session 14, protocol v3 settings, 3000 steps): see the issue-20 note.
 """
 
@@ -49,6 +54,34 @@ def state_episodes(env, features, meta, n):
     return episodes, replayed
 
 
+def file_episodes(env, h5_path, n, stride=2):
+    """As `state_episodes`, from the first n episodes of a pd_joint_pos demo file (frames every `stride` steps, as
+    the calibration renders them)."""
+    import h5py
+    from maniladder_ms.demos.files import episode_reset_kwargs, load_demo_json, replay_env_kwargs
+
+    meta = load_demo_json(Path(h5_path))
+    mode = replay_env_kwargs(meta).get("control_mode")
+    if mode != "pd_joint_pos":
+        sys.exit(f"{h5_path}: recorded in {mode}; record the demos with --control-mode pd_joint_pos")
+    if len(meta["episodes"]) < n:
+        sys.exit(f"{h5_path}: {len(meta['episodes'])} episodes, fewer than --num-demos {n}")
+    episodes, replayed = [], 0
+    with h5py.File(h5_path, "r") as f:
+        for ep in meta["episodes"][:n]:
+            actions = torch.from_numpy(f[f"traj_{ep['episode_id']}"]["actions"][:]).float()
+            obs, _ = env.reset(**episode_reset_kwargs(ep))
+            states, success = [obs[0].float()], False
+            for a in actions:
+                obs, _, _, _, info = env.step(a[None])
+                states.append(obs[0].float())
+                success |= bool(info["success"][0])
+            replayed += success
+            frames = torch.arange(0, len(actions), stride)
+            episodes.append((torch.stack(states)[frames][:, None], actions, frames))
+    return episodes, replayed
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("task")
@@ -57,6 +90,8 @@ def main(argv=None):
     ap.add_argument("--episodes", type=int, default=20, help="evaluation episodes on the selection seeds")
     ap.add_argument("--noise", type=float, default=1.0, help="scale of the flow's initial noise at inference")
     ap.add_argument("--out", default=None, help="save the trained checkpoint here")
+    ap.add_argument("--demo-file", default=None, help="train on this pd_joint_pos demo file instead of the work folder's")
+    ap.add_argument("--num-demos", type=int, default=None, help="with --demo-file: its first N episodes (default 20)")
     args = ap.parse_args(argv)
 
     import maniladder_ms
@@ -66,14 +101,24 @@ def main(argv=None):
     from tqdm import tqdm
 
     torch.set_num_threads(1)
-    work = Path(args.work) / args.task
-    if not (work / "features.npz").is_file():
-        sys.exit(f"{work}/features.npz not found: run `maniladder calibrate --tasks {args.task} --work {args.work}` first")
-    features = np.load(work / "features.npz")
-    meta = load_demo_json(demo_path(work / "demos", args.task, "none", demo_control_mode_for(args.task)))
+    if args.num_demos is not None and not args.demo_file:
+        sys.exit("--num-demos needs --demo-file (the work folder holds the protocol's 20 demos)")
+    if args.demo_file:
+        if not Path(args.demo_file).is_file():
+            sys.exit(f"{args.demo_file} not found")
+        meta = load_demo_json(Path(args.demo_file))
+    else:
+        work = Path(args.work) / args.task
+        if not (work / "features.npz").is_file():
+            sys.exit(f"{work}/features.npz not found: run `maniladder calibrate --tasks {args.task} --work {args.work}` first")
+        features = np.load(work / "features.npz")
+        meta = load_demo_json(demo_path(work / "demos", args.task, "none", demo_control_mode_for(args.task)))
     env = maniladder_ms.make(args.task, obs_mode="state", control_mode=POLICY_CONTROL_MODE, **{
         k: v for k, v in replay_env_kwargs(meta).items() if k != "control_mode"})
-    episodes, replayed = state_episodes(env, features, meta, CalibrationProtocol().demos)
+    if args.demo_file:
+        episodes, replayed = file_episodes(env, args.demo_file, args.num_demos or CalibrationProtocol().demos)
+    else:
+        episodes, replayed = state_episodes(env, features, meta, CalibrationProtocol().demos)
     print(f"{args.task}: {replayed}/{len(episodes)} demos replay to success from their joint targets")
     states = torch.cat([e[0] for e in episodes])
     mean, std = states.mean(0), states.std(0).clamp(min=1e-2)  # near-constant dims are not blown up
@@ -101,7 +146,7 @@ def main(argv=None):
                     break
         successes.append(done)
     print(f"STATE ORACLE {args.task}: {sum(successes)}/{len(successes)} on selection seeds "
-          f"(noise {args.noise}, {args.steps} steps)")
+          f"(noise {args.noise}, {args.steps} steps, {len(episodes)} demos)")
 
 
 if __name__ == "__main__":
