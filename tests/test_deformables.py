@@ -487,6 +487,37 @@ def test_top_down_fold_distance_of_a_towel_folded_in_half_along_its_short_axis()
     assert cloth.fold_distance(lengthwise, cloth.fold_pairs(rows, cols, axis=1), top_down=True)[0] < 1e-6
 
 
+def test_diagonal_fold_pairs_of_a_napkin_folded_diagonally():
+    """`cloth.diagonal_fold_pairs` on an 8 x 8 napkin (FoldNapkinHands'): 28 pairs per diagonal, opposite corners
+    together; a napkin folded along either diagonal by construction (each particle off the fold line mirrored onto
+    its partner, one layer higher) has top-down fold distance 0 for that diagonal and not for the other; flat, both
+    diagonals give the mean mirrored distance; the top layer nested in the bottom layer's hollows (shifted half a
+    cell along both grid axes) gives half a cell's diagonal."""
+    spacing, size = 0.025, 8
+    layout = cloth.towel(size, size, spacing)
+    main, anti = cloth.diagonal_fold_pairs(size), cloth.diagonal_fold_pairs(size, anti=True)
+    assert len(main) == len(anti) == size * (size - 1) // 2
+    corners = layout.named["corners"]  # (-x,-y), (-x,+y), (+x,-y), (+x,+y)
+    assert (corners[1], corners[2]) in main and (corners[0], corners[3]) in anti
+    flat = torch.as_tensor(layout.positions, dtype=torch.float32)
+    # flat: a pair on diagonal line k (k cells off the fold line) lies k * spacing * sqrt 2 apart
+    expected = np.mean([k * spacing * np.sqrt(2) for k in range(1, size) for _ in range(size - k)])
+    for pairs in (main, anti):
+        assert cloth.fold_distance(flat[None], pairs, top_down=True)[0] == pytest.approx(expected, abs=1e-6)
+    for pairs, other in ((main, anti), (anti, main)):
+        folded = flat.clone()
+        for i, j in pairs:  # particle i over its partner j, one layer up
+            folded[i] = flat[j] + torch.tensor([0.0, 0.0, 0.02])
+        folded = folded[None]
+        assert cloth.fold_distance(folded, pairs, top_down=True)[0] == pytest.approx(0.0, abs=1e-6)
+        assert cloth.fold_distance(folded, pairs)[0] == pytest.approx(0.02, abs=1e-6)  # the layers' gap
+        assert cloth.fold_distance(folded, other, top_down=True)[0] > 0.05
+        nested = folded.clone()
+        top = [i for i, _ in pairs]
+        nested[0, top, :2] += spacing / 2
+        assert cloth.fold_distance(nested, pairs, top_down=True)[0] == pytest.approx(spacing / np.sqrt(2), abs=1e-6)
+
+
 def test_fold_edge_keeps_every_link_at_rest_length():
     """`cloth.fold_edge`: the drive frames of every linked pair meet (they sit at the rest midpoint in each
     particle's frame), the folded rows lie one spacing above the sheet, upside down, and the footprint

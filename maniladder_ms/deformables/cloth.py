@@ -20,7 +20,8 @@ Metrics on particle positions [B, N, 3] (`Cloth.positions()`); the footprint one
 - `metrics.region_coverage`: fraction of a table rectangle that the sheet covers;
 - `coverage`: the share of the flat sheet's area it covers seen from above, in its own grid axes;
 - `fold_distance`: mean distance between particles paired by a fold (0 when perfectly folded; `top_down`:
-  seen from above, leaving out the two layers' thickness);
+  seen from above, leaving out the two layers' thickness); the pairs of a fold in half: `fold_pairs`, of a
+  square sheet's diagonal fold: `diagonal_fold_pairs`;
 - `flatness`: standard deviation of particle heights (0 for a flat sheet);
 - `fraction_below`: fraction of particles lower than a height (hanging below a bar);
 - `fraction_beyond`: fraction of particles on the far side of a vertical plane (one side of a bar);
@@ -336,6 +337,22 @@ def fold_pairs(rows: int, cols: int, axis: int = 0) -> list[tuple[int, int]]:
         index = index.T
     half = index.shape[0] // 2
     return list(zip(index[:half].ravel().tolist(), index[::-1][:half].ravel().tolist()))
+
+
+def diagonal_fold_pairs(size: int, anti: bool = False) -> list[tuple[int, int]]:
+    """Particle pairs of a size x size square sheet (a napkin, `towel(size, size)`) that meet when it is
+    folded along a diagonal into a triangle: the fold line through corners (-x,-y) and (+x,+y) (its grid
+    cells r = c) mirrors cell (r, c) onto (c, r), bringing corner (-x,+y) onto (+x,-y); with `anti` the
+    fold line through (-x,+y) and (+x,-y) (r + c = size - 1) mirrors (r, c) onto (size-1-c, size-1-r),
+    bringing corner (-x,-y) onto (+x,+y). Particles on the fold line pair with nobody: size (size - 1) / 2
+    pairs, the first particle of each on the side of the corner with the lower index."""
+    index = np.arange(size * size).reshape(size, size)
+    r, c = np.divmod(np.arange(size * size), size)
+    if anti:
+        mine, partner = r + c < size - 1, index[size - 1 - c, size - 1 - r]
+    else:
+        mine, partner = r < c, index[c, r]
+    return list(zip(np.nonzero(mine)[0].tolist(), partner[mine].tolist()))
 
 
 def fold_distance(points: torch.Tensor, pairs: list[tuple[int, int]], top_down: bool = False) -> torch.Tensor:

@@ -56,9 +56,11 @@ class FoldTowelInHalfEnv(ManiLadderEnv):
     # 5e-5 within 5 steps on PhysX contact caches alone (test_state_round_trip_after_50_steps)
     RESTORES_NEED_FRESH_SCENE = True
 
+    GRID = (ROWS, COLS)  # the towel's particle rows and columns (family variants change it)
+
     def _load_scene(self, options: dict):
         super()._load_scene(options)
-        self.towel = cloth.build_cloth(self.scene, "towel", cloth.towel(ROWS, COLS, self.cloth_config.spacing),
+        self.towel = cloth.build_cloth(self.scene, "towel", cloth.towel(*self.GRID, self.cloth_config.spacing),
                                        self.cloth_config)
         self.pairs = cloth.fold_pairs(ROWS, COLS, axis=0)  # the short-axis fold: rows mirrored about the middle
 
@@ -71,9 +73,11 @@ class FoldTowelInHalfEnv(ManiLadderEnv):
                                torch.full((b,), self.cloth_config.radius)], dim=1)
             self.towel.set_rest_shape(Pose.create_from_pq(xyz, yaw_quat(yaw)))
 
-    def fold_error(self) -> torch.Tensor:
-        """Mean top-down distance between the particles the short-axis fold pairs, [B]."""
-        return cloth.fold_distance(self.towel.positions(), self.pairs, top_down=True)
+    def fold_error(self, points: torch.Tensor | None = None) -> torch.Tensor:
+        """Mean top-down distance between the particles the short-axis fold pairs, [B] (of the towel's
+        particle positions `points`, default: read now)."""
+        points = self.towel.positions() if points is None else points
+        return cloth.fold_distance(points, self.pairs, top_down=True)
 
     def _get_obs_extra(self, info: dict):
         obs = dict(tcp_pose=self.ee.tcp().raw_pose)
@@ -83,7 +87,7 @@ class FoldTowelInHalfEnv(ManiLadderEnv):
 
     def evaluate(self):
         points = self.towel.positions()
-        fold_error = cloth.fold_distance(points, self.pairs, top_down=True)
+        fold_error = self.fold_error(points)
         on_table = points[..., 2].amax(dim=1) <= self.max_height
         touching = self.ee.touches(self.towel.spheres)
         return {

@@ -35,6 +35,15 @@ def side_corners(layout: cloth.ClothLayout) -> dict[str, int]:
     return {"left": corners[int(np.argmax(along))], "right": corners[int(np.argmin(along))]}
 
 
+def lay_between_hands(towel: cloth.Cloth, b: int):
+    """Lay `towel` flat for `b` envs being reset (in the env's torch device context) as LiftTowelHands does:
+    centre x uniform in [-0.14, -0.06], y in [-0.03, 0.03], yaw uniform in [TOWEL_YAW_MIN, TOWEL_YAW_MAX]."""
+    centre = torch.stack([torch.rand(b) * 0.08 - 0.14, torch.rand(b) * 0.06 - 0.03,
+                          torch.full((b,), towel.config.radius)], dim=1)
+    yaw = TOWEL_YAW_MIN + torch.rand(b) * (TOWEL_YAW_MAX - TOWEL_YAW_MIN)
+    towel.set_rest_shape(Pose.create_from_pq(centre, yaw_quat(yaw)))
+
+
 @register_task("LiftTowelHands")
 class LiftTowelHandsEnv(ManiLadderEnv):
     """**Task:** a towel lies flat on the table between the two arms, one corner towards each arm; each
@@ -65,11 +74,7 @@ class LiftTowelHandsEnv(ManiLadderEnv):
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
-            b = len(env_idx)
-            centre = torch.stack([torch.rand(b) * 0.08 - 0.14, torch.rand(b) * 0.06 - 0.03,
-                                  torch.full((b,), self.cloth_config.radius)], dim=1)
-            yaw = TOWEL_YAW_MIN + torch.rand(b) * (TOWEL_YAW_MAX - TOWEL_YAW_MIN)
-            self.towel.set_rest_shape(Pose.create_from_pq(centre, yaw_quat(yaw)))
+            lay_between_hands(self.towel, len(env_idx))
 
     def _get_obs_extra(self, info: dict):
         obs = {f"{side}_tcp_pose": self.ee.tcp(side).raw_pose for side in SIDES}
@@ -106,24 +111,32 @@ HOLD_HEIGHT = 0.28  # the pinched corners end this high: the 17.5 cm towel hangi
 LIFT_STEP = 0.006  # metres a control step
 
 
+def pinch_side_corners(s: DrivenSolver, towel: cloth.Cloth, hand_corners: dict[str, int]) -> dict[str, Grasp]:
+    """Each LEAP hand scissor-pinches the corner particle `hand_corners[side]` of the flat `towel` (as
+    DragTowelHand's corner pinch: fingers along the sheet's diagonal): both line up, move in and close
+    together. Returns each side's Grasp (its TCP pose at the pinch)."""
+    points = towel.positions()
+    centroid = points.mean(dim=1)
+    above = torch.tensor([0.0, 0.0, APPROACH_HEIGHT], device=points.device)
+    grasps = {}
+    for side, i in hand_corners.items():
+        p, q = DrivenSolver.corner_scissor_pose(points[:, i], centroid, towel.config.radius,
+                                                mirror=side == "left", around=ARM_YAW[side])
+        grasps[side] = Grasp(f"{side}_arm", f"{side}_hand", p, q, above)
+    for g in grasps.values():
+        s.set_ee(g.ee, "scissor_open", steps=0)
+    reach(s, list(grasps.values()), preshape=None)
+    grasp_together(s, [g.ee for g in grasps.values()], "scissor", ramp_steps=SCISSOR_RAMP_STEPS)
+    return grasps
+
+
 @register_solver("LiftTowelHands", control_modes=TCP_DELTA_MODES)
 def solve_lift_towel_hands(env, seed: int) -> dict:
     """Each hand scissor-pinches the corner on its side (as DragTowelHand's corner pinch), both close together,
     then both rise together to `HOLD_HEIGHT`."""
     with DrivenSolver.episode(env, seed) as s:
         task: LiftTowelHandsEnv = env.unwrapped
-        points = task.towel.positions()
-        centroid = points.mean(dim=1)
-        above = torch.tensor([0.0, 0.0, APPROACH_HEIGHT], device=task.device)
-        grasps = []
-        for side, i in task.hand_corners.items():
-            p, q = DrivenSolver.corner_scissor_pose(points[:, i], centroid, task.cloth_config.radius,
-                                                    mirror=side == "left", around=ARM_YAW[side])
-            grasps.append(Grasp(f"{side}_arm", f"{side}_hand", p, q, above))
-        for g in grasps:
-            s.set_ee(g.ee, "scissor_open", steps=0)
-        reach(s, grasps, preshape=None)
-        grasp_together(s, [g.ee for g in grasps], "scissor", ramp_steps=SCISSOR_RAMP_STEPS)
+        grasps = pinch_side_corners(s, task.towel, task.hand_corners).values()
         up = torch.tensor([0.0, 0.0, HOLD_HEIGHT], device=task.device)
         glide(s, {g.arm: (g.p, g.p * torch.tensor([1.0, 1.0, 0.0], device=task.device) + up, g.q) for g in grasps},
               step_length=LIFT_STEP)
