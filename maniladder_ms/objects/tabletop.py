@@ -1,5 +1,5 @@
 """Small rigid table-top objects made from primitives: pen, trays, upright cylinder, flat boxes (a card, a stand),
-shelf, ping-pong ball, a U-shaped channel."""
+shelf, ping-pong ball, a U-shaped channel, a standing ring."""
 
 from __future__ import annotations
 

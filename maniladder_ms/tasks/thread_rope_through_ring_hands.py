@@ -33,9 +33,9 @@ class ThreadRopeThroughRingHandsEnv(rope.RopeTask, ManiLadderEnv):
     **Randomisation:** the ring (inner radius `ring_radius`, its centre 6 cm above the table) stands at x
     uniform in [-0.12, -0.06], y uniform in [-0.03, 0.03]; the rope (40 cm, 20 capsules of 1.6 cm
     diameter, stiffer than the default rope: a cord) lies flat in a gentle S (in-plane turns amp * sin(2 pi
-    (k + 1) / 20 + phase), amp uniform in [0, 0.05] rad, phase uniform) on the right (-y) side of the ring, its
-    first capsule heading within +-10 degrees (uniform) of +y (towards the ring), its first tip 4-7 cm
-    (uniform) from the ring's plane and within +-1.5 cm (uniform) of the ring's centre along x.
+    (k + 1) / 20 + phase), amp uniform in [0, 0.05] rad, phase uniform) on the right (-y) side of the ring: its
+    first tip 4-7 cm (uniform) from the ring's plane and within +-1.5 cm (uniform) of the ring's centre along x,
+    from there it runs away from the ring, its first capsule heading within +-10 degrees (uniform) of -y.
 
     **Success:** the rope passes through the ring's disc exactly once (`rope.through_ring` with the ring's inner
     radius `ring_radius`) with at least `min_side` of its length on each side of the crossing; the rope was
