@@ -1,5 +1,5 @@
 """Small rigid table-top objects made from primitives: pen, trays, upright cylinder, flat boxes (a card, a stand),
-shelf, ping-pong ball, a U-shaped channel."""
+shelf, ping-pong ball, a U-shaped channel, a standing ring."""
 
 from __future__ import annotations
 
@@ -243,5 +243,35 @@ def build_towel_bar(scene: ManiSkillScene, name: str, top_height: float, bar_rad
         builder.add_box_collision(pose, half_size=half, material=material)
         if mat is not None:
             builder.add_box_visual(pose, half_size=half, material=mat)
+    builder.initial_pose = sapien.Pose()
+    return builder.build_kinematic(name=name)
+
+
+def build_standing_ring(scene: ManiSkillScene, name: str, inner_radius: float, tube_radius: float, centre_height: float,
+                        color, pieces: int = 16, post_half: tuple[float, float] = (0.008, 0.008)) -> "Actor":
+    """A fixed (kinematic) ring standing upright on a post: `pieces` capsules round a circle in the local x-z plane
+    (the ring's axis is the local y axis), their inner surface `inner_radius` from the centre, which stands
+    `centre_height` above the table; a square post (`post_half`: its x, y half sizes) from the table up to the
+    ring's bottom. Its origin is on the table under the ring's centre."""
+    builder = scene.create_actor_builder()
+    mid = inner_radius + tube_radius  # the tube's centre line
+    half = mid * np.sin(np.pi / pieces)  # each capsule spans one chord of the centre line
+    material = sapien.render.RenderMaterial(base_color=list(color), roughness=0.5) if scene.can_render() else None
+    for k in range(pieces):
+        a = 2 * np.pi * (k + 0.5) / pieces
+        # the chord's middle, its axis along the tangent (local x turned about y by the angle)
+        chord = mid * np.cos(np.pi / pieces)
+        pose = sapien.Pose(p=[chord * np.cos(a), 0, centre_height + chord * np.sin(a)],
+                           q=[np.cos((a + np.pi / 2) / -2), 0, np.sin((a + np.pi / 2) / -2), 0])
+        builder.add_capsule_collision(pose, radius=tube_radius, half_length=half)
+        if material is not None:
+            builder.add_capsule_visual(pose, radius=tube_radius, half_length=half, material=material)
+    post_height = centre_height - mid - tube_radius * 0.5
+    if post_height > 0:
+        post = sapien.Pose(p=[0, 0, post_height / 2])
+        size = [post_half[0], post_half[1], post_height / 2]
+        builder.add_box_collision(post, half_size=size)
+        if material is not None:
+            builder.add_box_visual(post, half_size=size, material=material)
     builder.initial_pose = sapien.Pose()
     return builder.build_kinematic(name=name)
