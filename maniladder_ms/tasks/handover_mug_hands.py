@@ -264,7 +264,8 @@ class HandoverMugHandsEnv(HandoverTask):
 # grip, the mug upright after the outer joints, the 45 deg turn drags it over. So the turn is now made only while
 # the mug stands within SQUARE_MAX_TILT of upright and the hand is within SQUARE_MAX_TURN of square (else let_go as
 # before, which had set 110 and 126 down); re-run on seeds 110, 126, 144, 148 only: 4/4 (860, 654, 609, 810
-# steps; the 50-seed sweep not re-run: ~65 min loaded).
+# steps) and on 100-109: 10/10 (574-858 steps; 105 and 107 still solved). The 50-seed sweep not re-run (~65 min
+# loaded): if the other 36 seeds keep their outcomes, 37/50.
 # Not tried for lack of time (one 50-seed sweep took ~65 min loaded): the side power grasp (`solvers.bimanual.
 # side_grasp`) after a set-down, a tilt-triggered set-down, a power receive; and the swap, now the largest loss: the
 # giver's retreat from a state saved before `giver_aside` (directions / speeds; an untested script:
