@@ -11,8 +11,9 @@ evaluated on the protocol's selection seeds (1,010,000 + k) with the catalog hor
     python scripts/state_oracle.py PickPlacePen --work runs/calibration_v3 --episodes 20
     python scripts/state_oracle.py PickPlacePen --work runs/calibration_v3 --noise 0   # deterministic sampling
 
-`--demo-file` trains on another demo file's first `--num-demos` episodes instead (recorded in pd_joint_pos, e.g.
-`maniladder demos generate PickPlacePen --num 80 --control-mode pd_joint_pos --out /tmp/d80`): is 20 the limit?
+`--demo-file` trains on another demo file's first `--num-demos` episodes instead (any recorded control mode,
+converted to joint targets as the calibration does; e.g. `maniladder demos generate PickPlacePen --num 80 --out
+/tmp/d80`): is 20 demos the limit?
 
     python scripts/state_oracle.py PickPlacePen --demo-file /tmp/d80/PickPlacePen/trajectory.none.pd_joint_pos.physx_cpu.h5 --num-demos 80 --steps 6000
 
@@ -55,30 +56,31 @@ def state_episodes(env, features, meta, n):
 
 
 def file_episodes(env, h5_path, n, stride=2):
-    """As `state_episodes`, from the first n episodes of a pd_joint_pos demo file (frames every `stride` steps, as
-    the calibration renders them)."""
-    import h5py
-    from maniladder_ms.demos.files import episode_reset_kwargs, load_demo_json, replay_env_kwargs
+    """As `state_episodes`, from the first n episodes of a demo file: actions converted to joint targets as the
+    calibration converts them (`demos.joint_targets`; a pd_joint_pos file passes through), frames every `stride`
+    steps (as the calibration renders them)."""
+    from maniladder_ms.demos.files import episode_reset_kwargs, load_demo_json
+    from maniladder_ms.demos.joint_targets import joint_target_episodes
 
     meta = load_demo_json(Path(h5_path))
-    mode = replay_env_kwargs(meta).get("control_mode")
-    if mode != "pd_joint_pos":
-        sys.exit(f"{h5_path}: recorded in {mode}; record the demos with --control-mode pd_joint_pos")
     if len(meta["episodes"]) < n:
         sys.exit(f"{h5_path}: {len(meta['episodes'])} episodes, fewer than --num-demos {n}")
     episodes, replayed = [], 0
-    with h5py.File(h5_path, "r") as f:
-        for ep in meta["episodes"][:n]:
-            actions = torch.from_numpy(f[f"traj_{ep['episode_id']}"]["actions"][:]).float()
-            obs, _ = env.reset(**episode_reset_kwargs(ep))
-            states, success = [obs[0].float()], False
-            for a in actions:
-                obs, _, _, _, info = env.step(a[None])
-                states.append(obs[0].float())
-                success |= bool(info["success"][0])
-            replayed += success
-            frames = torch.arange(0, len(actions), stride)
-            episodes.append((torch.stack(states)[frames][:, None], actions, frames))
+    for k, (actions, converted_ok, ep) in enumerate(joint_target_episodes(h5_path)):
+        if k == n:
+            break
+        if not converted_ok:
+            continue  # the recorded episode no longer succeeds when replayed: not a demo
+        actions = torch.as_tensor(np.asarray(actions)).float()
+        obs, _ = env.reset(**episode_reset_kwargs(ep))
+        states, success = [obs[0].float()], False
+        for a in actions:
+            obs, _, _, _, info = env.step(a[None])
+            states.append(obs[0].float())
+            success |= bool(info["success"][0])
+        replayed += success
+        frames = torch.arange(0, len(actions), stride)
+        episodes.append((torch.stack(states)[frames][:, None], actions, frames))
     return episodes, replayed
 
 
@@ -90,7 +92,7 @@ def main(argv=None):
     ap.add_argument("--episodes", type=int, default=20, help="evaluation episodes on the selection seeds")
     ap.add_argument("--noise", type=float, default=1.0, help="scale of the flow's initial noise at inference")
     ap.add_argument("--out", default=None, help="save the trained checkpoint here")
-    ap.add_argument("--demo-file", default=None, help="train on this pd_joint_pos demo file instead of the work folder's")
+    ap.add_argument("--demo-file", default=None, help="train on this demo file instead of the work folder's")
     ap.add_argument("--num-demos", type=int, default=None, help="with --demo-file: its first N episodes (default 20)")
     args = ap.parse_args(argv)
 
