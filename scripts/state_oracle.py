@@ -35,34 +35,39 @@ sys.path.insert(0, str(REPO))
 SELECTION_SEED_BASE = 1_010_000  # `maniladder eval --seed 1`: the protocol's selection seeds
 
 
+def replay_states(env, ep, actions, frames):
+    """Replay one demo's joint-target actions from its reset: (the states before `frames`, (F, 1, D), whether it
+    succeeded at some step)."""
+    from maniladder_ms.demos.files import episode_reset_kwargs
+
+    obs, _ = env.reset(**episode_reset_kwargs(ep))
+    states, success = [obs[0].float()], False
+    for a in actions:
+        obs, _, _, _, info = env.step(a[None])
+        states.append(obs[0].float())
+        success |= bool(info["success"][0])
+    return torch.stack(states)[frames][:, None], success
+
+
 def state_episodes(env, features, meta, n):
     """(normalised-later states (F, 1, D), joint-target actions (T, A), frames (F,)) per demo, and the
     replay success count."""
-    from maniladder_ms.demos.files import episode_reset_kwargs
-
     episodes, replayed = [], 0
     for i, ep in enumerate(meta["episodes"][:n]):
         actions = torch.from_numpy(features[f"actions_{i}"]).float()
         frames = torch.from_numpy(features[f"frames_{i}"].astype(np.int64))
-        obs, _ = env.reset(**episode_reset_kwargs(ep))
-        states, success = [obs[0].float()], False
-        for a in actions:
-            obs, _, _, _, info = env.step(a[None])
-            states.append(obs[0].float())
-            success |= bool(info["success"][0])
+        states, success = replay_states(env, ep, actions, frames)
         replayed += success
-        episodes.append((torch.stack(states)[frames][:, None], actions, frames))
+        episodes.append((states, actions, frames))
     return episodes, replayed
 
 
-def file_episodes(env, h5_path, n, stride=2):
-    """As `state_episodes`, from the first n episodes of a demo file: actions converted to joint targets as the
-    calibration converts them (`demos.joint_targets`; a pd_joint_pos file passes through), frames every `stride`
-    steps (as the calibration renders them)."""
-    from maniladder_ms.demos.files import episode_reset_kwargs, load_demo_json
+def file_episodes(env, h5_path, meta, n, stride=2):
+    """As `state_episodes`, from the first n episodes of a demo file (`meta`: its json): actions converted to joint
+    targets as the calibration converts them (`demos.joint_targets`; a pd_joint_pos file passes through), frames
+    every `stride` steps (as the calibration renders them)."""
     from maniladder_ms.demos.joint_targets import joint_target_episodes
 
-    meta = load_demo_json(Path(h5_path))
     if len(meta["episodes"]) < n:
         sys.exit(f"{h5_path}: {len(meta['episodes'])} episodes, fewer than --num-demos {n}")
     episodes, replayed = [], 0
@@ -72,15 +77,10 @@ def file_episodes(env, h5_path, n, stride=2):
         if not converted_ok:
             continue  # the recorded episode no longer succeeds when replayed: not a demo
         actions = torch.as_tensor(np.asarray(actions)).float()
-        obs, _ = env.reset(**episode_reset_kwargs(ep))
-        states, success = [obs[0].float()], False
-        for a in actions:
-            obs, _, _, _, info = env.step(a[None])
-            states.append(obs[0].float())
-            success |= bool(info["success"][0])
-        replayed += success
         frames = torch.arange(0, len(actions), stride)
-        episodes.append((torch.stack(states)[frames][:, None], actions, frames))
+        states, success = replay_states(env, ep, actions, frames)
+        replayed += success
+        episodes.append((states, actions, frames))
     return episodes, replayed
 
 
@@ -118,7 +118,7 @@ def main(argv=None):
     env = maniladder_ms.make(args.task, obs_mode="state", control_mode=POLICY_CONTROL_MODE, **{
         k: v for k, v in replay_env_kwargs(meta).items() if k != "control_mode"})
     if args.demo_file:
-        episodes, replayed = file_episodes(env, args.demo_file, args.num_demos or CalibrationProtocol().demos)
+        episodes, replayed = file_episodes(env, args.demo_file, meta, args.num_demos or CalibrationProtocol().demos)
     else:
         episodes, replayed = state_episodes(env, features, meta, CalibrationProtocol().demos)
     print(f"{args.task}: {replayed}/{len(episodes)} demos replay to success from their joint targets")
