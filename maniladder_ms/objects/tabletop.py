@@ -256,11 +256,11 @@ def build_standing_ring(scene: ManiSkillScene, name: str, inner_radius: float, t
     builder = scene.create_actor_builder()
     mid = inner_radius + tube_radius  # the tube's centre line
     half = mid * np.sin(np.pi / pieces)  # each capsule spans one chord of the centre line
+    chord = mid * np.cos(np.pi / pieces)  # distance from the centre to each chord's middle
     material = sapien.render.RenderMaterial(base_color=list(color), roughness=0.5) if scene.can_render() else None
     for k in range(pieces):
         a = 2 * np.pi * (k + 0.5) / pieces
         # the chord's middle, its axis along the tangent (local x turned about y by the angle)
-        chord = mid * np.cos(np.pi / pieces)
         pose = sapien.Pose(p=[chord * np.cos(a), 0, centre_height + chord * np.sin(a)],
                            q=[np.cos((a + np.pi / 2) / -2), 0, np.sin((a + np.pi / 2) / -2), 0])
         builder.add_capsule_collision(pose, radius=tube_radius, half_length=half)
