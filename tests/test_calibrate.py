@@ -9,6 +9,7 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from maniladder_ms.policy.calibrate import CalibrationProtocol, TaskCalibration, calibrate, measured_level
@@ -125,3 +126,29 @@ def test_results_of_another_protocol_are_not_summarised(tmp_path):
 
     (tmp_path / "Old.json").write_text(json.dumps({"task": "Old", "measured_level": 3, "protocol": "v0"}))
     assert load_results(tmp_path) == []
+
+
+def test_randomisation_pilot_draws_pick_place_pen_layouts_from_the_narrowed_ranges():
+    # scripts/randomisation_pilot.py replaces PickPlacePen's layout draw in its own process; here the draw is
+    # checked against the halved ranges on one side, and the registered task's draw is restored afterwards
+    sys.path.insert(0, str(REPO / "scripts"))
+    import randomisation_pilot
+
+    import maniladder_ms
+    from maniladder_ms.geometry import actor_yaw
+    from maniladder_ms.tasks.pick_place_pen import PickPlacePenEnv
+
+    registered = PickPlacePenEnv._initialize_episode
+    try:
+        randomisation_pilot.narrow_pick_place_pen(one_side=True, scale=0.5)
+        env = maniladder_ms.make("PickPlacePen", obs_mode="state")
+        task = env.unwrapped
+        for seed in range(8):
+            env.reset(seed=seed)
+            pen, tray = task.pen.pose.p[0].tolist(), task.tray.pose.p[0].tolist()
+            assert -0.07 <= pen[0] <= 0.03 and 0.095 <= pen[1] <= 0.165  # x in [-0.12, 0.08], |y| in [0.06, 0.2], halved
+            assert -0.05 <= tray[0] <= 0.05 and -0.175 <= tray[1] <= -0.125  # the tray on the other side
+            assert abs(actor_yaw(task.tray)) <= np.pi / 8 + 1e-4
+        env.close()
+    finally:
+        PickPlacePenEnv._initialize_episode = registered
