@@ -140,7 +140,7 @@ def test_randomisation_pilot_draws_pick_place_pen_layouts_from_the_narrowed_rang
 
     registered = PickPlacePenEnv._initialize_episode
     try:
-        randomisation_pilot.narrow_pick_place_pen(one_side=True, scale=0.5)
+        randomisation_pilot.pick_place_pen_one_side(scale=0.5)
         env = maniladder_ms.make("PickPlacePen", obs_mode="state")
         task = env.unwrapped
         for seed in range(8):
@@ -152,3 +152,25 @@ def test_randomisation_pilot_draws_pick_place_pen_layouts_from_the_narrowed_rang
         env.close()
     finally:
         PickPlacePenEnv._initialize_episode = registered
+
+
+def test_randomisation_pilot_shrinks_every_uniform_layout_draw_about_its_middle():
+    sys.path.insert(0, str(REPO / "scripts"))
+    import randomisation_pilot
+
+    import maniladder_ms
+    from maniladder_ms.tasks.hang_mug import HangMugEnv
+
+    registered = HangMugEnv._initialize_episode
+    try:
+        randomisation_pilot.shrink_layout_draws("HangMug", 0.5)
+        env = maniladder_ms.make("HangMug", obs_mode="state")
+        for seed in range(8):
+            env.reset(seed=seed)
+            mug, tree = env.unwrapped.mug.pose.p[0].tolist(), env.unwrapped.tree.pose.p[0].tolist()
+            assert -0.125 <= mug[0] <= -0.075 and 0.0875 <= mug[1] <= 0.1625  # x in [-0.15, -0.05], y in [0.05, 0.2]
+            assert -0.075 <= tree[0] <= -0.025 and -0.29 <= tree[1] <= -0.27  # x in [-0.1, 0], y in [-0.3, -0.26]
+        env.close()
+    finally:
+        HangMugEnv._initialize_episode = registered
+    assert maniladder_ms.make("HangMug", obs_mode="state").unwrapped._initialize_episode.__func__ is registered
