@@ -134,19 +134,27 @@ class FlattenClayWithRollerEnv(PressClayFlatEnv):
 
 
 CARRY_Z = 0.1  # the pin's axis this high while it moves over the clay
-# the barrel's bottom heights of the passes over the clay, each a stroke forwards and back over the clay's
-# centre; the arms push as hard as their targets are far, so the targets lie below where the barrel stops
-PASS_BOTTOMS = (0.015, -0.01, -0.03)
-ROLL_HALVES = (0.04, 0.06, 0.08)  # each pass rolls the pin this far to either side of the clay's start centre
-# (wider each pass: the clay pushed ahead of the barrel piles up in ridges just beyond the stroke's ends)
-ROLL_STEP = 0.006  # metres per control step of a roll
+# the barrel's bottom height of each pass (m); each pass rolls over the whole stretch where the clay stands
+# higher than that, lowered onto its start end from above, the directions alternating
+PASS_BOTTOMS = (0.04, 0.028, 0.02, 0.014, 0.012)
+PUSH = 0.003  # the grippers aim this far below where the barrel should be: the arms press as hard as they are off
+OVERRUN = 0.012  # each stroke starts and ends this far (barrel axis) beyond the last clay standing above its height
+ROLL_STEP = 0.008  # metres per control step of a roll
+LOWER_STEP = 0.006  # metres per control step while lowering onto or lifting off the clay
+LIFT = 0.012  # the barrel rises this far above a pass's height between passes
+MAX_PASSES = 20
+REACH_X = (-0.3, 0.1)
+HEIGHT_MARGIN, AREA_MARGIN = 0.02, 0.1
+RESERVE = 20
+DEBUG = False
 
 
 # @register_solver("FlattenClayWithRoller", control_modes=TCP_DELTA_MODES)
 def solve_flatten_clay_with_roller(env, seed: int) -> dict:
     """Both arms take a handle top-down (fingers closing along x, across the handle), lift the pin together,
-    carry it over the clay's near side, lower it, and roll it forwards and back over the clay a few times,
-    lower each pass."""
+    carry it over the clay, and roll it over the clay in passes, each lower than the last and in the other
+    direction, each over the stretch (measured from the particles) where the clay stands above the pass's
+    height."""
     with DrivenSolver.episode(env, seed) as s:
         task: FlattenClayWithRollerEnv = env.unwrapped
         n, device = task.num_envs, task.device
@@ -162,35 +170,50 @@ def solve_flatten_clay_with_roller(env, seed: int) -> dict:
         for _ in range(10):
             s.step()
         offsets = {side: s.tcp(arms[side]).p - task.pin.pose.p for side in SIDES}  # pin centre -> each TCP
-        centre = task.clay.start.mean(dim=1)
+        centre_y = task.clay.start.mean(dim=1)[:, 1]
+        r, radius = task.pin_shape.barrel_radius, task.clay_config.radius
 
-        def at(x: torch.Tensor | float, z: float) -> torch.Tensor:
-            p = task.pin.pose.p.clone()
-            p[:, 0], p[:, 1], p[:, 2] = x if torch.is_tensor(x) else torch.full((n,), x), centre[:, 1], z
-            return p
+        def at(x: torch.Tensor, z: float | torch.Tensor) -> torch.Tensor:
+            return torch.stack([x, centre_y, torch.as_tensor(z, device=device).expand(n)], dim=1)
 
-        def glide_pin(a: torch.Tensor, b: torch.Tensor, step: float):
-            glide(s, {arms[side]: (a + offsets[side], b + offsets[side], q) for side in SIDES}, step_length=step,
-                  settle_steps=0)
+        def glide_pin(a: torch.Tensor, b: torch.Tensor, step: float, push: float = 0.0):
+            down = torch.tensor([0.0, 0.0, push], device=device)
+            glide(s, {arms[side]: (a + offsets[side] - down, b + offsets[side] - down, q) for side in SIDES},
+                  step_length=step, settle_steps=0)
 
-        r = task.pin_shape.barrel_radius
-        start = task.pin.pose.p.clone()
-        mid_x = centre[:, 0]
-        glide_pin(start, at(start[:, 0], CARRY_Z), 0.01)
-        glide_pin(at(start[:, 0], CARRY_Z), at(mid_x, CARRY_Z), 0.01)
-        last = at(mid_x, CARRY_Z)
-        # rolled in from the side at a low height the barrel plows the ball ahead of it (10 cm on seed 100):
-        # each pass presses down on the clay's middle first, then rolls out to either side and back
-        for bottom, half in zip(PASS_BOTTOMS, ROLL_HALVES):
-            near_x, far_x = centre[:, 0] - half, centre[:, 0] + half
-            down = at(mid_x, bottom + r)
-            glide_pin(last, down, 0.004)
-            glide_pin(down, at(far_x, bottom + r), ROLL_STEP)
-            glide_pin(at(far_x, bottom + r), at(near_x, bottom + r), ROLL_STEP)
-            glide_pin(at(near_x, bottom + r), down, ROLL_STEP)
-            last = down
-            if bool(s.info["success"].all()):
+        def stretch(bottom: float) -> tuple[torch.Tensor, torch.Tensor]:
+            """x range of the particles whose tops stand above `bottom` (all of them if none)."""
+            p = task.clay.positions()
+            high = p[..., 2] + radius > bottom + 0.001
+            high |= ~high.any(dim=1, keepdim=True)
+            x = p[..., 0]
+            return torch.where(high, x, torch.inf).amin(dim=1), torch.where(high, x, -torch.inf).amax(dim=1)
+
+        pin = task.pin.pose.p.clone()
+        glide_pin(pin, at(pin[:, 0], CARRY_Z), 0.01)
+        pin = at(pin[:, 0], CARRY_Z)
+        for k in range(MAX_PASSES):
+            bottom = PASS_BOTTOMS[min(k, len(PASS_BOTTOMS) - 1)]
+            low, high = stretch(bottom)
+            mid = (low + high) / 2
+            ends = [(high + OVERRUN).clamp(*REACH_X), (low - OVERRUN).clamp(*REACH_X)]
+            cost = sum(int((e - mid).abs().max() / ROLL_STEP) for e in ends) * 2 + 16
+            if int(s.info["elapsed_steps"].max()) + cost > task.task_spec.horizon - RESERVE:
                 break
-        glide_pin(last, at(mid_x, CARRY_Z), 0.01)
+            for end in ends:  # from the middle out to either end: the clay spreads both ways and stays put
+                above = at(mid, bottom + r + LIFT)
+                glide_pin(pin, above, 0.01 if pin[0, 2] > bottom + r + 0.03 else ROLL_STEP)
+                glide_pin(above, at(mid, bottom + r), LOWER_STEP, PUSH)
+                glide_pin(at(mid, bottom + r), at(end, bottom + r), ROLL_STEP, PUSH)
+                pin = at(end, bottom + r + LIFT)
+                glide_pin(at(end, bottom + r), pin, LOWER_STEP)
+            info = s.info
+            if DEBUG:
+                print(f"pass {k} bottom {bottom:.3f} steps {int(info['elapsed_steps'][0])} h {float(info['height_ratio'][0]):.3f} "
+                      f"a {float(info['area_ratio'][0]):.2f} stretch {float(low[0]):+.3f}..{float(high[0]):+.3f}")
+            if bool(((info["height_ratio"] <= task.max_height_ratio - HEIGHT_MARGIN)
+                     & (info["area_ratio"] >= task.min_area_ratio + AREA_MARGIN)).all()) and k + 1 >= len(PASS_BOTTOMS):
+                break
+        glide_pin(pin, at(pin[:, 0], CARRY_Z), 0.01)
         s.hold_until_success()
         return s.info
