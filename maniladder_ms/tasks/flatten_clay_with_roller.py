@@ -48,8 +48,9 @@ class FlattenClayWithRollerEnv(PressClayFlatEnv):
     **Level 2:** against Level 1's PressClayFlat (one gripper presses a ball flat, 1 stage, ~120 steps,
     to 50% height and 1.5x footprint): 4 stages (both arms grasp a handle, lift and place the pin on the
     clay together, roll it out from the clay's middle to either end, lowering it each pass), two arms on
-    one rigid tool in lock-step (a 1 cm height difference between the grippers tilts the 28 cm pin by 2 degrees, and the barrel then
-    presses one side of the clay only), to a flatter and wider sheet (40% height, 1.8x footprint).
+    one rigid tool in lock-step (a 1 cm height difference between the grippers tilts the 28 cm pin by 2
+    degrees, and the barrel then presses one side of the clay only), to a flatter and wider sheet (40%
+    height, 1.8x footprint).
     """
 
     SUPPORTED_ROBOTS = ["ml_dual_panda"]
