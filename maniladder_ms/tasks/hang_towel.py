@@ -38,7 +38,11 @@ together before opening: hooked worse; opening (to 4 cm or fully) then rising sl
 towards the rod: 127 / 139 fall off the bar onto the table; a closed-loop unhook while still pinched (the hands
 spread apart along the bar 3 mm a step while both neighbours touch, at most 15 steps): frees the edge neighbour
 (127: after ~8 steps) but opening pulls the corner back onto the inner finger and the freed towels then slide
-off: 0/7 on 106, 112, 127, 138, 139, 141, 144 (100-103 still pass). So on these seeds the hook is what keeps the
+off: 0/7 on 106, 112, 127, 138, 139, 141, 144 (100-103 still pass); where a hand is hooked before opening, both
+hands 3 cm towards the rod first, then the usual release: the splits come nearer balance (127 / 139 near 25%,
+far 29%; 112, 141, 106 far 15-17%) but the hook stays and drags the towel through the back-off (a finger still
+touching at the end: 0/7), and with the back-off left out (or reversed) for those seeds the rise lifts the
+towel (far 0-12%: 0/7). So on these seeds the hook is what keeps the
 towel on the bar: freed at the release pose (11 cm past, 1 cm over the top, half the particles beyond the
 axis) their towels are not balanced. Next: a release pose chosen per seed (closed loop on where the freed towel
 settles, e.g. from the far part's droop, which was 24% / 22% / 11% on 127 / 139 / 106 against 34% on 100 / 101
