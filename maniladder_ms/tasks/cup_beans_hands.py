@@ -17,11 +17,14 @@ measured on seed 100 (scripts in the session-16 report, numbers here):
 - a "dustpan" (palm vertical facing +y, fingers pointing down, curled 1.5 rad at the knuckles, 0.4 at PIP/DIP;
   reachable, right joints >= 1.07 rad from their limits) over a 13 x 9 cm tray (1.3 bean layers): the TCP stopped
   at z 0.062 m (target 0.035-0.05, the hand's lowest links ~3.2 cm under the TCP), pushed 2 cm, tilted back and
-  lifted: 0 beans; a render shows the curled fingers beside the tray's near wall, not in the pile (this pose's
-  TCP-to-finger geometry is not worked out). Not developed further (no time).
-What to try next: the dustpan scoop with its fingers placed in the pile (a pile deeper than the fingers are thick,
-~2 cm, then tilt back to palm up as the hand rises), or beans raised ~0.25 m (a tray on a stand, the palm coming up
-under its open side); either changes the scene, so the catalog row's description/plan should follow.
+  lifted: 0 beans. The fingers never entered the tray: their MCP/PIP/DIP links lay on the table behind the tray's
+  near wall (contacts with the table; fingertips at the wall, y -0.183, the mount 15 cm behind the TCP at y -0.323):
+  curled this way the finger "floor" runs ~13 cm from the mount to ~1 cm short of the TCP, so the TCP must start
+  >= 14 cm past the near wall, and the floor is longer than this tray (9 cm along the push) is deep.
+What to try next: the dustpan scoop with its fingers placed in the pile: a tray open (or low-walled) on the hand's
+side and >= ~20 cm along the push, a pile deeper than the fingers are thick (~2 cm; more beans or a heap against the
+far wall), then tilt back to palm up ("cup") as the hand rises; or beans raised ~0.25 m (a tray on a stand, the palm
+coming up under its open side). Either changes the scene, so the catalog row's description/plan should follow.
 """
 
 from __future__ import annotations
