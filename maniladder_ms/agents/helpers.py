@@ -54,6 +54,12 @@ LEAP_SYNERGIES = {
     # index bent 90 degrees at its knuckle, straight (points down from a top-down hand), middle/ring curled
     # at PIP/DIP, thumb flat: the index tip is the lowest point by 9 cm, for pressing buttons
     "point": np.array([0.0, 1.57, 0.0, 0.0, 0.0, 0.0, 1.6, 1.6, 0.0, 0.0, 1.6, 1.6, 0.0, 0.0, 0.0, 0.0]),
+    # a cupped palm for loose grains on a palm-up hand: the three fingers raised 0.6 rad at the knuckles and bent
+    # 0.3 at PIP/DIP, index and ring turned 0.1 rad at their side joints towards the middle finger (narrowing the
+    # gaps), thumb swung 1.0 under the palm as the dish's fourth side. 40 beans (4 mm) dropped on a palm-up right
+    # hand: 36 still on it after 40 steps and a 20 cm carry at 5 mm a step (HandoverBallHands' CRADLE_DISH 27, the
+    # knuckles at 0.9 34; CupBeansHands, session 16)
+    "cup": np.array([0.1, 0.6, 0.3, 0.3, 0.0, 0.6, 0.3, 0.3, -0.1, 0.6, 0.3, 0.3, 1.0, 0.0, 0.3, 0.3]),
 }
 # centre of the end face of a LEAP finger's tip (index, middle, ring) in its tip link's frame: the end of
 # the tip's collision box (scripts/make_agents.py), the finger running along the link's -y (a left hand,

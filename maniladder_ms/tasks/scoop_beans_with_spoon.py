@@ -27,8 +27,30 @@ SPOON_FRICTION = 2.0  # a grippy handle: the fingers' pads hold its pitch agains
 BOWL_DENSITY = 2400.0  # kg/m^3 (a heavy stoneware bowl: the spoon scrapes its floor and wall)
 
 
+class ScoopBeansTask:
+    """The ScoopBeans family's shared parts (ScoopBeansWithSpoon, CupBeansHands): `bean_count` beans of
+    `bean_radius` (granular spheres) in `self.beans`, a cup `self.cup` of `cup_shape`, and per-bean episode
+    memory `carried` (set by the task: which tool or hand carried the bean) against which beans in the cup
+    are counted."""
+
+    @property
+    def particle_config(self) -> particles.ParticleConfig:
+        return dataclasses.replace(particles.GRANULAR, count=self.bean_count, radius=self.bean_radius)
+
+    def in_cup(self) -> torch.Tensor:
+        return self.cup_shape.inside(self.beans.positions(), self.cup.pose)
+
+    def delivery_metrics(self) -> dict:
+        """Carried beans in the cup: `beans_delivered` (in the cup and carried), `beans_in_cup`, `beans_carried`,
+        each (B,)."""
+        carried = self.memory["carried"] > 0.5
+        in_cup = self.in_cup()
+        return {"beans_delivered": (in_cup & carried).sum(dim=1), "beans_in_cup": in_cup.sum(dim=1),
+                "beans_carried": carried.sum(dim=1)}
+
+
 @register_task("ScoopBeansWithSpoon")
-class ScoopBeansWithSpoonEnv(ManiLadderEnv):
+class ScoopBeansWithSpoonEnv(ScoopBeansTask, ManiLadderEnv):
     """**Task:** a bowl of beans, a cup and a spoon stand on the table. Grasp the spoon by its handle, scoop
     beans out of the bowl with its head, carry them level to the cup and tip them into it.
 
@@ -72,10 +94,6 @@ class ScoopBeansWithSpoonEnv(ManiLadderEnv):
     bowl_shape = containers.bowl()
     cup_shape = containers.cup(radius=0.04, height=0.09)
 
-    @property
-    def particle_config(self) -> particles.ParticleConfig:
-        return dataclasses.replace(particles.GRANULAR, count=self.bean_count, radius=self.bean_radius)
-
     def _load_scene(self, options: dict):
         super()._load_scene(options)
         self.bowl = containers.build_container(self.scene, "bowl", self.bowl_shape, color=(0.35, 0.55, 0.75, 1),
@@ -113,9 +131,6 @@ class ScoopBeansWithSpoonEnv(ManiLadderEnv):
     def in_bowl(self) -> torch.Tensor:
         return self.bowl_shape.inside(self.beans.positions(), self.bowl.pose)
 
-    def in_cup(self) -> torch.Tensor:
-        return self.cup_shape.inside(self.beans.positions(), self.cup.pose)
-
     def _update_memory(self):
         held = self.ee.holds(self.spoon)
         carried = self.memory["carried"] > 0.5
@@ -132,16 +147,12 @@ class ScoopBeansWithSpoonEnv(ManiLadderEnv):
 
     def evaluate(self):
         held = self.ee.holds(self.spoon)
-        carried = self.memory["carried"] > 0.5
         let_go = self.memory["let_go"]
-        in_cup = self.in_cup()
-        delivered = (in_cup & carried).sum(dim=1)
+        delivery = self.delivery_metrics()
         return {
-            "success": (delivered >= self.min_beans) & held & ~let_go,
-            "beans_delivered": delivered,
-            "beans_in_cup": in_cup.sum(dim=1),
+            "success": (delivery["beans_delivered"] >= self.min_beans) & held & ~let_go,
+            **delivery,
             "beans_in_spoon": self.in_spoon().sum(dim=1),
-            "beans_carried": carried.sum(dim=1),
             "spoon_grasped": held,
             "let_go": let_go,
             "spoon_lifted": self.spoon.pose.p[:, 2] > 0.03,
