@@ -1,0 +1,192 @@
+"""HangTowelOnRackHand (L2 deformable SX): one LEAP hand pinches a towel in its middle, lifts it and hangs it over
+a rack's bar (the HangTowel family's scene and rule, tasks/hang_towel.py)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import torch
+
+from mani_skill.utils.structs.pose import Pose
+
+from maniladder_ms.envs import register_task  # noqa: F401
+from maniladder_ms.geometry import yaw_quat
+from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
+from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver, SCISSOR_RAMP_STEPS
+from maniladder_ms.tasks.hang_towel import ROWS, HangTowelEnv
+
+
+# @register_task("HangTowelOnRackHand")
+class HangTowelOnRackHandEnv(HangTowelEnv):
+    """**Task:** a towel lies flat on the table in front of a towel rack (a horizontal bar along y on two
+    posts); the LEAP hand pinches the towel in its middle, lifts it off the table, carries it over the bar,
+    lowers it onto the bar so it hangs down on both sides, and lets go.
+
+    **Randomisation:**
+    - the rack (bar top 20 cm above the table, a 2 cm rod 40 cm long between its posts) stands with its
+      axis at x uniform in [0.0, 0.06], y uniform in [-0.05, 0.05];
+    - the towel (`cloth.towel(10, 8)`: 10 x 8 particles 2.5 cm apart, particles of 10 mm radius) lies flat,
+      its centre at x uniform in [-0.22, -0.16], y uniform in [-0.05, 0.05], turned by a yaw uniform in
+      +-30 degrees.
+
+    **Success:** the towel hangs over the bar: at least `min_side` of its particles on each side of the bar
+    (beyond the vertical plane through the bar's axis, and lower than the bar's top `bar_height`; the
+    bar's radius is `bar_radius`; `cloth.hanging_fractions`); none on the table (every particle's lowest
+    point more than `table_gap` above it); the hand has let go (touches no towel particle, `ee.touches`);
+    and at some step the hand held (`ee.holds`) a towel particle while the whole towel was off the table
+    (every particle's lowest point more than `table_gap` up; episode memory `lifted`: the towel was carried,
+    not pushed or dragged onto the bar).
+    """
+
+    SUPPORTED_ROBOTS = ["ml_panda_leap"]
+    TASK_REGION = (-0.38, 0.08, -0.26, 0.26)  # towel start (centre plus its half diagonal) and the rack with its feet
+
+    def _load_scene(self, options: dict):
+        super()._load_scene(options)
+        self.memory.flag("lifted")  # the hand held a towel particle while the towel was off the table
+
+    def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
+        super()._initialize_episode(env_idx, options)
+        with torch.device(self.device):
+            b = len(env_idx)
+            bar = torch.stack([torch.rand(b) * 0.06, torch.rand(b) * 0.1 - 0.05, torch.zeros(b)], dim=1)
+            self.bar.set_pose(Pose.create_from_pq(bar))
+            centre = torch.stack([torch.rand(b) * 0.06 - 0.22, torch.rand(b) * 0.1 - 0.05,
+                                  torch.full((b,), self.cloth_config.radius)], dim=1)
+            yaw = (torch.rand(b) * 2 - 1) * np.deg2rad(30)
+            self.towel.set_rest_shape(Pose.create_from_pq(centre, yaw_quat(yaw)))
+
+    def _update_memory(self):
+        if self.memory["lifted"].all():
+            return
+        lowest = self.towel.positions()[..., 2].amin(dim=1) - self.cloth_config.radius
+        off = lowest > self.table_gap
+        if off.any():
+            self.memory.latch("lifted", off & self.ee.holds(self.towel.spheres))
+
+    def _get_obs_extra(self, info: dict):
+        obs = dict(tcp_pose=self.ee.tcp().raw_pose)
+        if "state" in self.obs_mode:
+            points = self.towel.positions()
+            obs.update(towel_points=points.flatten(1), bar_pos=self.bar.pose.p,
+                       tcp_to_centre=points.mean(dim=1) - self.ee.tcp().p)
+        return obs
+
+    def evaluate(self):
+        info = self.evaluate_hang()
+        info["lifted"] = self.memory["lifted"]
+        info["success"] = info["success"] & info["lifted"]
+        return info
+
+    def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
+        lifted = self.memory["lifted"]
+        reach = torch.linalg.norm(self.towel.positions().mean(dim=1) - self.ee.tcp().p, dim=1)
+        reward = torch.where(lifted, 1.0, 1 - torch.tanh(5 * reach)) + lifted.float()
+        sides = torch.stack([info["near_side"], info["far_side"]], dim=1)
+        reward += 2 * (sides.amin(dim=1) / self.min_side).clamp(0, 1)
+        reward += (info["hung"] & info["off_table"]).float() * 0.5
+        reward[info["success"]] = self.max_dense_reward
+        return reward
+
+
+# the middle pinch: the open scissor spread to +-GATHER_SPREAD rad (LEAP side joints), the tips pressed
+# GATHER_PRESS into the sheet around its middle, fingers along the towel's rows, swung together: the tips drag
+# the two middle particles of the middle row together (friction) and squeeze them
+GATHER_SPREAD, GATHER_PRESS = 0.5, 0.01
+CARRY_HEIGHT = 0.41  # TCP height while the hanging towel (12-14 cm below the pinch) is carried over the bar
+RELEASE_ABOVE = 0.012  # the pinched particles' centres are lowered to this high over the bar's top, then let go
+LIFT_STEP, CARRY_STEP, LOWER_STEP = 0.01, 0.008, 0.006  # metres per control step
+RISE = 0.08
+
+
+def _debug(s, task):
+    import os
+    if not os.environ.get("RACK_DEBUG"):
+        return
+    pts = task.towel.positions()[0]
+    print("  step", int(task.elapsed_steps[0]), "tcp", [round(float(v), 3) for v in s.tcp().p[0]], "holds",
+          bool(task.ee.holds(task.towel.spheres)), "lowest %.3f" % float(pts[:, 2].min()), "bar", [round(float(v), 3) for v in task.bar.pose.p[0]],
+          "hang", [round(float(v), 2) for v in task.hanging()[0]])
+    if os.environ.get("RACK_DEBUG") == "img":
+        from maniladder_ms.render import save_tiled
+        img = task.render()
+        img = img[0].cpu().numpy() if hasattr(img, "cpu") else img
+        save_tiled({"s": img}, str(int(task.elapsed_steps[0])), f"/tmp/rackhand/img_{int(task.elapsed_steps[0]):03d}.png")
+
+
+def gather_open() -> np.ndarray:
+    from maniladder_ms.agents.helpers import LEAP_SYNERGIES
+
+    q = LEAP_SYNERGIES["scissor_open"].copy()
+    q[0], q[4] = -GATHER_SPREAD, GATHER_SPREAD
+    return q
+
+
+@register_solver("HangTowelOnRackHand", control_modes=TCP_DELTA_MODES)
+def solve_hang_towel_on_rack_hand(env, seed: int) -> dict:
+    """Pinch the towel's middle (`gather_open`, scissor pinch pressed into the sheet), lift it until it hangs
+    free, turn the wrist so the pinched pair lies across the bar, carry it over the bar's axis at
+    `CARRY_HEIGHT`, lower it onto the bar (the hanging sheet folds over the rod, half each side), open and rise."""
+    from maniladder_ms.solvers.bimanual import glide
+
+    with DrivenSolver.episode(env, seed) as s:
+        task: HangTowelOnRackHandEnv = env.unwrapped
+        n, device = task.num_envs, task.device
+        points = task.towel.positions()
+        cols = task.towel.layout.positions.shape[0] // ROWS
+        rows_axis = points[:, cols] - points[:, 0]
+        towel_yaw = torch.atan2(rows_axis[:, 1], rows_axis[:, 0])
+        centre = points.mean(dim=1)
+        centre[:, 2] = task.cloth_config.radius - GATHER_PRESS
+        tcp, q = DrivenSolver.scissor_pose(centre, towel_yaw)
+        s.set_ee("hand", gather_open(), steps=1)
+        s.move({"arm": (s.above(tcp, APPROACH_HEIGHT), q)}, max_steps=60)
+        s.move({"arm": (tcp, q)}, max_steps=30, pos_tol=0.003)
+        s.close_hand("hand", "scissor", ramp_steps=SCISSOR_RAMP_STEPS)
+        _debug(s, task)
+        import os
+        orient, hc, d, low_z = os.environ.get("ORIENT", "across"), float(os.environ.get("HC", "0.2")), \
+            float(os.environ.get("D", "0")), float(os.environ.get("LZ", "0.012"))
+        start = s.tcp().p.clone()
+        bar = task.bar.pose.p
+        if orient == "across":
+            hand_yaw = torch.where(towel_yaw >= 0, torch.full_like(towel_yaw, np.pi / 2),
+                                   torch.full_like(towel_yaw, -np.pi / 2))
+        else:
+            hand_yaw = torch.zeros_like(towel_yaw)
+
+        def tcp_for(x, y, z):  # TCP placing the pinch at (x, y, z)
+            return DrivenSolver.scissor_pose(torch.stack([x, y, z], dim=1), hand_yaw)
+
+        top = task.bar_height + task.cloth_config.radius
+        zc = torch.full((n,), top + hc, device=device)
+        high, q2 = tcp_for(centre[:, 0], centre[:, 1], zc)
+        glide(s, {"arm": (start, high, q)}, step_length=LIFT_STEP, settle_steps=5)
+        s.move({"arm": (high, q2)}, max_steps=80, pos_tol=0.01, rot_tol=0.05)
+        _debug(s, task)
+        over, _ = tcp_for(bar[:, 0] + d, bar[:, 1], zc)
+        glide(s, {"arm": (s.tcp().p.clone(), over, q2)}, step_length=CARRY_STEP, settle_steps=10)
+        _debug(s, task)
+        low_tcp, _ = tcp_for(bar[:, 0] + d, bar[:, 1], torch.full((n,), top + low_z, device=device))
+        for _ in range(int(os.environ.get("WAIT", "0"))):
+            s.step()
+        glide(s, {"arm": (over, low_tcp, q2)}, step_length=LOWER_STEP, settle_steps=5)
+        _debug(s, task)
+        gain, bal_steps = float(os.environ.get("GAIN", "0")), int(os.environ.get("BAL", "0"))
+        shift = torch.zeros(n, device=device)
+        for _ in range(bal_steps):
+            sides = task.hanging()
+            err = sides[:, 0] - sides[:, 1]
+            if bool((err.abs() < 0.04).all()):
+                break
+            shift = (shift + gain * err).clamp(-0.04, 0.04)
+            low_tcp, _ = tcp_for(bar[:, 0] + d + shift, bar[:, 1], torch.full((n,), top + low_z, device=device))
+            s.step({"arm": (low_tcp, q2)})
+        _debug(s, task)
+        s.set_ee("hand", gather_open(), steps=8)
+        _debug(s, task)
+        glide(s, {"arm": (low_tcp, s.above(low_tcp, RISE), q2)}, step_length=LIFT_STEP, settle_steps=5)
+        _debug(s, task)
+        s.hold_until_success()
+        return s.info
