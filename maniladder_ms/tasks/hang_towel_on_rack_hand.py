@@ -10,9 +10,11 @@ import torch
 
 from mani_skill.utils.structs.pose import Pose
 
-from maniladder_ms.envs import register_task  # noqa: F401
+from maniladder_ms.agents.helpers import LEAP_SYNERGIES
+from maniladder_ms.envs import register_task  # noqa: F401 (the task is not registered yet)
 from maniladder_ms.geometry import yaw_quat
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
+from maniladder_ms.solvers.bimanual import glide
 from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver, SCISSOR_RAMP_STEPS
 from maniladder_ms.tasks.hang_towel import ROWS, HangTowelEnv
 
@@ -92,32 +94,21 @@ class HangTowelOnRackHandEnv(HangTowelEnv):
 
 # the middle pinch: the open scissor spread to +-GATHER_SPREAD rad (LEAP side joints), the tips pressed
 # GATHER_PRESS into the sheet around its middle, fingers along the towel's rows, swung together: the tips drag
-# the two middle particles of the middle row together (friction) and squeeze them
+# the two middle particles of the middle row together by friction and squeeze them (seeds 100-104: 5/5 lifted the
+# towel; tips 5 mm higher or lower, a spread of 0.25 or 0.6 rad, or fingers along the columns: 0-1/5)
 GATHER_SPREAD, GATHER_PRESS = 0.5, 0.01
-CARRY_HEIGHT = 0.41  # TCP height while the hanging towel (12-14 cm below the pinch) is carried over the bar
-RELEASE_ABOVE = 0.012  # the pinched particles' centres are lowered to this high over the bar's top, then let go
-LIFT_STEP, CARRY_STEP, LOWER_STEP = 0.01, 0.008, 0.006  # metres per control step
-RISE = 0.08
-
-
-def _debug(s, task):
-    import os
-    if not os.environ.get("RACK_DEBUG"):
-        return
-    pts = task.towel.positions()[0]
-    print("  step", int(task.elapsed_steps[0]), "tcp", [round(float(v), 3) for v in s.tcp().p[0]], "holds",
-          bool(task.ee.holds(task.towel.spheres)), "lowest %.3f" % float(pts[:, 2].min()), "bar", [round(float(v), 3) for v in task.bar.pose.p[0]],
-          "hang", [round(float(v), 2) for v in task.hanging()[0]])
-    if os.environ.get("RACK_DEBUG") == "img":
-        from maniladder_ms.render import save_tiled
-        img = task.render()
-        img = img[0].cpu().numpy() if hasattr(img, "cpu") else img
-        save_tiled({"s": img}, str(int(task.elapsed_steps[0])), f"/tmp/rackhand/img_{int(task.elapsed_steps[0]):03d}.png")
+CARRY_ABOVE = 0.17  # the pinch's height over the bar's top while carried: the bundle hangs 12-17 cm below it
+LIFT_STEP, CARRY_STEP = 0.01, 0.008  # metres per control step
+LOWER_STEP = 0.003  # lowering onto the bar: 0.006 piled more of the towel on top of the rod (5/8 vs 6/8 dev seeds)
+SWING_STEPS = 10  # wait over the bar for the carried bundle to stop swinging
+# with the pinch on the bar's top, shift it across the bar (GAIN metres per step per unit of imbalance, at most
+# MAX_SHIFT) until the towel hangs evenly (near and far fractions within BALANCE_TOL) or BALANCE_STEPS
+GAIN, MAX_SHIFT, BALANCE_TOL, BALANCE_STEPS = 0.01, 0.04, 0.04, 40
+RELEASE_STEPS, RISE = 8, 0.08
 
 
 def gather_open() -> np.ndarray:
-    from maniladder_ms.agents.helpers import LEAP_SYNERGIES
-
+    """The LEAP joint targets of the open scissor with the index and middle fingers spread to +-GATHER_SPREAD."""
     q = LEAP_SYNERGIES["scissor_open"].copy()
     q[0], q[4] = -GATHER_SPREAD, GATHER_SPREAD
     return q
@@ -125,17 +116,17 @@ def gather_open() -> np.ndarray:
 
 @register_solver("HangTowelOnRackHand", control_modes=TCP_DELTA_MODES)
 def solve_hang_towel_on_rack_hand(env, seed: int) -> dict:
-    """Pinch the towel's middle (`gather_open`, scissor pinch pressed into the sheet), lift it until it hangs
-    free, turn the wrist so the pinched pair lies across the bar, carry it over the bar's axis at
-    `CARRY_HEIGHT`, lower it onto the bar (the hanging sheet folds over the rod, half each side), open and rise."""
-    from maniladder_ms.solvers.bimanual import glide
-
+    """Pinch the towel's middle (`gather_open`, the scissor pressed into the sheet, fingers along its rows, swung
+    together), lift it `CARRY_ABOVE` over the bar's top while turning the hand to yaw 0 (the pinched pair along
+    the bar), carry it over the bar's axis, wait for the swing to stop, lower the pinch slowly onto the bar's top
+    (the hanging bundle folds over the rod), shift it across the bar closed loop until the towel hangs evenly,
+    open and rise."""
     with DrivenSolver.episode(env, seed) as s:
         task: HangTowelOnRackHandEnv = env.unwrapped
         n, device = task.num_envs, task.device
         points = task.towel.positions()
         cols = task.towel.layout.positions.shape[0] // ROWS
-        rows_axis = points[:, cols] - points[:, 0]
+        rows_axis = points[:, cols] - points[:, 0]  # along the towel's rows (its local x)
         towel_yaw = torch.atan2(rows_axis[:, 1], rows_axis[:, 0])
         centre = points.mean(dim=1)
         centre[:, 2] = task.cloth_config.radius - GATHER_PRESS
@@ -144,49 +135,33 @@ def solve_hang_towel_on_rack_hand(env, seed: int) -> dict:
         s.move({"arm": (s.above(tcp, APPROACH_HEIGHT), q)}, max_steps=60)
         s.move({"arm": (tcp, q)}, max_steps=30, pos_tol=0.003)
         s.close_hand("hand", "scissor", ramp_steps=SCISSOR_RAMP_STEPS)
-        _debug(s, task)
-        import os
-        orient, hc, d, low_z = os.environ.get("ORIENT", "across"), float(os.environ.get("HC", "0.2")), \
-            float(os.environ.get("D", "0")), float(os.environ.get("LZ", "0.012"))
-        start = s.tcp().p.clone()
         bar = task.bar.pose.p
-        if orient == "across":
-            hand_yaw = torch.where(towel_yaw >= 0, torch.full_like(towel_yaw, np.pi / 2),
-                                   torch.full_like(towel_yaw, -np.pi / 2))
-        else:
-            hand_yaw = torch.zeros_like(towel_yaw)
+        hand_yaw = torch.zeros_like(towel_yaw)
+        top = task.bar_height + task.cloth_config.radius  # a particle's centre resting on the bar's top
 
-        def tcp_for(x, y, z):  # TCP placing the pinch at (x, y, z)
-            return DrivenSolver.scissor_pose(torch.stack([x, y, z], dim=1), hand_yaw)
+        def tcp_for(x, y, z):  # the TCP pose placing the pinch at (x, y, z), hand at yaw 0
+            return DrivenSolver.scissor_pose(torch.stack([x, y, torch.as_tensor(z, device=device).expand(n)], dim=1),
+                                             hand_yaw)
 
-        top = task.bar_height + task.cloth_config.radius
-        zc = torch.full((n,), top + hc, device=device)
-        high, q2 = tcp_for(centre[:, 0], centre[:, 1], zc)
-        glide(s, {"arm": (start, high, q)}, step_length=LIFT_STEP, settle_steps=5)
+        high, q2 = tcp_for(centre[:, 0], centre[:, 1], top + CARRY_ABOVE)
+        glide(s, {"arm": (s.tcp().p.clone(), high, q)}, step_length=LIFT_STEP, settle_steps=5)
         s.move({"arm": (high, q2)}, max_steps=80, pos_tol=0.01, rot_tol=0.05)
-        _debug(s, task)
-        over, _ = tcp_for(bar[:, 0] + d, bar[:, 1], zc)
+        over, _ = tcp_for(bar[:, 0], bar[:, 1], top + CARRY_ABOVE)
         glide(s, {"arm": (s.tcp().p.clone(), over, q2)}, step_length=CARRY_STEP, settle_steps=10)
-        _debug(s, task)
-        low_tcp, _ = tcp_for(bar[:, 0] + d, bar[:, 1], torch.full((n,), top + low_z, device=device))
-        for _ in range(int(os.environ.get("WAIT", "0"))):
+        for _ in range(SWING_STEPS):
             s.step()
-        glide(s, {"arm": (over, low_tcp, q2)}, step_length=LOWER_STEP, settle_steps=5)
-        _debug(s, task)
-        gain, bal_steps = float(os.environ.get("GAIN", "0")), int(os.environ.get("BAL", "0"))
+        low, _ = tcp_for(bar[:, 0], bar[:, 1], top)
+        glide(s, {"arm": (over, low, q2)}, step_length=LOWER_STEP, settle_steps=5)
         shift = torch.zeros(n, device=device)
-        for _ in range(bal_steps):
+        for _ in range(BALANCE_STEPS):
             sides = task.hanging()
-            err = sides[:, 0] - sides[:, 1]
-            if bool((err.abs() < 0.04).all()):
+            imbalance = sides[:, 0] - sides[:, 1]  # near side heavier: move the pinch to the far side
+            if bool((imbalance.abs() < BALANCE_TOL).all()):
                 break
-            shift = (shift + gain * err).clamp(-0.04, 0.04)
-            low_tcp, _ = tcp_for(bar[:, 0] + d + shift, bar[:, 1], torch.full((n,), top + low_z, device=device))
-            s.step({"arm": (low_tcp, q2)})
-        _debug(s, task)
-        s.set_ee("hand", gather_open(), steps=8)
-        _debug(s, task)
-        glide(s, {"arm": (low_tcp, s.above(low_tcp, RISE), q2)}, step_length=LIFT_STEP, settle_steps=5)
-        _debug(s, task)
+            shift = (shift + GAIN * imbalance).clamp(-MAX_SHIFT, MAX_SHIFT)
+            low, _ = tcp_for(bar[:, 0] + shift, bar[:, 1], top)
+            s.step({"arm": (low, q2)})
+        s.set_ee("hand", gather_open(), steps=RELEASE_STEPS)
+        glide(s, {"arm": (low, s.above(low, RISE), q2)}, step_length=LIFT_STEP, settle_steps=5)
         s.hold_until_success()
         return s.info
