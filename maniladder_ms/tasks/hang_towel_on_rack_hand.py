@@ -98,12 +98,15 @@ class HangTowelOnRackHandEnv(HangTowelEnv):
 # towel; tips 5 mm higher or lower, a spread of 0.25 or 0.6 rad, or fingers along the columns: 0-1/5)
 GATHER_SPREAD, GATHER_PRESS = 0.5, 0.01
 CARRY_ABOVE = 0.17  # the pinch's height over the bar's top while carried: the bundle hangs 12-17 cm below it
-LIFT_STEP, CARRY_STEP = 0.01, 0.008  # metres per control step
-LOWER_STEP = 0.003  # lowering onto the bar: 0.006 piled more of the towel on top of the rod (5/8 vs 6/8 dev seeds)
+LIFT_STEP, CARRY_STEP, LOWER_STEP = 0.012, 0.01, 0.008  # metres per control step
+# the last SLOW_ABOVE of the lowering onto the bar go at SLOW_STEP: the whole way at 0.006 piled more of the towel
+# on top of the rod than at 0.003 (5/8 vs 6/8 dev seeds)
+SLOW_ABOVE, SLOW_STEP = 0.07, 0.003
 SWING_STEPS = 10  # wait over the bar for the carried bundle to stop swinging
 # with the pinch on the bar's top, shift it across the bar (GAIN metres per step per unit of imbalance, at most
 # MAX_SHIFT) until the towel hangs evenly (near and far fractions within BALANCE_TOL) or BALANCE_STEPS
-GAIN, MAX_SHIFT, BALANCE_TOL, BALANCE_STEPS = 0.01, 0.04, 0.04, 40
+GAIN, MAX_SHIFT, BALANCE_TOL, BALANCE_STEPS = 0.005, 0.04, 0.04, 60
+BALANCED_STEPS = 3  # in a row within BALANCE_TOL
 RELEASE_STEPS, RISE = 8, 0.08
 
 
@@ -150,13 +153,17 @@ def solve_hang_towel_on_rack_hand(env, seed: int) -> dict:
         glide(s, {"arm": (s.tcp().p.clone(), over, q2)}, step_length=CARRY_STEP, settle_steps=10)
         for _ in range(SWING_STEPS):
             s.step()
+        near, _ = tcp_for(bar[:, 0], bar[:, 1], top + SLOW_ABOVE)
         low, _ = tcp_for(bar[:, 0], bar[:, 1], top)
-        glide(s, {"arm": (over, low, q2)}, step_length=LOWER_STEP, settle_steps=5)
+        glide(s, {"arm": (over, near, q2)}, step_length=LOWER_STEP, settle_steps=0)
+        glide(s, {"arm": (near, low, q2)}, step_length=SLOW_STEP, settle_steps=5)
         shift = torch.zeros(n, device=device)
+        streak = 0
         for _ in range(BALANCE_STEPS):
             sides = task.hanging()
             imbalance = sides[:, 0] - sides[:, 1]  # near side heavier: move the pinch to the far side
-            if bool((imbalance.abs() < BALANCE_TOL).all()):
+            streak = streak + 1 if bool((imbalance.abs() < BALANCE_TOL).all()) else 0
+            if streak >= BALANCED_STEPS:
                 break
             shift = (shift + GAIN * imbalance).clamp(-MAX_SHIFT, MAX_SHIFT)
             low, _ = tcp_for(bar[:, 0] + shift, bar[:, 1], top)
