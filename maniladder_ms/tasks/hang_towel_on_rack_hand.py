@@ -1,5 +1,29 @@
 """HangTowelOnRackHand (L2 deformable SX): one LEAP hand pinches a towel in its middle, lifts it and hangs it over
-a rack's bar (the HangTowel family's scene and rule, tasks/hang_towel.py)."""
+a rack's bar (the HangTowel family's scene and rule, tasks/hang_towel.py; a thin subclass of `HangTowelEnv`).
+
+NOT BUILT YET (session 16, helper/rackhand): not registered (the `register_task` line below is commented out)
+until its solver passes 45 of seeds 100-149. Session 16: solver 32/50 on seeds 100-149 (the failing seeds in the catalog comment).
+Dev seeds: 100-109 8/10 and 0-9 8/10 (successes in 206-247 steps, horizon 300).
+What works: the middle pinch (`gather_open`: the open scissor spread to +-0.5 rad, the tips pressed 1 cm into the
+sheet at its middle, fingers along the towel's rows, swung together) lifts the whole towel on every dev seed (the
+tips drag the two middle particles of the middle row together by friction); carrying the hanging bundle over the
+bar and lowering it onto the rod gives a drape of ~0.3-0.4 of the particles on each side with ~0.3 on top of the rod.
+What fails: after the release the drape is not stable: particles roll over the rod (the spheres roll; the rod's
+friction holds little), so the towel drifts by about one row (0.1 of its particles) towards one side in the 10-40
+steps after the release, and sometimes slides off entirely (seed 6: 0.36 / 0.26 after the rise, then all on the near
+side); a one-row drift takes a 0.4 / 0.4 drape below min_side on one side.
+Tried (dev seeds, no better than 8/10, not kept): the pinched pair turned across the bar (a 60-120 degree wrist
+turn; the tips then straddle the rod; 1-3/8, slower, past the horizon on some); dragging the bundle over the rod at a
+lower carry height (3/8); pinch released 1.2 cm over the rod's top or pressed onto it (same); balancing on the
+fraction of all particles on each side instead of those hanging (5/8, with the faster lowering); aiming the balance at
+the far side 0.06 heavier (the near side gained on several seeds: 5/10); gentler release (ramped opening, or the
+plain scissor_open with 20 steps' wait: 4/8-8/10); release only after 8 balanced steps (8/10); a re-pinch when a side
+is short right after the opening (8/10: the drift comes later, during the rise and the wait).
+Next: a drape that stays put needs either more rolling resistance of the particles on the rod (a library change
+in deformables/cloth: e.g. angular damping of the particles; check HangTowelOnBar, which fails the same way) or a
+solver that watches the towel after the release and re-pinches/re-balances it before the hand leaves (the pinched
+row stays between the open fingers for a while).
+"""
 
 from __future__ import annotations
 
@@ -19,7 +43,7 @@ from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver, SCISSOR_
 from maniladder_ms.tasks.hang_towel import ROWS, HangTowelEnv
 
 
-# @register_task("HangTowelOnRackHand")
+# @register_task("HangTowelOnRackHand")  -- not yet: solver below the bar on seeds 100-149 (module docstring)
 class HangTowelOnRackHandEnv(HangTowelEnv):
     """**Task:** a towel lies flat on the table in front of a towel rack (a horizontal bar along y on two
     posts); the LEAP hand pinches the towel in its middle, lifts it off the table, carries it over the bar,
@@ -42,7 +66,7 @@ class HangTowelOnRackHandEnv(HangTowelEnv):
     """
 
     SUPPORTED_ROBOTS = ["ml_panda_leap"]
-    TASK_REGION = (-0.38, 0.08, -0.26, 0.26)  # towel start (centre plus its half diagonal) and the rack with its feet
+    TASK_REGION = (-0.38, 0.09, -0.28, 0.28)  # towel start (centre plus its half diagonal) and the rack with its feet
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
