@@ -280,7 +280,8 @@ TAKER_DEPTH = 0.045  # the taker's TCP this far below the rim
 TAKER_WAIT = (0.0, -0.2, 0.15)  # from MEET, where the right waits top-down during the pick and roll
 TAKER_ASIDE = 0.025  # the taker lines up this far towards its thumb (-x): the thumb clears the rim
 TAKER_LIFT = 0.05  # the taker lifts the mug this far off the giver's fingers as the giver opens
-GIVER_OPEN_STEPS = 10  # the giver's fingers open clear of the mug before it moves
+GIVER_RAMP = 10  # control steps the giver takes to open while the taker lifts (at once: 8 swap losses in 100-149; 10: 7)
+GIVER_OPEN_STEPS = 5  # then held open this many steps before it moves aside
 GIVER_RETREAT = (0.0, 0.15, 0.0)  # then it moves aside, level: its open fingers reach ~15 cm towards -y
 CARRY_STEP = 0.006  # metres a control step while the taker carries the mug
 PLACE_ABOVE = 0.03  # the tilt is corrected again with the mug's bottom this far above the coaster
@@ -336,11 +337,7 @@ def solve_handover_mug_hands(env, seed: int) -> dict:
         reach(s, [Grasp("right_arm", "right_hand", take_p, taker_q, aside)])
         s.grasp("right_hand")
         # the swap: the giver opens while the taker lifts the mug off its fingers, then moves aside
-        s.set_ee("left_hand", "open", steps=0)
-        s.move({"right_arm": (s.above(s.tcp("right_arm").p, TAKER_LIFT), taker_q)}, max_steps=15)
-        for _ in range(GIVER_OPEN_STEPS):
-            s.step()
-        giver_aside(s, task)
+        swap(s, task, taker_q)
         # straighten the mug in the grip, carry it level over the coaster, lower it, straighten again, set it down
 
         def place_tcp(gap: float) -> torch.Tensor:  # the TCP that puts the mug's bottom centre `gap` over the coaster
@@ -369,6 +366,17 @@ def solve_handover_mug_hands(env, seed: int) -> dict:
             nudge(s, task)
         s.hold_until_success()
         return s.info
+
+
+def swap(s: HandoverSolver, task: HandoverMugHandsEnv, taker_q: torch.Tensor):
+    """The giver opens over GIVER_RAMP steps while the taker lifts the mug TAKER_LIFT off its fingers at the same
+    pace, then the giver moves aside. (Opening the giver at once flung the mug out of the taker's grip on seeds 116,
+    117, 119, 143: the swap failures were the giver's opening, not its move aside.)"""
+    start = s.tcp("right_arm").p.clone()
+    s.background = iter([{"right_arm": (s.above(start, TAKER_LIFT * k / GIVER_RAMP), taker_q)}
+                         for k in range(1, GIVER_RAMP + 1)])
+    s.close_hand("left_hand", "open", ramp_steps=GIVER_RAMP, hold_steps=GIVER_OPEN_STEPS)
+    giver_aside(s, task)
 
 
 def giver_aside(s: HandoverSolver, task: HandoverMugHandsEnv):
