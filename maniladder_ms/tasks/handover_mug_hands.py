@@ -17,6 +17,10 @@ knuckles, and a released mug standing upright more than REGRASP_FROM off the coa
 above (`solvers.mug.mug_to_coaster`): seeds 100-149 34/50 with an always-on squaring (105, 107, 144 gained; 110,
 126, 148 lost to it), which now squares only a hand within SQUARE_MAX_TURN of square over a mug still upright
 (notes below); still below the bar.
+Session 16 (helper/mughands6): this solver swept at last: seeds 100-149 36/50 (565-1028 steps, mean 752; 1 pick
+loss, 7 in the swap, 6 after it). The swap losses traced: the giver's fingers opening at once fling the mug out of
+the taker's grip (the move aside is not the cause); opening them over 10 steps saves 124 in the swap but sweeps
+33/50 (notes below); still below the bar.
 """
 
 from __future__ import annotations
@@ -270,6 +274,33 @@ class HandoverMugHandsEnv(HandoverTask):
 # side_grasp`) after a set-down, a tilt-triggered set-down, a power receive; and the swap, now the largest loss: the
 # giver's retreat from a state saved before `giver_aside` (directions / speeds; an untested script:
 # /tmp/mughands5/swapvar.py).
+# Session 16 (helper/mughands6; 10-30 s a seed, load 5-7). The swap traced step by step (mug tilt, height, which hand
+# holds / touches it) on the swap losses 114, 116, 117, 119, 124, 130, 143: on all but 130 the mug is already lost
+# when `giver_aside` starts. The giver's "open" set at once swings its fingers up and flings the mug out of the
+# taker's grip within 3-6 steps (116: thrown 5 cm up; 119, 143: off the table); only on 130 does the left touch the
+# mug in the move aside. Variants, run to the end of the swap (survived: the right holds the mug, tilt < 45 deg):
+# - a move aside down along the palm normal first (8 cm, 4 mm a step) then sideways: the palm-up left does not go
+#   down (its TCP ends at z 0.343-0.352, as with the level move: the IK does not follow), so no clearance gained;
+# - the giver opening over 20 steps under a still taker, then the taker lifting (then the down move): the taker's grip
+#   does not carry the mug alone, it slides 6 cm down onto the left's open palm (114) or topples (116, 117, 119,
+#   124, 130, 143): worse;
+# - opening over 10 / 20 steps while the taker lifts (swap): of the 7 losses only 124 saved (both ramps), 100 and
+#   101 kept; over seeds 100-149 43/50 survive the 10-step ramp (losses 114, 116, 117, 119, 130, 142 pick, 143);
+# - a deeper taker squeeze (power + 0.4 rad on every curl joint) before the ramp: 0/9 (114-143 and 100, 101);
+# - the taker's TCP z along the tilted mug's axis (square on it) rather than top-down: 114, 117 saved (and solved in
+#   full runs), but over seeds 100-149 only 26/50 survive the swap (24 lost): rejected.
+# Seeds 100-149 with the 10-step ramp (commit 310541f; run to 1200 steps): 33/50, solved in 590-1071 steps (mean
+# 746). Failures: 142 (pick), 114, 116, 117, 119, 143 (swap: the taker's top-down grip does not hold the mug alone
+# once the giver lets go), and 11 after the pass (handed_over, not placed): 108, 110, 111, 127, 130, 132, 133, 139,
+# 141, 147, 148, not traced (all but 130 solved by this solver, below, which loses 113, 128, 131, 135, 136, 137
+# there instead: the gentler swap leaves the mug at other tilts in the grip and the carry / release outcomes move).
+# This solver (the giver opening at once, session 15's conditioned squaring), swept the same way: 36/50, solved in
+# 565-1028 steps (mean 752); failures 142 (pick), 114, 116, 119, 143 (swap), 113, 117, 124, 128, 130, 131, 135,
+# 136, 137 (after the pass; 117, 124, 130 count as handed over: the right held the mug alone a few steps before it
+# fell in the swap). So the ramp is reverted: it saves one swap and loses more after the pass.
+# Next: the taker's grip is the weak link in both the swap and the carry (it pivots near the mug's centre of mass and
+# does not carry the mug alone on 5 seeds): a grip that spans the centre of mass, or a set-down on the left's open
+# palm and a square regrasp (mug_to_coaster's grasp) from there; the pick on 142 not traced.
 # ----------------------------------------------------------------------------------------------------
 GIVER_TCP_HEIGHT = 0.065  # the giver's top-down TCP above the table at the pick (the upside-down mug's base at 9 cm)
 GIVER_ROLL_SIGN = -1.0  # about the TCP y axis (the finger row, world x): the left Panda's joint 7 stays mid-range
