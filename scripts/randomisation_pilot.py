@@ -31,7 +31,6 @@ sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(REPO / "scripts"))
 
 
-
 def shrink_layout_draws(task_id: str, scale: float) -> None:
     """Wrap `task_id`'s `_initialize_episode` in this process so that each `torch.rand` draw u becomes
     0.5 + (u - 0.5) * scale: every uniform range keeps its middle and is `scale` times as wide."""
@@ -54,8 +53,10 @@ def shrink_layout_draws(task_id: str, scale: float) -> None:
 
 
 def pick_place_pen_one_side(scale: float) -> None:
-    """Replace PickPlacePen's layout draw in this process: the registered task's ranges, each scaled by `scale`
-    about its middle, the pen always on the robot's left (+y) and the tray on its right."""
+    """Replace PickPlacePen's layout draw in this process: the registered task's ranges (copied from
+    `PickPlacePenEnv._initialize_episode`, in its draw order, so a seed gives the layout the committed pilot result
+    was measured on), each scaled by `scale` about its middle, the pen always on the robot's left (+y) and the tray
+    on its right."""
     from mani_skill.utils.structs.pose import Pose
 
     from maniladder_ms.envs import ManiLadderEnv
