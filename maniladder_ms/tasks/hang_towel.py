@@ -104,6 +104,7 @@ class HangTowelEnv(ManiLadderEnv):
     max_dense_reward = 6
     cloth_config = cloth.ClothConfig(radius=0.010)
     PARAMS = ("bar_height", "bar_radius", "min_side", "table_gap")
+    HOLD_MEMORY: str  # the variant's episode-memory flag for how the towel must have been taken
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -126,6 +127,12 @@ class HangTowelEnv(ManiLadderEnv):
         off_table = lowest > self.table_gap
         return dict(near_side=sides[:, 0], far_side=sides[:, 1], hung=hung, lowest=lowest, off_table=off_table,
                     is_touching=touching, success=hung & off_table & ~touching)
+
+    def evaluate(self):
+        info = self.evaluate_hang()
+        info[self.HOLD_MEMORY] = self.memory[self.HOLD_MEMORY]
+        info["success"] = info["success"] & info[self.HOLD_MEMORY]
+        return info
 
 
 # @register_task("HangTowelOnBar")  -- not yet: solver 39/50 on seeds 100-149 (module docstring)
@@ -161,6 +168,7 @@ class HangTowelOnBarEnv(HangTowelEnv):
     """
 
     SUPPORTED_ROBOTS = ["ml_dual_panda"]
+    HOLD_MEMORY = "corners_held"
     TASK_REGION = (-0.45, 0.05, -0.26, 0.26)  # towel start (centre plus its half diagonal) and the bar with its feet
 
     def _load_scene(self, options: dict):
@@ -194,12 +202,6 @@ class HangTowelOnBarEnv(HangTowelEnv):
             obs.update(towel_points=self.towel.positions().flatten(1), bar_pos=self.bar.pose.p,
                        **{f"{side}_tcp_to_corner": corners[side].pose.p - tcp.p for side, tcp in tcps.items()})
         return obs
-
-    def evaluate(self):
-        info = self.evaluate_hang()
-        info["corners_held"] = self.memory["corners_held"]
-        info["success"] = info["success"] & info["corners_held"]
-        return info
 
     def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
         reward = torch.zeros(self.num_envs, device=self.device)

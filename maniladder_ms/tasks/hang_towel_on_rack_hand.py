@@ -66,6 +66,7 @@ class HangTowelOnRackHandEnv(HangTowelEnv):
     """
 
     SUPPORTED_ROBOTS = ["ml_panda_leap"]
+    HOLD_MEMORY = "lifted"
     TASK_REGION = (-0.38, 0.09, -0.28, 0.28)  # towel start (centre plus its half diagonal) and the rack with its feet
 
     def _load_scene(self, options: dict):
@@ -98,12 +99,6 @@ class HangTowelOnRackHandEnv(HangTowelEnv):
             obs.update(towel_points=points.flatten(1), bar_pos=self.bar.pose.p,
                        tcp_to_centre=points.mean(dim=1) - self.ee.tcp().p)
         return obs
-
-    def evaluate(self):
-        info = self.evaluate_hang()
-        info["lifted"] = self.memory["lifted"]
-        info["success"] = info["success"] & info["lifted"]
-        return info
 
     def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
         lifted = self.memory["lifted"]
