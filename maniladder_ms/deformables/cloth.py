@@ -190,6 +190,35 @@ def fold_edge(layout: ClothLayout, rows: int, cols: int, cells: int) -> tuple[np
     return positions, quats
 
 
+def drape_over_rod(layout: ClothLayout, rows: int, cols: int, top_row: float,
+                   wrap_radius: float) -> tuple[np.ndarray, np.ndarray]:
+    """A rows x cols towel `layout` hanging over a horizontal rod along y through the local origin: the
+    sheet's point at row `top_row` (fractional: 4.5 lies between rows 4 and 5) on the rod's top, the rows
+    near it on a circle of `wrap_radius` about the rod's axis (the rod's radius plus a particle's), the
+    rest hanging straight down, rows below `top_row` on the -x side. Each particle is turned to the sheet's
+    tangent and placed half a link past its neighbour's drive frame along it, so every drive starts at rest.
+    Returns local positions [N, 3] and orientations [N, 4] (wxyz)."""
+    spacing = np.linalg.norm(layout.positions[1] - layout.positions[0])
+    # each row's turn about y: rows on the rod make a polygon about it whose corners (the drive frames) lie
+    # on the tangents, half a link from each centre: centres on the circle, one link turns 2 atan(s / 2R);
+    # a quarter turn once hanging
+    step = 2 * np.arctan(spacing / (2 * wrap_radius))
+    turn = np.clip((np.arange(rows) - top_row) * step, -np.pi / 2, np.pi / 2)
+    tangent = np.stack([np.cos(turn), -np.sin(turn)], axis=1)  # (x, z) of each row's local +x
+    first = int(np.ceil(top_row)) if top_row < rows - 1 else rows - 1  # walk from the row nearest the top
+    centre = np.zeros((rows, 2))
+    centre[first] = wrap_radius * np.array([np.sin(turn[first]), np.cos(turn[first])])
+    for k in range(first + 1, rows):
+        centre[k] = centre[k - 1] + spacing / 2 * (tangent[k - 1] + tangent[k])
+    for k in range(first - 1, -1, -1):
+        centre[k] = centre[k + 1] - spacing / 2 * (tangent[k + 1] + tangent[k])
+    r = np.arange(rows * cols) // cols
+    positions = layout.positions.copy()
+    positions[:, 0], positions[:, 2] = centre[r, 0], centre[r, 1]
+    quats = np.stack([np.cos(turn[r] / 2), np.zeros(len(r)), np.sin(turn[r] / 2), np.zeros(len(r))], axis=1)
+    return positions, quats
+
+
 def tent_panel(rows: int = 8, cols: int = 12, spacing: float = 0.03) -> ClothLayout:
     """A tent panel: a larger-spaced rectangle; `grommets` are its four corners (to pin on pegs)."""
     layout = towel(rows, cols, spacing)
