@@ -7,8 +7,6 @@ from typing import Any
 import numpy as np
 import torch
 
-from mani_skill.utils.geometry.rotation_conversions import axis_angle_to_quaternion, quaternion_apply, quaternion_multiply
-
 from maniladder_ms.deformables import particles
 from maniladder_ms.deformables.pouring import CupToBowl
 from maniladder_ms.envs import ManiLadderEnv, register_task
@@ -16,6 +14,7 @@ from maniladder_ms.objects import containers
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.bimanual import READY_ARM_JOINTS, Grasp, close_hands, glide, side_grasp
 from maniladder_ms.solvers.driven import DrivenSolver
+from maniladder_ms.solvers.pouring import steer_roll
 
 # The left hand pours and the right holds. Both take side grasps, palm level with the container, the finger row
 # upright. The pourer's grasp needs its thumb low, under the glass' grains. For the right Panda that grasp puts
@@ -138,33 +137,6 @@ POUR_ROLL, POUR_ROLL_STEPS, POUR_HOLD_STEPS = 2.4, 70, 60
 CLEAR = 0.02  # the glass' lower bottom edge clears the cup's rim by this during the roll
 
 
-def glass_mouth(task: PourGrainsHandToCupEnv) -> torch.Tensor:
-    """World position (n, 3) of the centre of the glass' mouth, from its measured pose."""
-    height = task.cup_shape.inner[-1][0]
-    local = torch.tensor([0.0, 0.0, height], device=task.device).expand(task.num_envs, 3)
-    return task.cup.pose.p + quaternion_apply(task.cup.pose.q, local)
-
-
-def pour(s: DrivenSolver, task: PourGrainsHandToCupEnv, arm: str, pointing: torch.Tensor, q: torch.Tensor):
-    """Roll the held glass by POUR_ROLL about the palm normal `pointing` (from TCP orientation `q`), steering
-    its measured mouth along a line to MOUTH_HEIGHT over the cup, never so low that the glass' bottom edge
-    meets the cup's rim; then hold until the task succeeds (at most POUR_HOLD_STEPS)."""
-    start = glass_mouth(task)
-    end = task.bowl.pose.p.clone()
-    end[:, 2] = MOUTH_HEIGHT
-    rim, glass_h = task.bowl_shape.inner[-1][0], task.cup_shape.inner[-1][0]
-    glass_r = task.cup_shape.inner[-1][1] + task.cup_shape.wall
-    for k in range(1, POUR_ROLL_STEPS + POUR_HOLD_STEPS + 1):
-        f = min(k, POUR_ROLL_STEPS) / POUR_ROLL_STEPS
-        tilt = POUR_ROLL * f
-        goal = start + (end - start) * f
-        floor_z = rim + CLEAR + max(0.0, glass_h * np.cos(tilt)) + glass_r * np.sin(tilt)
-        goal[:, 2] = goal[:, 2].clamp(min=floor_z)
-        s.step({arm: (s.tcp(arm).p + goal - glass_mouth(task), quaternion_multiply(axis_angle_to_quaternion(pointing * tilt), q))})
-        if bool(s.info["success"].all()):
-            return
-
-
 @register_solver("PourGrainsHandToCup", control_modes=TCP_DELTA_MODES)
 def solve_pour_grains_hand_to_cup(env, seed: int) -> dict:
     """Both hands line up beside their containers from the ready pose and move in; the holder closes on the
@@ -191,6 +163,12 @@ def solve_pour_grains_hand_to_cup(env, seed: int) -> dict:
         carry = task.bowl.pose.p - CARRY_BESIDE * direction + held
         carry[:, 2] = CARRY_BOTTOM + held[:, 2]
         glide(s, {glass.arm: (s.tcp(glass.arm).p, carry, glass.q)}, step_length=CARRY_STEP)
-        pour(s, task, glass.arm, normals[POURER], glass.q)
+        # roll the glass about the palm normal, its mouth steered to MOUTH_HEIGHT over the cup, its bottom edge
+        # clearing the cup's rim
+        end = task.bowl.pose.p.clone()
+        end[:, 2] = MOUTH_HEIGHT
+        rim_z = torch.full((task.num_envs,), task.bowl_shape.inner[-1][0], device=task.device)
+        steer_roll(s, task, glass.arm, normals[POURER], glass.q, end, rim_z, POUR_ROLL, POUR_ROLL_STEPS,
+                   POUR_HOLD_STEPS, CLEAR)
         s.hold_until_success(max_steps=40)
         return s.info
