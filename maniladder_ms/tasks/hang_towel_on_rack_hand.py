@@ -19,10 +19,27 @@ fraction of all particles on each side instead of those hanging (5/8, with the f
 the far side 0.06 heavier (the near side gained on several seeds: 5/10); gentler release (ramped opening, or the
 plain scissor_open with 20 steps' wait: 4/8-8/10); release only after 8 balanced steps (8/10); a re-pinch when a side
 is short right after the opening (8/10: the drift comes later, during the rise and the wait).
-Next: a drape that stays put needs either more rolling resistance of the particles on the rod (a library change
-in deformables/cloth: e.g. angular damping of the particles; check HangTowelOnBar, which fails the same way) or a
-solver that watches the towel after the release and re-pinches/re-balances it before the hand leaves (the pinched
-row stays between the open fingers for a while).
+Session 17 (helper/rackhand2; solver unchanged, still 32/50): a library check (cloth.drape_over_rod, its tests) shows
+a clean wrap on the rod at rest stays put, so the drift comes from the drape the hand leaves. Measured before the
+opening (dev seeds 100, 101, 103, 104 passing, 105, 108, 110, 114, 123, 132 failing; the solver as is: 4/10): the
+towel is a tent, not a wrap: 0.26-0.59 of the particles lie above the bar's top (the middle rows along the rod, the
+rest piled under the pinch; a clean middle wrap leaves ~0.2 there), failing seeds mostly 0.41-0.59, passing ones
+0.26-0.36 (101, 104: ~0.5); on opening the pile drops to one side and kicks the towel along (110: near 0.25 -> 0.49
+within the 8 opening steps, then off). The towel's mean x before the opening does not predict the side it goes.
+Tried on those 10 seeds, one at a time (outcomes flip both ways with a 1 cm change: chaotic, none kept): the closed
+pinch pressed 1 cm lower after balancing 5/10 (fixes 114, 132, breaks 100), 2 cm 3/10; pinch 2 cm past the axis and
+1 cm down before opening 3/10; open, then withdraw 8 cm along the rod's axis before rising 4/10; opening held 25 steps,
+then 10 cm along the axis at 4 mm/step 3/10; a shake before opening (+-2 cm along the axis, 3 x 10 steps, rebalanced)
+3/10, (+-1.5 cm vertically) 5/10 (fixes 105, 114, breaks 101); the slow lowering stopped where the hanging sum
+stops growing (drops 0.03 below its best; 5 mm back up) 5/10 (fixes 105, 114, breaks 100); dragging the carried bag
+over the rod (lowered 5 cm on its near side to 2 cm over its top, where the far half already lies over the rod, then
+3.5 cm past the axis): the whole bag piles on the rod's top (0.65 above it) and slides off on opening (110); a corner
+pinch for a single-layer flag drape: the corners nearest the bar cannot be reached (the hand's body stalls on the
+rack's bar, 3.4 cm above the corner) nor those nearest the robot (the arm stalls 16 cm up, at x -0.39).
+Next: the pile must leave the rod's top before the fingers open (a drape with ~0.2 on top, ~0.4 per side): e.g. a
+second contact that strokes the sheet down both sides of the rod while the pinch holds (the open thumb or palm), a
+towel pinched off-centre so only one half folds over the rod (the pinch then lowered down the far side, as
+HangTowelOnBar's corners), or a scene change (towel or rack placed so a corner is reachable) with a catalog comment.
 """
 
 from __future__ import annotations
