@@ -35,11 +35,14 @@ stops growing (drops 0.03 below its best; 5 mm back up) 5/10 (fixes 105, 114, br
 over the rod (lowered 5 cm on its near side to 2 cm over its top, where the far half already lies over the rod, then
 3.5 cm past the axis): the whole bag piles on the rod's top (0.65 above it) and slides off on opening (110); a corner
 pinch for a single-layer flag drape: the corners nearest the bar cannot be reached (the hand's body stalls on the
-rack's bar, 3.4 cm above the corner) nor those nearest the robot (the arm stalls 16 cm up, at x -0.39).
+rack's bar, 3.4 cm above the corner) nor those nearest the robot (the arm stalls 16 cm up, at x -0.39); the middle
+pinch (`gather_open`) at the middle of a side edge instead (centred on rows 4-5 x its two outer columns) reaches the
+sheet but lets it slip during the lift (110).
 Next: the pile must leave the rod's top before the fingers open (a drape with ~0.2 on top, ~0.4 per side): e.g. a
 second contact that strokes the sheet down both sides of the rod while the pinch holds (the open thumb or palm), a
-towel pinched off-centre so only one half folds over the rod (the pinch then lowered down the far side, as
-HangTowelOnBar's corners), or a scene change (towel or rack placed so a corner is reachable) with a catalog comment.
+towel taken off-centre so only one layer folds over the rod (the pinch then lowered down the far side, as
+HangTowelOnBar's corners: needs a pinch that holds at an edge), or a scene change (towel or rack placed so a corner
+is reachable) with a catalog comment.
 """
 
 from __future__ import annotations
