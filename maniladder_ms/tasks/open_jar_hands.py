@@ -184,6 +184,7 @@ RISE_BACK = 0.08  # m above the lid top where the opened hand turns back between
 # placed at (-3, +1) cm in the TCP frame: 0/10 (tilt 9-28 deg; held_turn above the lid's angle on 6 seeds: the
 # lid unwound by the hands between strokes, uncounted); fingers first with a 0.3 N m thread: 0/10 (the jar
 # turns out of the left grip and topples, 124-154 deg, on 7 seeds: this left hold cannot take 0.3 N m).
+# Fingers first from the thumb-out preshape (thumb joint 0.6): 1/10.
 # Next: a lid grasp whose closing does not move the lid (the shove is the power synergy's pocket, ~5 cm off the
 # TCP for this 6.6 cm lid): the fingers-first close is the lead (no tip in the first stroke) once the hand's
 # pocket is centred on the lid (a finger/thumb synergy for a 6.6 cm disc from above, its TCP calibrated on a
