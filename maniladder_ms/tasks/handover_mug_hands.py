@@ -315,7 +315,13 @@ class HandoverMugHandsEnv(HandoverTask):
 # 102, 105 (113 lost). Seeds 100-149 (run to 1200 steps): 40/50, solved in 613-972 steps (mean 717). Failures: 113,
 # 123, 130, 141, 146 (the swap: both_held, never handed_over), 142 (the pick, as before), 120, 122, 144, 149 (after
 # the pass: on its side or upside down, not traced). The release (PLACE_BIAS, let_go, nudge) is tuned for yaw 0 and
-# was not re-tuned for the new taker yaw.
+# was not re-tuned for the new taker yaw. Swap survival near -45 deg on the swap losses 113, 123, 130, 141, 146 and
+# 100, 114, 116: -30 deg 6/8 (130, 146 lost), -45 deg 6/8 (113, 141; 123 and 130 survive here but not in the sweep:
+# the experiment script's float-for-float different targets change the outcome), -60 deg 6/8 (141, 100 lost): no
+# yaw better than -45. The mug's tilt at the take is 30-80 deg on most swap losses (10-17 on survivors): the taker's
+# descent and closing tilt it. Next: trace the take on those seeds (contacts while closing; a slower closing or the
+# line-up further out), the 4 after-pass losses (the release's PLACE_BIAS and squaring were tuned for yaw 0) and the
+# pick on 142; the tray idea (the mug set on the giver's open palm, a square regrasp) not tried.
 # ----------------------------------------------------------------------------------------------------
 GIVER_TCP_HEIGHT = 0.065  # the giver's top-down TCP above the table at the pick (the upside-down mug's base at 9 cm)
 GIVER_ROLL_SIGN = -1.0  # about the TCP y axis (the finger row, world x): the left Panda's joint 7 stays mid-range
