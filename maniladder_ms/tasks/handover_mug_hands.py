@@ -327,7 +327,9 @@ class HandoverMugHandsEnv(HandoverTask):
 # the line-up 4 cm towards the thumb (TAKER_ASIDE 2.5 cm) 2/6; the taker closing over 80 steps (was 40) 4/6 (149,
 # 146, 122, 100; the mug's tilt at the take 19-30 deg, was 23-84). Seeds 100-149 with TAKER_CLOSE_STEPS = 80 (run
 # to 1200 steps): 43/50, solved in 648-1013 steps (mean 785). Failures: 120, 122, 123, 141, 146, 149 in the swap
-# (both_held, never handed_over), 142 the pick; none after the pass. Next: the swap on those 6 (the take's tilt;
+# (both_held, never handed_over), 142 the pick; none after the pass. On those 6 (swap only): 80 steps 3/6 in the
+# experiment script (122, 146, 149; 120 tilted 58 deg at the take), 120 steps 0/6 (tilts 24-95 deg at the take: the
+# slow closing loses the mug to the giver's or its own push). Next: the swap on those 6 (the take's tilt;
 # the giver's opening, now that the taker's grip holds), the pick on 142.
 # ----------------------------------------------------------------------------------------------------
 GIVER_TCP_HEIGHT = 0.065  # the giver's top-down TCP above the table at the pick (the upside-down mug's base at 9 cm)
