@@ -220,9 +220,10 @@ class HangTowelOnBarEnv(HangTowelEnv):
 FINGER_GAP_CMD = 0.2  # normalised gripper command: fingers 4 cm apart, around the corner particle only
 # the pinch's TCP lies this far outwards of the corner particle along the towel's diagonal: the inner finger,
 # touching first, pulls the corner out of its cell, so after the lift it presses fewer of the corner's neighbours
-# (the "hook" that kept the corner on the opened finger). Seeds 100-149: 41/50 at 8 mm, 39/50 at 0; dev seeds
-# (100-103, 106, 122, 123, 127, 138, 139): 7/10 at 8 mm, 4/10 at 0, 1/10 at 12 mm (corners slip in the carry)
-PINCH_OUTSET = 0.008
+# (the "hook" that kept the corner on the opened finger). Seeds 100-149: 42/50 at 6 mm, 41/50 at 8 mm, 39/50 at 0;
+# dev seeds 100-103, 106, 122, 123, 127, 138, 139: 7/10 at 8 mm, 4/10 at 0, 1/10 at 12 mm (corners slip in the
+# carry); 104, 127, 130, 135, 138, 139, 144, 100, 106, 122: 6/10 at 6 mm, 3/10 at 8 and at 10 mm
+PINCH_OUTSET = 0.006
 CARRY_ABOVE_BAR = 0.04  # TCP height above the bar's top while the corners go over it
 BEYOND_BAR = 0.11  # the corners are carried this far past the bar's axis: about half the towel's length
 RELEASE_ABOVE_BAR = 0.01  # then lowered until the TCPs are this high above the bar's top (the hand bodies, turned
