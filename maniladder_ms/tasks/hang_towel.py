@@ -241,6 +241,14 @@ BACK_OFF, RISE = 0.08, 0.05
 PINCH_CHECK_LIFT, REPINCH_APPROACH, REPINCH_TRIES = 0.03, 0.05, 2
 # the descent onto a corner stalls where a finger lands on the corner's neighbours: waiting longer moves nothing
 MOVE_IN_STEPS = 25
+# where both inner fingers are hooked at the release pose (`both_hooked`: each touches both of its corner's
+# neighbours; all 4 such seeds of 100-149 failed: on opening, the towel pulls each corner onto its inner finger's
+# face and, the pull being more horizontal than 45 degrees at friction 1, it stays there through the back-off and
+# the rise), the opened hands first glide `HOOK_PULL` towards the rod (rising `HOOK_PULL_RISE`): the corners, dragged
+# along, come over the rod's far flank, where their pull turns downwards; then rise `HOOK_LIFT` quickly
+# (`HOOK_LIFT_STEP` a step), so the corners slip off the fingertips, and back off along +x. Fragile: of those 4
+# seeds it saves 2 at 9 cm (127, 138), 1 at 8 and at 10 cm, 0 at 6.5 and 7.5 cm and at 9 cm with a 3 cm rise
+HOOK_PULL, HOOK_PULL_RISE, HOOK_LIFT, HOOK_LIFT_STEP = 0.09, 0.02, 0.06, 0.02
 
 
 def corner_grasp(task: HangTowelOnBarEnv, side: str, approach: float) -> Grasp:
@@ -305,6 +313,18 @@ def pinch_checked(s: DrivenSolver, task: HangTowelOnBarEnv, grasps: dict) -> dic
     return grasps
 
 
+def both_hooked(task: HangTowelOnBarEnv) -> torch.Tensor:
+    """[B] bool: each gripper touches both edge neighbours of its corner particle (the one along the towel's
+    rows and the one along its edge): its inner finger sits inside the corner's cell."""
+    hooked = torch.ones(task.num_envs, dtype=torch.bool, device=task.device)
+    for side, k in CORNER.items():
+        c = task.towel.layout.named["corners"][k]
+        step = -1 if k == 3 else 1  # the edge neighbour: towards the other corner
+        for i in (c - COLS, c + step):
+            hooked &= task.ee.touches(task.towel.spheres[i], side)
+    return hooked
+
+
 @register_solver("HangTowelOnBar", control_modes=TCP_DELTA_MODES)
 def solve_hang_towel_on_bar(env, seed: int) -> dict:
     """Each arm pinches the corner on its side of the towel's edge nearest the bar top-down (fingers opened
@@ -335,6 +355,7 @@ def solve_hang_towel_on_bar(env, seed: int) -> dict:
         low = {arm: p - torch.tensor([0.0, 0.0, CARRY_ABOVE_BAR - RELEASE_ABOVE_BAR], device=device)
                for arm, p in over.items()}
         glide(s, {g.arm: (over[g.arm], low[g.arm], g.q) for g in grasps}, step_length=LOWER_STEP, settle_steps=5)
+        hooked = both_hooked(task)  # read with the fingers still closed
         for g in grasps:
             s.set_ee(g.ee, [1.0], steps=0)
         for _ in range(RELEASE_STEPS):
@@ -346,6 +367,17 @@ def solve_hang_towel_on_bar(env, seed: int) -> dict:
             outwards = task.corner_particles()[side].pose.p - points.mean(dim=1)
             outwards[:, 2] = 0
             away[f"{side}_arm"] = torch.nn.functional.normalize(outwards, dim=1) * BACK_OFF
+        if bool(hooked.any()):
+            h = hooked.unsqueeze(1).float()
+            pull = torch.tensor([-HOOK_PULL, 0.0, HOOK_PULL_RISE], device=device) * h
+            lift = torch.tensor([0.0, 0.0, HOOK_LIFT], device=device) * h
+            glide(s, {g.arm: (low[g.arm], low[g.arm] + pull, g.q) for g in grasps}, step_length=LOWER_STEP,
+                  settle_steps=0)
+            glide(s, {g.arm: (low[g.arm] + pull, low[g.arm] + pull + lift, g.q) for g in grasps},
+                  step_length=HOOK_LIFT_STEP, settle_steps=0)
+            low = {arm: p + pull + lift for arm, p in low.items()}
+            along_x = torch.tensor([BACK_OFF, 0.0, 0.0], device=device)
+            away = {arm: torch.where(hooked.unsqueeze(1), along_x, a) for arm, a in away.items()}
         glide(s, {g.arm: (low[g.arm], low[g.arm] + away[g.arm], g.q) for g in grasps}, step_length=LOWER_STEP,
               settle_steps=0)
         glide(s, {g.arm: (low[g.arm] + away[g.arm], low[g.arm] + away[g.arm] + up, g.q) for g in grasps},
