@@ -2,20 +2,47 @@
 grippers lift a flat towel by two corners and drape it over the bar.
 
 NOT BUILT YET (work in progress; helper/towelbar session 14, helper/towelbar2 session 15, helper/towelbar3
-session 16): HangTowelOnBar is not registered (the `register_task` line below is commented out) until its solver
-passes 45 of seeds 100-149. Seeds 100-149: 39/50 (session 15, re-measured unchanged in session 16; 36/50 in
-session 14), successes in 160-269 steps, mean 182; horizon 300. The solver below is session 15's, unchanged.
+session 16, helper/towelbar4 session 17): HangTowelOnBar is not registered (the `register_task` line below is
+commented out) until its solver passes 45 of seeds 100-149. Seeds 100-149: 44/50 (session 17), successes in
+142-273 steps, mean 188; horizon 300 (39/50 in sessions 15-16, 36/50 in session 14). Held out, seeds 150-179:
+26/30 (fails 161, 179: both hooked; 175: a finger still touching; 176: a corner never held).
+Session 17 (dev seeds 100-103, 106, 122, 123, 127, 138, 139, then the sweep's failures): (i) the pinch's TCP
+`PINCH_OUTSET` outwards of the corner along the diagonal (the inner finger, touching first, pulls the corner out
+of its cell, so fewer corners end hooked): 42/50 at 6 mm (dev 6/10 vs 4/10), 41/50 at 8 mm, 12 mm breaks the
+pinch (dev 1/10); closing along the towel's edge instead of the diagonal: 0/4 (the left arm misses its corner by
+2.5 cm, towels dragged). (ii) With the outset, a failure is predicted at the release pose, fingers still closed:
+all 4 seeds where BOTH inner fingers touch both neighbours of their corner (`both_hooked`: 127, 138, 139, 144)
+failed, and no seed with one hand free did so; the trace shows why: on opening, each corner follows its inner
+finger 2.5 cm inwards and stays on its face at the pinch height, the far half held up nearly level (its pull
+more horizontal than 45 degrees at friction 1), so the back-off drags it to the far side and the rise lifts it.
+Tried on those 4 where both are hooked (nothing else changes, so the gain is exact): turning the wrists (frees a
+neighbour in 3-6 steps, 0/4), opening one gripper first (0/4), 3 cm towards the rod and 3 cm down before
+opening (0/4: near side 26-40%, far held up), lowering 1-7 cm before opening (0/4; the far fraction passes 30%
+within 1.6 cm of lowering, so it does not measure how steeply the far half hangs), following the fall 3 cm towards
+the rod and 3 or 6 cm down after opening, then back off along x (0/4, splits near 30/30 but a finger still
+touching), towards the rod 5 cm then a quick 6 cm rise (0/4: one corner of each towel slips off the fingertip,
+the other rides up on its finger); kept (`HOOK_PULL`): the opened hands 9 cm towards the rod and 2 cm up, so the
+corners come over the rod's far flank, then the quick rise and a back-off along x: 2/4 (127, 138; 1/4 at 8 and 10
+cm, 0/4 at 6.5 and 7.5 cm or with a 3 cm rise: fragile, and 0/2 on the held-out both-hooked seeds 161, 179). A
+second such move where a gripper still touches the towel after the back-off lifted those towels off the bar
+(141, 144, 175, 179: 0/4). Failures left (seeds 100-149): 139 and 144 (both hooked; 139 freed but slid, touching the
+table), 141 (one hand hooked, far side 76%, a finger touching), 112 (re-pinched; slid to the near side onto the
+table), 120 and 121 (corners not held; 121 past the horizon after two re-pinches). Next: the hook rescue is the
+lever (the 6 hooked seeds of 100-179 are half the failures): e.g. a pinch that leaves no finger inside the cell
+(the corner held in the fingertips' last millimetres, or a gripper closing from above the sheet's plane after
+the lift), or a release with the far half already hanging steeply (the hands tilted back towards the robot so
+their bodies clear the rod while the corners go down beside it).
 Session 15 added a closed-loop pinch (`pinch_checked`: both corners lifted 3 cm, each checked with `ee.holds`, a
 missed or slipped one pinched again where it lies, at most twice; descents capped at 25 steps, as a finger
 landing on the corner's neighbours stalls them): it fixed 102, 128, 147 (one corner slipped at the lift) and
 hangs 142 correctly but at step 340, past the horizon (two re-pinches).
-Failures left, by kind: (1) a corner never held (122, 123: the right finger lands on the corner's neighbours
-and pushes the corner away; the re-pinches miss too) or slipping later in the carry (120: towel dropped on
-the near side); (2) after the release the corner particle stays pressed against the inner finger's face (the
-fingers close along the corner's diagonal, the towel on the rod pulls the corner that way, and friction on the
-finger carries it along whichever way the opened hand then moves, up included), so the hand lifts the towel
-off the bar (106, 138: far side 0-3%); (3) the towel slides to the far side after the release (127, 139, 144:
-near side 5-19%; 112, 141: near side 0%, a finger still touching it).
+Session 15's failures (before the outset), by kind: (1) a corner never held (122, 123: the right finger lands on
+the corner's neighbours and pushes the corner away; the re-pinches miss too) or slipping later in the carry (120:
+towel dropped on the near side); (2) after the release the corner particle stays pressed against the inner finger's
+face (the fingers close along the corner's diagonal, the towel on the rod pulls the corner that way, and friction
+on the finger carries it along whichever way the opened hand then moves, up included), so the hand lifts the towel
+off the bar (106, 138: far side 0-3%); (3) the towel slides to the far side after the release (127, 139, 144: near
+side 5-19%; 112, 141: near side 0%, a finger still touching it).
 Session 16 (helper/towelbar3) found what tells kinds (2)-(3) apart, before the fingers open: after the pinch
 each inner finger sits inside its corner's cell, touching the corner and both its neighbours (left: 71 and 78,
 right: 64 and 73; on all 8 seeds checked); on the passing seeds (100, 101, 103, 104) one neighbour has left the
@@ -328,11 +355,14 @@ def both_hooked(task: HangTowelOnBarEnv) -> torch.Tensor:
 @register_solver("HangTowelOnBar", control_modes=TCP_DELTA_MODES)
 def solve_hang_towel_on_bar(env, seed: int) -> dict:
     """Each arm pinches the corner on its side of the towel's edge nearest the bar top-down (fingers opened
-    to 4 cm, closing along the corner's diagonal, as SpreadTowelBimanual), both close and lift the corners
+    to 4 cm, closing along the corner's diagonal, as SpreadTowelBimanual, the TCP `PINCH_OUTSET` outwards of the
+    corner), both close and lift the corners
     `PINCH_CHECK_LIFT`; a corner not held then is pinched again where it lies (`pinch_checked`); rise together until
     the TCPs are `CARRY_ABOVE_BAR` over the bar's top, carry the corners over the bar to `BEYOND_BAR` past
     its axis (the towel slides up and over the rod), lower them to `RELEASE_ABOVE_BAR` over its top, open
-    fully, back off along the corners' outward diagonals and rise."""
+    fully, back off along the corners' outward diagonals and rise; where both corners are hooked on the inner
+    fingers (`both_hooked`, read before opening), the opened hands first glide `HOOK_PULL` towards the rod and
+    rise quickly, and back off along +x."""
     with DrivenSolver.episode(env, seed) as s:
         task: HangTowelOnBarEnv = env.unwrapped
         n, device = task.num_envs, task.device
