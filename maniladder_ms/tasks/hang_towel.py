@@ -6,10 +6,10 @@ seeds 100-149: 46/50 (fails 112: re-pinched, slid to the near side onto the tabl
 the inner fingers, the towel lifted or dragged after the release), successes in 141-252 steps, mean 175; horizon
 300; 20 demos (seeds 0-19) mean 191 steps, all replay; bench 0.27x PickCube-v1. The last step (session 17) was
 `PINCH_ABOVE`, the pinch 3 mm over the corner particle's centre: 46/50, against 44/50 at 0 and at 5 mm (at 5 mm
-three corners are never held), a value picked on these seeds; held out, seeds 150-179: 27/30 (fails 160: a
-corner never held; 161, 175: a finger still touching, the towel dragged or lifted). Before it (session 17, `PINCH_ABOVE` 0): 44/50, mean
-188; held out, seeds 150-179: 26/30 (fails 161, 179: both hooked; 175: a finger still touching; 176: a corner
-never held).
+three corners are never held), a value picked on these seeds; held out, seeds 150-179: 27/30 (fails 160: a corner
+never held; 161, 175: a finger still touching, the towel dragged or lifted). Before it (session 17, `PINCH_ABOVE`
+0): 44/50, mean 188; held out, seeds 150-179: 26/30 (fails 161, 179: both hooked; 175: a finger still touching;
+176: a corner never held).
 Session 17 (dev seeds 100-103, 106, 122, 123, 127, 138, 139, then the sweep's failures): (i) the pinch's TCP
 `PINCH_OUTSET` outwards of the corner along the diagonal (the inner finger, touching first, pulls the corner out
 of its cell, so fewer corners end hooked): 42/50 at 6 mm (dev 6/10 vs 4/10), 41/50 at 8 mm, 12 mm breaks the
