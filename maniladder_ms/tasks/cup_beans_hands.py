@@ -1,7 +1,7 @@
 """CupBeansHands (L2 deformable DX, family ScoopBeans): the right LEAP hand scoops beans with a cupped palm and pours
 them into a cup the left LEAP hand holds.
 
-STATUS: UNFINISHED (session 16), NOT registered (no solver). Scene, rule (episode memory) and dense reward are built;
+STATUS: UNFINISHED (sessions 16-17), NOT registered (no solver). Scene, rule (episode memory) and dense reward are built;
 measured on seed 100 (scripts in the session-16 report, numbers here):
 - a cupped palm-up right hand HOLDS beans: 40 beans dropped on the palm, after 40 steps and a 20 cm carry at 5 mm a
   step still on the hand: LEAP_SYNERGIES["cup"] (added: knuckles 0.6 rad, thumb swung 1.0) 36/40,
@@ -21,10 +21,35 @@ measured on seed 100 (scripts in the session-16 report, numbers here):
   near wall (contacts with the table; fingertips at the wall, y -0.183, the mount 15 cm behind the TCP at y -0.323):
   curled this way the finger "floor" runs ~13 cm from the mount to ~1 cm short of the TCP, so the TCP must start
   >= 14 cm past the near wall, and the floor is longer than this tray (9 cm along the push) is deep.
-What to try next: the dustpan scoop with its fingers placed in the pile: a tray open (or low-walled) on the hand's
-side and >= ~20 cm along the push, a pile deeper than the fingers are thick (~2 cm; more beans or a heap against the
-far wall), then tilt back to palm up ("cup") as the hand rises; or beans raised ~0.25 m (a tray on a stand, the palm
-coming up under its open side). Either changes the scene, so the catalog row's description/plan should follow.
+Session 17: the scene change the above asks for. The tray stands on a fixed stand (`build_raised_tray`), its floor
+24 cm up, 14 x 10 cm, walls 4 cm except a 2 cm lip on the hand's (-y) side; the beans start packed in its far 6 cm
+(~1.4 layers), so the near 4 cm are free for the fingers to come down to the floor. Measured on seed 100 (probe
+scripts, not committed: the right hand rolled palm-up as HandoverBallHands' roll_targets, fingers +y,
+then tilted fingertips-down about the TCP's y axis; the middle fingertip's lower front corner, TCP frame
+(0.156, 0.03, -0.106), servoed along the tray):
+- reach: palm-up (tilt 0) the TCP stops at z 0.34 at (-0.05, -0.27) (0.31 with a 5 degree error), tilted 45-60 degrees
+  it reaches 0.22-0.27 but the IK then leaves a 0.3-0.5 rad yaw error. With the tray raised the tilted hand reaches
+  its floor: tilt 55, tip 5 mm over the floor, pushed to 1.5 cm from the far wall (TCP z 0.44, no arm on the table).
+- geometry that forces a steep tilt: the LEAP knuckle blocks (MCP links) reach 14 cm under the TCP, 5.3 cm below
+  the fingertips' 2 cm thick boxes, and only the last 7.6 cm of the fingers (TCP x 0.08-0.156) are thin; at tilts
+  under ~25 degrees the knuckle block is the hand's lowest point, at 15-35 degrees it sat on the lip / the pile's top
+  (tips stopped 1-1.5 cm inside the lip, 1-2 cm over the floor). At 55 degrees the tip is 4.3 cm under the knuckles'
+  lower edge and 7.2 cm ahead of it: the tip gets past a 2 cm lip to the floor.
+- an 11 x 6 cm floor packed ~2.3 layers full (no free floor) cannot be entered: the tips rest on the jammed pile
+  (z floor + 1.7 cm); an 11 cm wide tray neither: the hand is 12.6 cm across its fingers (TCP y -0.033..0.093).
+- the scoop itself: 0-2 beans in the palm box after the lift (at most 4 ever `carried`) in 15 tries (tilt 55 then: curl to "cup" while pivoting
+  about the tips to -10 or +10 degrees, 30 or 60 steps, pivot at the far wall or pulled back 3-5 cm; curl in place
+  with knuckles 0.6 or 1.0, then pivot about the tips or lift 6 cm then rotate). Pushing the tips through the pile
+  puts no beans on the fingers (the 2 cm tip and its blunt end push them along; stopped 3.5 cm short of the far wall,
+  then curled: 1 bean). Only squeezing the pile against the far wall lifts beans (curled at 1.5 cm from the wall:
+  18 on the tip pads, TCP x 0.135-0.15), but they come out of the squeeze at speed: 20-30 beans flung 0.1-0.3 m past
+  a 4 cm far wall (0.3-0.6 m past an 8 cm one: depenetration of jammed beans, not a roll), none kept.
+- `in_palm` (PALM_BOX_*) is centred on TCP y 0 while the palm and fingers span y -0.033..0.094 (the thumb's side
+  negative): beans on the ring finger's side are not counted; centre it at y ~0.03 before a solver relies on it.
+What to try next: a tool-less scoop needs the beans to flow onto the fingers rather than be pushed: a tray floor
+tilted down towards the lip (the pile resting on the hand's side, the fingers sliding in under its toe at a small
+tilt), or beans on a shelf edge the flat fingers come up under; or lower the squeeze speed (curl over 60+ steps at
+the wall with a softer hand target) and check the granular depenetration cap in deformables/particles.
 """
 
 from __future__ import annotations
@@ -40,13 +65,15 @@ from maniladder_ms.agents.helpers import LEAP_SYNERGIES
 from maniladder_ms.deformables import particles
 from maniladder_ms.envs import ManiLadderEnv, register_task  # noqa: F401 (register_task: once the solver passes)
 from maniladder_ms.objects import containers
-from maniladder_ms.objects.tabletop import build_tray
+from maniladder_ms.objects.tabletop import build_raised_tray
 from maniladder_ms.solvers.bimanual import READY_ARM_JOINTS
 
 from .scoop_beans_with_spoon import ScoopBeansTask
 
-TRAY_INNER = (0.035, 0.035)  # half sizes (m) of the tray's floor: 150 beans of 4 mm lie ~3 deep (2.6 cm)
-TRAY_WALL, TRAY_WALL_HEIGHT, TRAY_BASE = 0.006, 0.03, 0.005
+TRAY_INNER = (0.07, 0.05)  # half sizes (m) of the tray's floor
+PILE_DEPTH = 0.06  # the beans start packed in the tray's far (+y) part, ~2 deep
+TRAY_WALL, TRAY_WALL_HEIGHT, TRAY_LIP = 0.006, 0.04, 0.02
+TRAY_FLOOR = 0.24  # the tray's floor above the table
 CUP_DENSITY = 400.0  # a light plastic cup (PourGrainsHandToCup's)
 # the left holds the cup: PourGrainsHandToCup's measured side grasp of its pourer (left Panda, thumb low, joint 7
 # >= 0.8 rad from its limits); the right's joint 7 is at its limit for that grasp, so the right scoops
@@ -61,14 +88,15 @@ CUP_SYNERGY = LEAP_SYNERGIES["cup"]
 
 # @register_task("CupBeansHands")  -- not yet: no solver (module docstring)
 class CupBeansHandsEnv(ScoopBeansTask, ManiLadderEnv):
-    """**Task:** beans lie in a shallow tray in front of the right arm and a cup stands to the left. The left
+    """**Task:** beans lie in a tray raised on a stand in front of the right arm and a cup stands to the left. The left
     LEAP hand picks the cup up and holds it off the table; the right LEAP hand scoops beans out of the tray with
     its cupped palm, carries them over the cup and pours them in.
 
     **Randomisation:**
-    - the tray (a 7 x 7 cm floor, 3 cm walls) stands at x in [-0.04, 0], y in [-0.16, -0.12], holding
-      `bean_count` beans (granular spheres of radius `bean_radius`) packed from its floor (~3 layers) with a
-      small random jitter;
+    - the tray (a fixed stand, its 14 x 10 cm floor 24 cm above the table, 4 cm walls and a 2 cm lip on the
+      right hand's side) stands at x in [-0.04, 0], y in [-0.16, -0.12], holding `bean_count` beans (granular
+      spheres of radius `bean_radius`) packed from its floor in its far 6 cm (~1.4 layers) with a small random
+      jitter;
     - the cup (plastic, inner radius 3.5 cm, 11 cm tall) stands at x in [-0.16, -0.1], y in [0.14, 0.2];
     - the left arm starts in a ready pose (`READY_JOINTS`: its hand raised above the cup, turned for a side
       grasp), the right at rest, plus the usual joint noise.
@@ -93,8 +121,8 @@ class CupBeansHandsEnv(ScoopBeansTask, ManiLadderEnv):
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
-        self.tray = build_tray(self.scene, "tray", TRAY_INNER, TRAY_WALL_HEIGHT, TRAY_WALL, TRAY_BASE,
-                               color=(0.45, 0.6, 0.4, 1))
+        self.tray = build_raised_tray(self.scene, "tray", TRAY_INNER, TRAY_WALL_HEIGHT, TRAY_LIP, TRAY_WALL, TRAY_FLOOR,
+                                      color=(0.45, 0.6, 0.4, 1))
         self.cup = containers.build_container(self.scene, "cup", self.cup_shape, color=(0.8, 0.35, 0.3, 1),
                                               density=CUP_DENSITY)
         self.beans = particles.build_particles(self.scene, "beans", self.particle_config)
@@ -113,14 +141,15 @@ class CupBeansHandsEnv(ScoopBeansTask, ManiLadderEnv):
             self.beans.set_positions(self.pile(tray))
 
     def pile(self, tray: torch.Tensor) -> torch.Tensor:
-        """Bean positions [b, N, 3]: a square lattice (spacing 2.1 radii) filling the tray's floor layer by
-        layer, jittered by 0.05 radius (as `particles.pack_in_container`)."""
+        """Bean positions [b, N, 3]: a square lattice (spacing 2.1 radii) filling the far `PILE_DEPTH` of the
+        tray's floor layer by layer, jittered by 0.05 radius (as `particles.pack_in_container`)."""
         r = self.bean_radius
         spacing = 2.1 * r
-        kx, ky = (int((half - 1.2 * r) // spacing) for half in TRAY_INNER)
-        xy = np.stack(np.meshgrid(np.arange(-kx, kx + 1) * spacing, np.arange(-ky, ky + 1) * spacing), -1).reshape(-1, 2)
+        kx, ky = (int((half - 1.2 * r) // spacing) for half in (TRAY_INNER[0], PILE_DEPTH / 2))
+        far = TRAY_INNER[1] - PILE_DEPTH / 2
+        xy = np.stack(np.meshgrid(np.arange(-kx, kx + 1) * spacing, far + np.arange(-ky, ky + 1) * spacing), -1).reshape(-1, 2)
         layers = -(-self.bean_count // len(xy))
-        z = np.repeat(TRAY_BASE + 1.05 * r + spacing * np.arange(layers), len(xy))[:, None]
+        z = np.repeat(TRAY_FLOOR + 1.05 * r + spacing * np.arange(layers), len(xy))[:, None]
         pts = np.concatenate([np.tile(xy, (layers, 1)), z], axis=1)[: self.bean_count]
         out = torch.tensor(pts, dtype=torch.float32, device=tray.device).expand(len(tray), -1, 3)
         out = out + (torch.rand(out.shape, device=tray.device) - 0.5) * 0.1 * r
@@ -134,7 +163,8 @@ class CupBeansHandsEnv(ScoopBeansTask, ManiLadderEnv):
     def in_tray(self) -> torch.Tensor:
         """Beans over the tray's floor below its rim (its inner box), [B, N]."""
         half = (TRAY_INNER[0], TRAY_INNER[1], TRAY_WALL_HEIGHT / 2)
-        return particles.inside_box(self.beans.positions(), self.tray.pose, (0.0, 0.0, TRAY_WALL_HEIGHT / 2), half)
+        centre = (0.0, 0.0, TRAY_FLOOR + TRAY_WALL_HEIGHT / 2)
+        return particles.inside_box(self.beans.positions(), self.tray.pose, centre, half)
 
     def cup_held_up(self) -> torch.Tensor:
         return self.ee.holds(self.cup, HOLDER) & (self.cup.pose.p[:, 2] >= self.cup_lift)
