@@ -37,19 +37,26 @@ then tilted fingertips-down about the TCP's y axis; the middle fingertip's lower
   lower edge and 7.2 cm ahead of it: the tip gets past a 2 cm lip to the floor.
 - an 11 x 6 cm floor packed ~2.3 layers full (no free floor) cannot be entered: the tips rest on the jammed pile
   (z floor + 1.7 cm); an 11 cm wide tray neither: the hand is 12.6 cm across its fingers (TCP y -0.033..0.093).
-- the scoop itself: 0-2 beans in the palm box after the lift (at most 4 ever `carried`) in 15 tries (tilt 55 then: curl to "cup" while pivoting
-  about the tips to -10 or +10 degrees, 30 or 60 steps, pivot at the far wall or pulled back 3-5 cm; curl in place
-  with knuckles 0.6 or 1.0, then pivot about the tips or lift 6 cm then rotate). Pushing the tips through the pile
-  puts no beans on the fingers (the 2 cm tip and its blunt end push them along; stopped 3.5 cm short of the far wall,
-  then curled: 1 bean). Only squeezing the pile against the far wall lifts beans (curled at 1.5 cm from the wall:
-  18 on the tip pads, TCP x 0.135-0.15), but they come out of the squeeze at speed: 20-30 beans flung 0.1-0.3 m past
-  a 4 cm far wall (0.3-0.6 m past an 8 cm one: depenetration of jammed beans, not a roll), none kept.
+- the scoop itself: 0-2 beans in the palm box after the lift (at most 5 ever `carried`) in 20 tries (tilt 55 then:
+  curl to "cup" while pivoting about the tips to -10..+10 degrees over 30-60 steps, the tips at the far wall, rising
+  along it 1-6 cm or pulled back 3-5 cm; or curl in place (knuckles 0.3/0.6/1.0, over 20 or 80 steps), then lift
+  and rotate). Pushing the tips through the pile puts no beans on the fingers (the blunt 2 cm tips push them along;
+  stopped 3.5 cm short of the far wall, then curled: 1 bean). Squeezed against the far wall, the curl lifts ~18
+  beans onto the tip pads (TCP x 0.135-0.15), but they lie against the wall, not in a hollow of the hand: they rise
+  over the rim along the wall and fall off the stand's far side (20-30 a try; bean speeds 0.4-0.8 m/s in the curl,
+  the 2 m/s ones falling the 24 cm to the table; a 10 cm far wall, 2 cm thick walls, a 0.2 m/s depenetration cap on
+  the beans or the cup synergy's side joints at 0 changed nothing); a 1 cm back / 0.8 cm up move after the curl
+  leaves 1 of the 18 on the hand.
+- a tray open on the hand's side, its floor sloping 15 degrees down to the far wall (no lip; 14 x 6-8 cm; beans
+  ~4 deep in the far 4 cm; tried and reverted): the tips get only 4-5 cm past the open edge (the knuckle blocks meet
+  the stand's near face), ride onto the pile's top and press it against the wall: 0 beans at tilts 15 and 25.
 - `in_palm` (PALM_BOX_*) is centred on TCP y 0 while the palm and fingers span y -0.033..0.094 (the thumb's side
   negative): beans on the ring finger's side are not counted; centre it at y ~0.03 before a solver relies on it.
-What to try next: a tool-less scoop needs the beans to flow onto the fingers rather than be pushed: a tray floor
-tilted down towards the lip (the pile resting on the hand's side, the fingers sliding in under its toe at a small
-tilt), or beans on a shelf edge the flat fingers come up under; or lower the squeeze speed (curl over 60+ steps at
-the wall with a softer hand target) and check the granular depenetration cap in deformables/particles.
+What to try next: the hand's pads only face up (can hold beans) at tilts under ~25 degrees, where its 5.3 cm thick
+knuckle blocks are its lowest part; so the beans must stand higher than the knuckles' reach below the pads: a pile
+deeper than ~4 cm (more or bigger beans, a narrower heap the hand fits) on a ledge whose edge the knuckles pass in
+front of, the thin fingers sliding in under the heap's upper part; or a pile the palm comes up under from below
+(a pile on a grate / a bin with a floor slot). Also centre `in_palm` on the palm (above).
 """
 
 from __future__ import annotations
