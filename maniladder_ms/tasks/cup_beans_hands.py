@@ -1,7 +1,7 @@
 """CupBeansHands (L2 deformable DX, family ScoopBeans): the right LEAP hand scoops beans with a cupped palm and pours
 them into a cup the left LEAP hand holds.
 
-STATUS: UNFINISHED (sessions 16-17), NOT registered (no solver). Scene, rule (episode memory) and dense reward are built;
+STATUS: UNFINISHED (sessions 16-18), NOT registered (no solver). Scene, rule (episode memory) and dense reward are built;
 measured on seed 100 (scripts in the session-16 report, numbers here):
 - a cupped palm-up right hand HOLDS beans: 40 beans dropped on the palm, after 40 steps and a 20 cm carry at 5 mm a
   step still on the hand: LEAP_SYNERGIES["cup"] (added: knuckles 0.6 rad, thumb swung 1.0) 36/40,
@@ -57,6 +57,30 @@ knuckle blocks are its lowest part; so the beans must stand higher than the knuc
 deeper than ~4 cm (more or bigger beans, a narrower heap the hand fits) on a ledge whose edge the knuckles pass in
 front of, the thin fingers sliding in under the heap's upper part; or a pile the palm comes up under from below
 (a pile on a grate / a bin with a floor slot). Also centre `in_palm` on the palm (above).
+Session 18 (done): `in_palm` centred on the measured hand (y -0.035..0.095; 5 beans lying on the palm at TCP
+y 0.04-0.076 after a scoop, 2 of them outside the old box). Scene: a narrow deep bin (15 x 6 cm floor, 8 cm walls,
+6 cm on the hand's side) and 6 mm beans (catalog bean_radius 0.006, same count): the pile settles ~3.5-4 cm deep
+over the whole floor (4.5 lattice layers at reset). Scoop probes (seed 100 unless said; beans in the palm after a
+15 cm lift / `carried`):
+- the brief's "plunge tilted 55 deg fingertips-down beside the far wall, rotate palm-up while lifting" (pivot at the
+  tips or 10 cm up the fingers, lift 3-8 cm, tilt end -10..25, 40-60 steps): 0/0 in 5 tries (the tips stop 2-3.6 cm
+  over the floor; rotating about the tips lowers the palm into the near wall, so the hand just rises out).
+- fingers straight down (tilt 90), pads facing the pile, the tips' backs 5 mm off the NEAR wall, 2 cm over the
+  floor; curl (knuckles 0.6, PIP/DIP 0.9, done in the first third) while rotating to palm-up about a point 10 cm up
+  the fingers, lifting 6 cm, then lift: cup synergy 0-1, the hook (0.6/0.9) 2-3 (tilt end 10), 5/5 (tilt end -20
+  over 60 steps: tips up, the beans roll onto the palm), seed 101 3/6, seed 102 1/4; variants 1-5 (faster 30 steps
+  1/3, lift 3 cm 3/4, pivot 14 cm 4/5, a 7 cm floor 1/2, pull back 3 cm 3/5, end -35 2/5, curl in place first 0-1,
+  knuckles 0.3/PIP 1.4 1/3, rotate to 50-60 deg inside the pile first 1-3). 15-20 beans leave the bin in every
+  scoop but only 3-6 stay on the hand: they ride the fingertip pads (TCP x 0.13-0.17) and roll off the tips while
+  the fingers still slope down (tilt 90 -> 50); only the distal ~4 cm of the 14 cm fingers are in the pile.
+- 8 mm beans in a 14 cm deep bin (pile 12.6 cm at reset): the fingers stop 7 cm over the floor (the jammed pile
+  in a bin 2.4 cm wider than the hand): 0.
+Found: on seed 102 the right hand at rest touches the stand at reset and 37-49 beans are flung out of the tray in
+the first step (also with session 17's tray) - move the tray or the right arm's rest pose before a sweep.
+Bench (state, random actions, 200 steps, shared machine): 0.150x PickCube-v1 (63 vs 420 steps/s), at the bar.
+Next: a pile the whole hand (palm included) goes into (a sack deeper than the 14 cm fingers: ~500 beans of 6 mm,
+a cost question), or a short hook-scoop with the pads level before they leave the pile (a wider bin where the
+palm can follow the fingers down), or the thumb closing over the tips' pocket.
 """
 
 from __future__ import annotations
@@ -77,17 +101,21 @@ from maniladder_ms.solvers.bimanual import READY_ARM_JOINTS
 
 from .scoop_beans_with_spoon import ScoopBeansTask
 
-TRAY_INNER = (0.07, 0.05)  # half sizes (m) of the tray's floor
-PILE_DEPTH = 0.06  # the beans start packed in the tray's far (+y) part, ~2 deep
-TRAY_WALL, TRAY_WALL_HEIGHT, TRAY_LIP = 0.006, 0.04, 0.02
+# a narrow deep bin (session 18): 15 x 6 cm floor, 8 cm walls, 6 cm on the hand's side; 150 beans of 6 mm fill it
+# ~5.7 cm deep (4 layers), so the right hand's fingers plunge fingertips-down into the pile (module notes)
+TRAY_INNER = (0.075, 0.03)  # half sizes (m) of the tray's floor
+PILE_DEPTH = 0.06  # the beans start packed in the tray's far (+y) 6 cm: its whole floor
+TRAY_WALL, TRAY_WALL_HEIGHT, TRAY_LIP = 0.006, 0.08, 0.06
 TRAY_FLOOR = 0.24  # the tray's floor above the table
 CUP_DENSITY = 400.0  # a light plastic cup (PourGrainsHandToCup's)
 # the left holds the cup: PourGrainsHandToCup's measured side grasp of its pourer (left Panda, thumb low, joint 7
 # >= 0.8 rad from its limits); the right's joint 7 is at its limit for that grasp, so the right scoops
 SCOOPER, HOLDER = "right", "left"
 # the cupped palm (in the scooping hand's TCP frame: z out of the palm, which lies at z -0.08; x along the
-# fingers): where carried beans rest, up to a bean or two over the raised fingers
-PALM_BOX_CENTRE, PALM_BOX_HALF = (0.0, 0.0, -0.045), (0.075, 0.06, 0.04)
+# fingers; y across them, the thumb at -y): where carried beans rest, up to a bean or two over the raised fingers.
+# Across the hand it spans the measured palm and finger links (collision boxes, TCP frame: y -0.034..0.094; the
+# palm's face at z -0.081); session 17 had it centred on y 0, leaving the ring finger's side out
+PALM_BOX_CENTRE, PALM_BOX_HALF = (0.0, 0.03, -0.045), (0.075, 0.065, 0.04)
 # the cupped palm the scooping hand carries beans in (LEAP_SYNERGIES["cup"]: 36 of 40 beans kept on a palm-up hand
 # through a 20 cm carry)
 CUP_SYNERGY = LEAP_SYNERGIES["cup"]
@@ -100,9 +128,9 @@ class CupBeansHandsEnv(ScoopBeansTask, ManiLadderEnv):
     its cupped palm, carries them over the cup and pours them in.
 
     **Randomisation:**
-    - the tray (a fixed stand, its 14 x 10 cm floor 24 cm above the table, 4 cm walls and a 2 cm lip on the
-      right hand's side) stands at x in [-0.04, 0], y in [-0.16, -0.12], holding `bean_count` beans (granular
-      spheres of radius `bean_radius`) packed from its floor in its far 6 cm (~1.4 layers) with a small random
+    - the tray (a fixed stand, its 15 x 6 cm floor 24 cm above the table, 8 cm walls, 6 cm on the right
+      hand's side) stands at x in [-0.04, 0], y in [-0.16, -0.12], holding `bean_count` beans (granular
+      spheres of radius `bean_radius`) packed from its floor (~4 layers of 6 mm beans) with a small random
       jitter;
     - the cup (plastic, inner radius 3.5 cm, 11 cm tall) stands at x in [-0.16, -0.1], y in [0.14, 0.2];
     - the left arm starts in a ready pose (`READY_JOINTS`: its hand raised above the cup, turned for a side
