@@ -80,7 +80,11 @@ near face (y -0.187, z 0.236 on seed 102; the thumb's tip box reaches ~4-7 cm fu
 the tray in the first steps: 32 of seeds 100-149 lost 1-141 beans still (also with session 17's tray, seed 102:
 37). Shifted (same 4 cm width) to y in [-0.10, -0.06]: 1/50 (seed 141: 11 beans; the rest pose's joint noise lifts
 the thumb to z 0.253 against the stand) - the right arm's rest pose or a stand narrower at its foot is the real fix.
-With the shift the best scoop gives 0/3, 2/3, 1/1 (in the palm / carried) on seeds 100-102.
+With the shift (clean resets; seeds 100-103 still/random: no success, 150 in the tray) the scoop above gives 0/3,
+2/3, 1/1 (in the palm / carried) on seeds 100-102; its pivot 14 cm up the fingers 4/6, 5/6, 0/4 (the best so far:
+tilt 90, tips 5.5 cm from the far wall and 2 cm over the floor, hook 0.6/0.9 in the first 20 of 60 steps, rotate to
+-20 about TCP (0.14, 0.03, -0.1) lifting 6 cm, then lift 12 cm pulling 9 cm back); lift 3 cm 1/4, tips 1 cm nearer
+the far wall 0/1, rotate to 50 in the pile first 2/4, hook 0.8/1.2 0/2. Nothing near 10; no carry or pour tried.
 Bench (state, random actions, 200 steps, shared machine): 0.150x PickCube-v1 (63 vs 420 steps/s), at the bar.
 Next: a pile the whole hand (palm included) goes into (a sack deeper than the 14 cm fingers: ~500 beans of 6 mm,
 a cost question), or a short hook-scoop with the pads level before they leave the pile (a wider bin where the
