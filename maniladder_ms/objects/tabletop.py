@@ -1,5 +1,5 @@
 """Small rigid table-top objects made from primitives: pen, trays, upright cylinder, flat boxes (a card, a stand),
-shelf, ping-pong ball, a U-shaped channel, a standing ring."""
+shelf, a tray raised on a stand, ping-pong ball, a U-shaped channel, a standing ring."""
 
 from __future__ import annotations
 
@@ -68,6 +68,29 @@ def open_box_parts(inner_half_size: tuple[float, float], wall_height: float, wal
         ([0, iy + t / 2, wall_height / 2], [ix, t / 2, wall_height / 2]),
         ([0, -iy - t / 2, wall_height / 2], [ix, t / 2, wall_height / 2]),
     ]
+
+
+def build_raised_tray(
+    scene: ManiSkillScene, name: str, inner_half_size: tuple[float, float], wall_height: float, lip_height: float,
+    wall_thickness: float, floor_height: float, color,
+) -> "Actor":
+    """A fixed (kinematic) tray on a solid stand: its floor's top face `floor_height` above the table, walls
+    `wall_height` high round it except at -y, where a lip only `lip_height` high lets a hand slide in over it.
+    The actor origin is on the table under the floor's centre."""
+    ix, iy = inner_half_size
+    t = wall_thickness
+    parts = [([0, 0, floor_height / 2], [ix + t, iy + t, floor_height / 2])]
+    for centre, half in open_box_parts(inner_half_size, wall_height, wall_thickness, 0.0)[1:]:
+        if centre[1] < 0:  # the -y wall: the lip
+            centre, half = [centre[0], centre[1], lip_height / 2], [half[0], half[1], lip_height / 2]
+        parts.append(([centre[0], centre[1], centre[2] + floor_height], half))
+    builder = scene.create_actor_builder()
+    mat = sapien.render.RenderMaterial(base_color=list(color), roughness=0.6)
+    for centre, half in parts:
+        builder.add_box_collision(pose=sapien.Pose(p=centre), half_size=half)
+        builder.add_box_visual(pose=sapien.Pose(p=centre), half_size=half, material=mat)
+    builder.initial_pose = sapien.Pose()
+    return builder.build_kinematic(name=name)
 
 
 def build_upright_cylinder(scene: ManiSkillScene, name: str, radius: float, half_height: float, density: float,

@@ -1,7 +1,7 @@
 """CupBeansHands (L2 deformable DX, family ScoopBeans): the right LEAP hand scoops beans with a cupped palm and pours
 them into a cup the left LEAP hand holds.
 
-STATUS: UNFINISHED (session 16), NOT registered (no solver). Scene, rule (episode memory) and dense reward are built;
+STATUS: UNFINISHED (sessions 16-18), NOT registered (no solver). Scene, rule (episode memory) and dense reward are built;
 measured on seed 100 (scripts in the session-16 report, numbers here):
 - a cupped palm-up right hand HOLDS beans: 40 beans dropped on the palm, after 40 steps and a 20 cm carry at 5 mm a
   step still on the hand: LEAP_SYNERGIES["cup"] (added: knuckles 0.6 rad, thumb swung 1.0) 36/40,
@@ -21,10 +21,74 @@ measured on seed 100 (scripts in the session-16 report, numbers here):
   near wall (contacts with the table; fingertips at the wall, y -0.183, the mount 15 cm behind the TCP at y -0.323):
   curled this way the finger "floor" runs ~13 cm from the mount to ~1 cm short of the TCP, so the TCP must start
   >= 14 cm past the near wall, and the floor is longer than this tray (9 cm along the push) is deep.
-What to try next: the dustpan scoop with its fingers placed in the pile: a tray open (or low-walled) on the hand's
-side and >= ~20 cm along the push, a pile deeper than the fingers are thick (~2 cm; more beans or a heap against the
-far wall), then tilt back to palm up ("cup") as the hand rises; or beans raised ~0.25 m (a tray on a stand, the palm
-coming up under its open side). Either changes the scene, so the catalog row's description/plan should follow.
+Session 17: the scene change the above asks for. The tray stands on a fixed stand (`build_raised_tray`), its floor
+24 cm up, 14 x 10 cm, walls 4 cm except a 2 cm lip on the hand's (-y) side; the beans start packed in its far 6 cm
+(~1.4 layers), so the near 4 cm are free for the fingers to come down to the floor. Measured on seed 100 (probe
+scripts, not committed: the right hand rolled palm-up as HandoverBallHands' roll_targets, fingers +y,
+then tilted fingertips-down about the TCP's y axis; the middle fingertip's lower front corner, TCP frame
+(0.156, 0.03, -0.106), servoed along the tray):
+- reach: palm-up (tilt 0) the TCP stops at z 0.34 at (-0.05, -0.27) (0.31 with a 5 degree error), tilted 45-60 degrees
+  it reaches 0.22-0.27 but the IK then leaves a 0.3-0.5 rad yaw error. With the tray raised the tilted hand reaches
+  its floor: tilt 55, tip 5 mm over the floor, pushed to 1.5 cm from the far wall (TCP z 0.44, no arm on the table).
+- geometry that forces a steep tilt: the LEAP knuckle blocks (MCP links) reach 14 cm under the TCP, 5.3 cm below
+  the fingertips' 2 cm thick boxes, and only the last 7.6 cm of the fingers (TCP x 0.08-0.156) are thin; at tilts
+  under ~25 degrees the knuckle block is the hand's lowest point, at 15-35 degrees it sat on the lip / the pile's top
+  (tips stopped 1-1.5 cm inside the lip, 1-2 cm over the floor). At 55 degrees the tip is 4.3 cm under the knuckles'
+  lower edge and 7.2 cm ahead of it: the tip gets past a 2 cm lip to the floor.
+- an 11 x 6 cm floor packed ~2.3 layers full (no free floor) cannot be entered: the tips rest on the jammed pile
+  (z floor + 1.7 cm); an 11 cm wide tray neither: the hand is 12.6 cm across its fingers (TCP y -0.033..0.093).
+- the scoop itself: 0-2 beans in the palm box after the lift (at most 5 ever `carried`) in 20 tries (tilt 55 then:
+  curl to "cup" while pivoting about the tips to -10..+10 degrees over 30-60 steps, the tips at the far wall, rising
+  along it 1-6 cm or pulled back 3-5 cm; or curl in place (knuckles 0.3/0.6/1.0, over 20 or 80 steps), then lift
+  and rotate). Pushing the tips through the pile puts no beans on the fingers (the blunt 2 cm tips push them along;
+  stopped 3.5 cm short of the far wall, then curled: 1 bean). Squeezed against the far wall, the curl lifts ~18
+  beans onto the tip pads (TCP x 0.135-0.15), but they lie against the wall, not in a hollow of the hand: they rise
+  over the rim along the wall and fall off the stand's far side (20-30 a try; bean speeds 0.4-0.8 m/s in the curl,
+  the 2 m/s ones falling the 24 cm to the table; a 10 cm far wall, 2 cm thick walls, a 0.2 m/s depenetration cap on
+  the beans or the cup synergy's side joints at 0 changed nothing); a 1 cm back / 0.8 cm up move after the curl
+  leaves 1 of the 18 on the hand.
+- a tray open on the hand's side, its floor sloping 15 degrees down to the far wall (no lip; 14 x 6-8 cm; beans
+  ~4 deep in the far 4 cm; tried and reverted): the tips get only 4-5 cm past the open edge (the knuckle blocks meet
+  the stand's near face), ride onto the pile's top and press it against the wall: 0 beans at tilts 15 and 25.
+- `in_palm` (PALM_BOX_*) is centred on TCP y 0 while the palm and fingers span y -0.033..0.094 (the thumb's side
+  negative): beans on the ring finger's side are not counted; centre it at y ~0.03 before a solver relies on it.
+What to try next: the hand's pads only face up (can hold beans) at tilts under ~25 degrees, where its 5.3 cm thick
+knuckle blocks are its lowest part; so the beans must stand higher than the knuckles' reach below the pads: a pile
+deeper than ~4 cm (more or bigger beans, a narrower heap the hand fits) on a ledge whose edge the knuckles pass in
+front of, the thin fingers sliding in under the heap's upper part; or a pile the palm comes up under from below
+(a pile on a grate / a bin with a floor slot). Also centre `in_palm` on the palm (above).
+Session 18 (done): `in_palm` centred on the measured hand (y -0.035..0.095; 5 beans lying on the palm at TCP
+y 0.04-0.076 after a scoop, 2 of them outside the old box). Scene: a narrow deep bin (15 x 6 cm floor, 8 cm walls,
+6 cm on the hand's side) and 6 mm beans (catalog bean_radius 0.006, same count): the pile settles ~3.5-4 cm deep
+over the whole floor (4.5 lattice layers at reset). Scoop probes (seed 100 unless said; beans in the palm after a
+15 cm lift / `carried`):
+- the brief's "plunge tilted 55 deg fingertips-down beside the far wall, rotate palm-up while lifting" (pivot at the
+  tips or 10 cm up the fingers, lift 3-8 cm, tilt end -10..25, 40-60 steps): 0/0 in 5 tries (the tips stop 2-3.6 cm
+  over the floor; rotating about the tips lowers the palm into the near wall, so the hand just rises out).
+- fingers straight down (tilt 90), pads facing the pile, the tips' backs 5 mm off the NEAR wall, 2 cm over the
+  floor; curl (knuckles 0.6, PIP/DIP 0.9, done in the first third) while rotating to palm-up about a point 10 cm up
+  the fingers, lifting 6 cm, then lift: cup synergy 0-1, the hook (0.6/0.9) 2-3 (tilt end 10), 5/5 (tilt end -20
+  over 60 steps: tips up, the beans roll onto the palm), seed 101 3/6, seed 102 1/4; variants 1-5 (faster 30 steps
+  1/3, lift 3 cm 3/4, pivot 14 cm 4/5, a 7 cm floor 1/2, pull back 3 cm 3/5, end -35 2/5, curl in place first 0-1,
+  knuckles 0.3/PIP 1.4 1/3, rotate to 50-60 deg inside the pile first 1-3). 15-20 beans leave the bin in every
+  scoop but only 3-6 stay on the hand: they ride the fingertip pads (TCP x 0.13-0.17) and roll off the tips while
+  the fingers still slope down (tilt 90 -> 50); only the distal ~4 cm of the 14 cm fingers are in the pile.
+- 8 mm beans in a 14 cm deep bin (pile 12.6 cm at reset): the fingers stop 7 cm over the floor (the jammed pile
+  in a bin 2.4 cm wider than the hand): 0.
+Fixed: with the tray at y in [-0.16, -0.12] (session 17) the right hand at rest has its thumb tip at the stand's
+near face (y -0.187, z 0.236 on seed 102; the thumb's tip box reaches ~4-7 cm further) and beans were flung out of
+the tray in the first steps: 32 of seeds 100-149 lost 1-141 beans still (also with session 17's tray, seed 102:
+37). Shifted (same 4 cm width) to y in [-0.10, -0.06]: 1/50 (seed 141: 11 beans; the rest pose's joint noise lifts
+the thumb to z 0.253 against the stand) - the right arm's rest pose or a stand narrower at its foot is the real fix.
+With the shift (clean resets; seeds 100-103 still/random: no success, 150 in the tray) the scoop above gives 0/3,
+2/3, 1/1 (in the palm / carried) on seeds 100-102; its pivot 14 cm up the fingers 4/6, 5/6, 0/4 (the best so far:
+tilt 90, tips 5.5 cm from the far wall and 2 cm over the floor, hook 0.6/0.9 in the first 20 of 60 steps, rotate to
+-20 about TCP (0.14, 0.03, -0.1) lifting 6 cm, then lift 12 cm pulling 9 cm back); lift 3 cm 1/4, tips 1 cm nearer
+the far wall 0/1, rotate to 50 in the pile first 2/4, hook 0.8/1.2 0/2. Nothing near 10; no carry or pour tried.
+Bench (state, random actions, 200 steps, shared machine): 0.150x PickCube-v1 (63 vs 420 steps/s), at the bar.
+Next: a pile the whole hand (palm included) goes into (a sack deeper than the 14 cm fingers: ~500 beans of 6 mm,
+a cost question), or a short hook-scoop with the pads level before they leave the pile (a wider bin where the
+palm can follow the fingers down), or the thumb closing over the tips' pocket.
 """
 
 from __future__ import annotations
@@ -40,20 +104,26 @@ from maniladder_ms.agents.helpers import LEAP_SYNERGIES
 from maniladder_ms.deformables import particles
 from maniladder_ms.envs import ManiLadderEnv, register_task  # noqa: F401 (register_task: once the solver passes)
 from maniladder_ms.objects import containers
-from maniladder_ms.objects.tabletop import build_tray
+from maniladder_ms.objects.tabletop import build_raised_tray
 from maniladder_ms.solvers.bimanual import READY_ARM_JOINTS
 
 from .scoop_beans_with_spoon import ScoopBeansTask
 
-TRAY_INNER = (0.035, 0.035)  # half sizes (m) of the tray's floor: 150 beans of 4 mm lie ~3 deep (2.6 cm)
-TRAY_WALL, TRAY_WALL_HEIGHT, TRAY_BASE = 0.006, 0.03, 0.005
+# a narrow deep bin (session 18): 15 x 6 cm floor, 8 cm walls, 6 cm on the hand's side; 150 beans of 6 mm fill it
+# ~5.7 cm deep (4 layers), so the right hand's fingers plunge fingertips-down into the pile (module notes)
+TRAY_INNER = (0.075, 0.03)  # half sizes (m) of the tray's floor
+PILE_DEPTH = 0.06  # the beans start packed in the tray's far (+y) 6 cm: its whole floor
+TRAY_WALL, TRAY_WALL_HEIGHT, TRAY_LIP = 0.006, 0.08, 0.06
+TRAY_FLOOR = 0.24  # the tray's floor above the table
 CUP_DENSITY = 400.0  # a light plastic cup (PourGrainsHandToCup's)
 # the left holds the cup: PourGrainsHandToCup's measured side grasp of its pourer (left Panda, thumb low, joint 7
 # >= 0.8 rad from its limits); the right's joint 7 is at its limit for that grasp, so the right scoops
 SCOOPER, HOLDER = "right", "left"
 # the cupped palm (in the scooping hand's TCP frame: z out of the palm, which lies at z -0.08; x along the
-# fingers): where carried beans rest, up to a bean or two over the raised fingers
-PALM_BOX_CENTRE, PALM_BOX_HALF = (0.0, 0.0, -0.045), (0.075, 0.06, 0.04)
+# fingers; y across them, the thumb at -y): where carried beans rest, up to a bean or two over the raised fingers.
+# Across the hand it spans the measured palm and finger links (collision boxes, TCP frame: y -0.034..0.094; the
+# palm's face at z -0.081); session 17 had it centred on y 0, leaving the ring finger's side out
+PALM_BOX_CENTRE, PALM_BOX_HALF = (0.0, 0.03, -0.045), (0.075, 0.065, 0.04)
 # the cupped palm the scooping hand carries beans in (LEAP_SYNERGIES["cup"]: 36 of 40 beans kept on a palm-up hand
 # through a 20 cm carry)
 CUP_SYNERGY = LEAP_SYNERGIES["cup"]
@@ -61,14 +131,15 @@ CUP_SYNERGY = LEAP_SYNERGIES["cup"]
 
 # @register_task("CupBeansHands")  -- not yet: no solver (module docstring)
 class CupBeansHandsEnv(ScoopBeansTask, ManiLadderEnv):
-    """**Task:** beans lie in a shallow tray in front of the right arm and a cup stands to the left. The left
+    """**Task:** beans lie in a tray raised on a stand in front of the right arm and a cup stands to the left. The left
     LEAP hand picks the cup up and holds it off the table; the right LEAP hand scoops beans out of the tray with
     its cupped palm, carries them over the cup and pours them in.
 
     **Randomisation:**
-    - the tray (a 7 x 7 cm floor, 3 cm walls) stands at x in [-0.04, 0], y in [-0.16, -0.12], holding
-      `bean_count` beans (granular spheres of radius `bean_radius`) packed from its floor (~3 layers) with a
-      small random jitter;
+    - the tray (a fixed stand, its 15 x 6 cm floor 24 cm above the table, 8 cm walls, 6 cm on the right
+      hand's side) stands at x in [-0.04, 0], y in [-0.10, -0.06], holding `bean_count` beans (granular
+      spheres of radius `bean_radius`) packed from its floor (~4 layers of 6 mm beans) with a small random
+      jitter;
     - the cup (plastic, inner radius 3.5 cm, 11 cm tall) stands at x in [-0.16, -0.1], y in [0.14, 0.2];
     - the left arm starts in a ready pose (`READY_JOINTS`: its hand raised above the cup, turned for a side
       grasp), the right at rest, plus the usual joint noise.
@@ -93,8 +164,8 @@ class CupBeansHandsEnv(ScoopBeansTask, ManiLadderEnv):
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
-        self.tray = build_tray(self.scene, "tray", TRAY_INNER, TRAY_WALL_HEIGHT, TRAY_WALL, TRAY_BASE,
-                               color=(0.45, 0.6, 0.4, 1))
+        self.tray = build_raised_tray(self.scene, "tray", TRAY_INNER, TRAY_WALL_HEIGHT, TRAY_LIP, TRAY_WALL, TRAY_FLOOR,
+                                      color=(0.45, 0.6, 0.4, 1))
         self.cup = containers.build_container(self.scene, "cup", self.cup_shape, color=(0.8, 0.35, 0.3, 1),
                                               density=CUP_DENSITY)
         self.beans = particles.build_particles(self.scene, "beans", self.particle_config)
@@ -106,21 +177,22 @@ class CupBeansHandsEnv(ScoopBeansTask, ManiLadderEnv):
         with torch.device(self.device):
             b = len(env_idx)
             # (x, y, z) uniform in [low, high] per env: the tray, then the cup
-            low, high = torch.tensor([[-0.04, -0.16, 0.0], [-0.16, 0.14, 0.0]]), torch.tensor([[0.0, -0.12, 0.0], [-0.1, 0.2, 0.0]])
+            low, high = torch.tensor([[-0.04, -0.1, 0.0], [-0.16, 0.14, 0.0]]), torch.tensor([[0.0, -0.06, 0.0], [-0.1, 0.2, 0.0]])
             tray, cup = (low + (high - low) * torch.rand(b, 2, 3)).unbind(dim=1)
             self.tray.set_pose(Pose.create_from_pq(tray))
             self.cup.set_pose(Pose.create_from_pq(cup))
             self.beans.set_positions(self.pile(tray))
 
     def pile(self, tray: torch.Tensor) -> torch.Tensor:
-        """Bean positions [b, N, 3]: a square lattice (spacing 2.1 radii) filling the tray's floor layer by
-        layer, jittered by 0.05 radius (as `particles.pack_in_container`)."""
+        """Bean positions [b, N, 3]: a square lattice (spacing 2.1 radii) filling the far `PILE_DEPTH` of the
+        tray's floor layer by layer, jittered by 0.05 radius (as `particles.pack_in_container`)."""
         r = self.bean_radius
         spacing = 2.1 * r
-        kx, ky = (int((half - 1.2 * r) // spacing) for half in TRAY_INNER)
-        xy = np.stack(np.meshgrid(np.arange(-kx, kx + 1) * spacing, np.arange(-ky, ky + 1) * spacing), -1).reshape(-1, 2)
+        kx, ky = (int((half - 1.2 * r) // spacing) for half in (TRAY_INNER[0], PILE_DEPTH / 2))
+        far = TRAY_INNER[1] - PILE_DEPTH / 2
+        xy = np.stack(np.meshgrid(np.arange(-kx, kx + 1) * spacing, far + np.arange(-ky, ky + 1) * spacing), -1).reshape(-1, 2)
         layers = -(-self.bean_count // len(xy))
-        z = np.repeat(TRAY_BASE + 1.05 * r + spacing * np.arange(layers), len(xy))[:, None]
+        z = np.repeat(TRAY_FLOOR + 1.05 * r + spacing * np.arange(layers), len(xy))[:, None]
         pts = np.concatenate([np.tile(xy, (layers, 1)), z], axis=1)[: self.bean_count]
         out = torch.tensor(pts, dtype=torch.float32, device=tray.device).expand(len(tray), -1, 3)
         out = out + (torch.rand(out.shape, device=tray.device) - 0.5) * 0.1 * r
@@ -134,7 +206,8 @@ class CupBeansHandsEnv(ScoopBeansTask, ManiLadderEnv):
     def in_tray(self) -> torch.Tensor:
         """Beans over the tray's floor below its rim (its inner box), [B, N]."""
         half = (TRAY_INNER[0], TRAY_INNER[1], TRAY_WALL_HEIGHT / 2)
-        return particles.inside_box(self.beans.positions(), self.tray.pose, (0.0, 0.0, TRAY_WALL_HEIGHT / 2), half)
+        centre = (0.0, 0.0, TRAY_FLOOR + TRAY_WALL_HEIGHT / 2)
+        return particles.inside_box(self.beans.positions(), self.tray.pose, centre, half)
 
     def cup_held_up(self) -> torch.Tensor:
         return self.ee.holds(self.cup, HOLDER) & (self.cup.pose.p[:, 2] >= self.cup_lift)
