@@ -331,6 +331,17 @@ class HandoverMugHandsEnv(HandoverTask):
 # experiment script (122, 146, 149; 120 tilted 58 deg at the take), 120 steps 0/6 (tilts 24-95 deg at the take: the
 # slow closing loses the mug to the giver's or its own push). Next: the swap on those 6 (the take's tilt;
 # the giver's opening, now that the taker's grip holds), the pick on 142.
+# Session 17b (helper/mughands8; ~10-15 s a seed). The swap's release re-tuned on dev seeds 120, 122, 123, 141,
+# 146, 149 (swap losses) + 100-105 (run to 1200 steps; swap losses solved / passing kept): this solver 0/6, 6/6;
+# 10 steps still between the taker's close and the giver's opening 0/6, 5/6 (103 lost after the pass); the taker
+# lifting 5 mm (10 steps) before the giver opens 0/6, 6/6; the giver opening over 10 steps while the taker lifts
+# (session 16's ramp) 0/6, 6/6; over 20 steps 0/6 (100-105 not run). No sweep (nothing beat this solver).
+# Traced (mug tilt in the world): at the meet, before the taker's reach, the mug already leans 8-25 deg in the giver's
+# palm (100, solved: 10, then 15 after the close); the reach does not move it; the taker's 80-step close tips it to
+# 36-93 deg (120 37, 122 36, 123 36, 141 74, 146 93, 149 87) and it falls (or is thrown: 141 off the table) as the
+# giver opens and the taker lifts. So the release is not the lever: the take is. Next: the mug's lean in the giver's
+# palm at the meet (the roll's last waypoints, or a square-up of the giver's palm on the mug's measured axis before
+# the taker reaches), the taker's yaw chosen from the lean's direction (its line-up already follows the rim), 142.
 # ----------------------------------------------------------------------------------------------------
 GIVER_TCP_HEIGHT = 0.065  # the giver's top-down TCP above the table at the pick (the upside-down mug's base at 9 cm)
 GIVER_ROLL_SIGN = -1.0  # about the TCP y axis (the finger row, world x): the left Panda's joint 7 stays mid-range
