@@ -57,7 +57,7 @@ knuckle blocks are its lowest part; so the beans must stand higher than the knuc
 deeper than ~4 cm (more or bigger beans, a narrower heap the hand fits) on a ledge whose edge the knuckles pass in
 front of, the thin fingers sliding in under the heap's upper part; or a pile the palm comes up under from below
 (a pile on a grate / a bin with a floor slot). Also centre `in_palm` on the palm (above).
-Session 18 (done): `in_palm` centred on the measured hand (y -0.035..0.095; 5 beans lying on the palm at TCP
+Session 17, second try (done): `in_palm` centred on the measured hand (y -0.035..0.095; 5 beans lying on the palm at TCP
 y 0.04-0.076 after a scoop, 2 of them outside the old box). Scene: a narrow deep bin (15 x 6 cm floor, 8 cm walls,
 6 cm on the hand's side) and 6 mm beans (catalog bean_radius 0.006, same count): the pile settles ~3.5-4 cm deep
 over the whole floor (4.5 lattice layers at reset). Scoop probes (seed 100 unless said; beans in the palm after a
@@ -109,7 +109,7 @@ from maniladder_ms.solvers.bimanual import READY_ARM_JOINTS
 
 from .scoop_beans_with_spoon import ScoopBeansTask
 
-# a narrow deep bin (session 18): 15 x 6 cm floor, 8 cm walls, 6 cm on the hand's side; 150 beans of 6 mm fill it
+# a narrow deep bin (session 17, second try): 15 x 6 cm floor, 8 cm walls, 6 cm on the hand's side; 150 beans of 6 mm fill it
 # ~5.7 cm deep (4 layers), so the right hand's fingers plunge fingertips-down into the pile (module notes)
 TRAY_INNER = (0.075, 0.03)  # half sizes (m) of the tray's floor
 PILE_DEPTH = 0.06  # the beans start packed in the tray's far (+y) 6 cm: its whole floor
