@@ -342,6 +342,22 @@ class HandoverMugHandsEnv(HandoverTask):
 # giver opens and the taker lifts. So the release is not the lever: the take is. Next: the mug's lean in the giver's
 # palm at the meet (the roll's last waypoints, or a square-up of the giver's palm on the mug's measured axis before
 # the taker reaches), the taker's yaw chosen from the lean's direction (its line-up already follows the rim), 142.
+# Session 17c (helper/mughands9; ~10 s a seed). The take on dev seeds 120, 122, 123, 141, 146, 149 (swap losses) +
+# 100-105 (run to 1200 steps): (b) the giver's palm turned about its TCP by the mug's measured lean (uprighting,
+# closed loop, up to 4 x 15 steps, to < 5 deg) before the taker reaches: one turn squares it (10 -> 0.7 deg on 100,
+# 25 -> 0.8 on 122) but the taker's reach then pushes the squared mug down (4 cm on 122) and tilts it again (9-21
+# deg); 0/6, and 100, 101 lost (the mug falls as the giver opens). (a) the taker's approach (TCP axis and depth)
+# on the mug's measured tilted axis: 0/6, 100 and 101 lost. (c) the taker's yaw = the direction the mug's top
+# leans (its fingers on that side), clamped to [-90, 0] deg, for any lean over ~3 deg: 6/6 saved, 100-105 kept
+# (102 only at 1227 steps), but the sweep lost 110, 112, 115, 116, 117, 119, 124 in its first 25 seeds (stopped);
+# the lean's weight 0.5 (yaw halfway to TAKER_YAW) gave the same outcomes. (c) only where the lean's horizontal
+# axis part is over 0.25 (~14.5 deg), TAKER_YAW otherwise: 9/13 on the 6 + those 7 (123, 146, 149 still lost in
+# the swap, 124 after the pass); seeds 100-149 41/50 (648-1175 steps, mean 775; swap 123, 130, 146, 149; after
+# the pass 124, 133, 144, 148; pick 142): below this solver's 43, so the code is unchanged. The lean-chosen yaw
+# saves the swap (120, 122, 141; all 6 at any lean) but loses others after the pass (not traced: presumably
+# the mug's pose in the changed grip, for a release tuned at TAKER_YAW). Next: (c) with the release
+# re-tuned for the grip it leaves (trace 110-119's after-pass losses with (c) at any lean), or (b) with the taker
+# re-measuring the rim after its line-up (the squared mug is pushed down by the reach).
 # ----------------------------------------------------------------------------------------------------
 GIVER_TCP_HEIGHT = 0.065  # the giver's top-down TCP above the table at the pick (the upside-down mug's base at 9 cm)
 GIVER_ROLL_SIGN = -1.0  # about the TCP y axis (the finger row, world x): the left Panda's joint 7 stays mid-range
