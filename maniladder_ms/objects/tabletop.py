@@ -47,13 +47,19 @@ def build_tray(
 
     The actor origin is the centre of the base plate's bottom face, so it rests on the table at z = 0.
     """
+    parts = open_box_parts(inner_half_size, wall_height, wall_thickness, base_thickness)
+    return boxes_builder(scene, parts, color, density=WOOD_DENSITY).build(name=name)
+
+
+def boxes_builder(scene: ManiSkillScene, parts, color, density: float = 1000.0):
+    """An actor builder (origin at the identity pose) of the (centre, half size) boxes `parts` in one colour."""
     builder = scene.create_actor_builder()
     mat = sapien.render.RenderMaterial(base_color=list(color), roughness=0.6)
-    for centre, half in open_box_parts(inner_half_size, wall_height, wall_thickness, base_thickness):
-        builder.add_box_collision(pose=sapien.Pose(p=centre), half_size=half, density=WOOD_DENSITY)
+    for centre, half in parts:
+        builder.add_box_collision(pose=sapien.Pose(p=centre), half_size=half, density=density)
         builder.add_box_visual(pose=sapien.Pose(p=centre), half_size=half, material=mat)
     builder.initial_pose = sapien.Pose()
-    return builder.build(name=name)
+    return builder
 
 
 def open_box_parts(inner_half_size: tuple[float, float], wall_height: float, wall_thickness: float,
@@ -77,20 +83,13 @@ def build_raised_tray(
     """A fixed (kinematic) tray on a solid stand: its floor's top face `floor_height` above the table, walls
     `wall_height` high round it except at -y, where a lip only `lip_height` high lets a hand slide in over it.
     The actor origin is on the table under the floor's centre."""
-    ix, iy = inner_half_size
-    t = wall_thickness
-    parts = [([0, 0, floor_height / 2], [ix + t, iy + t, floor_height / 2])]
-    for centre, half in open_box_parts(inner_half_size, wall_height, wall_thickness, 0.0)[1:]:
-        if centre[1] < 0:  # the -y wall: the lip
-            centre, half = [centre[0], centre[1], lip_height / 2], [half[0], half[1], lip_height / 2]
-        parts.append(([centre[0], centre[1], centre[2] + floor_height], half))
-    builder = scene.create_actor_builder()
-    mat = sapien.render.RenderMaterial(base_color=list(color), roughness=0.6)
-    for centre, half in parts:
-        builder.add_box_collision(pose=sapien.Pose(p=centre), half_size=half)
-        builder.add_box_visual(pose=sapien.Pose(p=centre), half_size=half, material=mat)
-    builder.initial_pose = sapien.Pose()
-    return builder.build_kinematic(name=name)
+    stand, *walls = open_box_parts(inner_half_size, wall_height, wall_thickness, floor_height)  # the stand: a base
+    parts = [stand]
+    for (x, y, z), (hx, hy, hz) in walls:
+        if y < 0:  # the -y wall: the lip
+            z = hz = lip_height / 2
+        parts.append(([x, y, z + floor_height], [hx, hy, hz]))
+    return boxes_builder(scene, parts, color).build_kinematic(name=name)
 
 
 def build_upright_cylinder(scene: ManiSkillScene, name: str, radius: float, half_height: float, density: float,
