@@ -1,7 +1,7 @@
 """CupBeansHands (L2 deformable DX, family ScoopBeans): the right LEAP hand scoops beans with a cupped palm and pours
 them into a cup the left LEAP hand holds.
 
-STATUS: UNFINISHED (sessions 16-18), NOT registered (no solver). Scene, rule (episode memory) and dense reward are built;
+STATUS: UNFINISHED (sessions 16-17), NOT registered (no solver). Scene, rule (episode memory) and dense reward are built;
 measured on seed 100 (scripts in the session-16 report, numbers here):
 - a cupped palm-up right hand HOLDS beans: 40 beans dropped on the palm, after 40 steps and a 20 cm carry at 5 mm a
   step still on the hand: LEAP_SYNERGIES["cup"] (added: knuckles 0.6 rad, thumb swung 1.0) 36/40,
