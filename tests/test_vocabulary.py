@@ -80,6 +80,35 @@ def test_gripper_holds_what_it_squeezes_and_not_what_it_only_touches():
         env.close()
 
 
+def test_a_reset_scene_has_no_contacts_from_the_previous_episode():
+    """PhysX lists the contacts of its last step: after a reset (bodies placed, none stepped) the pen the
+    gripper held in the last episode is neither held nor touched, and the reset's observation is a fresh
+    env's (it was not: LiftBasketHands' grasp flag at reset came from the step before)."""
+    from maniladder_ms.agents.effectors import contact_forces
+    from maniladder_ms.solvers.panda import PandaSolver
+
+    env = maniladder_ms.make("PickPlacePen", obs_mode="state", control_mode="pd_joint_pos")
+    fresh = maniladder_ms.make("PickPlacePen", obs_mode="state", control_mode="pd_joint_pos")
+    try:
+        with PandaSolver.episode(env, 100) as robot:
+            task = env.unwrapped
+            pen_p = task.pen.pose.p[0].numpy()
+            yaw = robot.closest_grasp_yaw(actor_yaw(task.pen) + np.pi / 2)
+            robot.pick(robot.top_down_pose([pen_p[0], pen_p[1], task.pen_radius], yaw))
+            assert task.ee.holds(task.pen).all()
+        # the next episode puts the arm back where the pen was taken from: seed 100 again
+        obs, info = env.reset(seed=100)
+        assert not task.ee.holds(task.pen).any() and not task.ee.touches(task.pen).any()
+        assert contact_forces(task.scene, task.pen, task.ee["main"].fingers).abs().sum() == 0
+        assert torch.equal(obs, fresh.reset(seed=100)[0])
+        env.step(np.zeros(env.action_space.shape, dtype=np.float32))
+        # stepped: the table's contact with the pen counts again
+        assert contact_forces(task.scene, task.ladder_scene.table, [task.pen]).norm(dim=-1).sum() > 0
+    finally:
+        env.close()
+        fresh.close()
+
+
 def test_episode_memory_latches_counts_stores_and_resets():
     memory = EpisodeMemory(num_envs=3, device="cpu")
     memory.flag("handed_over")

@@ -23,10 +23,18 @@ Contact answers are cached per (question, object, side) until `new_state()`, whi
 every physics step, reset and state restore (`ManiLadderEnv`): a task's memory update and `evaluate` of
 one control step, which both ask, share one contact pass (a pass over a LEAP hand's links costs about
 as much as the rest of a control step on the CPU).
+
+PhysX lists the contacts of its last step, so after a reset (bodies placed, nothing simulated) the list
+still describes where the previous episode's step left things: a hand that touched the object then
+"held" it in the new episode's first observation. `mark_placed` (the env calls it at every reset) makes
+every force of this module zero for the reset sub-scenes until `mark_simulated` (after the next physics
+step): a reset scene has no contact forces. A state restore (`set_state_dict`) keeps the last step's
+list: restoring the state that step produced (a replay, `demos verify`) answers as that step did.
 """
 
 from __future__ import annotations
 
+import weakref
 from typing import Optional, Sequence
 
 import numpy as np
@@ -52,18 +60,43 @@ GRIPPER_FINGER_LINKS = ("panda_leftfinger", "panda_rightfinger")
 GRIPPER_HAND_LINKS = ("panda_hand",)
 
 
+_PLACED: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()  # scene -> (num_envs,) bool: reset, not stepped
+
+
+def mark_placed(scene, env_idx: torch.Tensor) -> None:
+    """Sub-scenes `env_idx` of `scene` were placed (a reset) since the last physics step: their contact
+    forces read zero until `mark_simulated` (see the module docstring)."""
+    placed = _PLACED.get(scene)
+    if placed is None:
+        placed = _PLACED[scene] = torch.zeros(scene.num_envs, dtype=torch.bool, device=scene.device)
+    placed[env_idx] = True
+
+
+def mark_simulated(scene) -> None:
+    """`scene` took a physics step: its contact list describes its bodies again."""
+    _PLACED.pop(scene, None)
+
+
+def _zero_placed(scene, forces: torch.Tensor) -> torch.Tensor:
+    """`forces` (..., num_envs, 3) with the sub-scenes placed since the last physics step zeroed."""
+    placed = _PLACED.get(scene)
+    if placed is None:
+        return forces
+    return forces * (~placed).to(forces.dtype)[:, None].to(forces.device)
+
+
 def contact_forces(scene, obj, links) -> torch.Tensor:
     """(len(links), num_envs, 3) contact forces ON each of `links` FROM `obj` (what ManiSkill's
     `scene.get_pairwise_contact_forces(link, obj)` gives). On the CPU that query lists every contact of the
     scene for each pair (a LEAP hand's 13 links over 455 contacts with 60 grains in a glass: an evaluate took
     as long as the step); here one pass over the contacts serves all links."""
     if scene.gpu_sim_enabled:
-        return torch.stack([scene.get_pairwise_contact_forces(link, obj) for link in links])
+        return _zero_placed(scene, torch.stack([scene.get_pairwise_contact_forces(link, obj) for link in links]))
     entities = [link._bodies[0].entity for link in links]
     by_link = sapien_utils.get_multiple_pairwise_contacts(scene.px.get_contacts(), obj._bodies[0].entity, entities)
     # compute_total_impulse gives the impulse on the first entity of the query, `obj`: negate for the link's
     impulses = [-common.to_tensor(sapien_utils.compute_total_impulse(by_link[e]))[None, :] for e in entities]
-    return torch.stack([impulse / scene.px.timestep for impulse in impulses]).float()
+    return _zero_placed(scene, torch.stack([impulse / scene.px.timestep for impulse in impulses]).float())
 
 
 def pair_forces(scene, objs, links) -> torch.Tensor:
@@ -87,7 +120,7 @@ def pair_forces(scene, objs, links) -> torch.Tensor:
             continue
         total[i, j] += sign * np.sum([point.impulse for point in contact.points], axis=0)
     # float32 before dividing, as `contact_forces` (ManiSkill's to_tensor makes float32), for equal bits
-    return (torch.from_numpy(total).float() / scene.px.timestep)[:, :, None, :]
+    return _zero_placed(scene, (torch.from_numpy(total).float() / scene.px.timestep)[:, :, None, :])
 
 
 def link_forces(scene, obj, links) -> torch.Tensor:

@@ -31,7 +31,7 @@ from mani_skill.envs.sapien_env import BaseEnv
 from mani_skill.sensors.camera import CameraConfig
 from mani_skill.utils import sapien_utils
 
-from maniladder_ms.agents.effectors import EndEffectors
+from maniladder_ms.agents.effectors import EndEffectors, mark_placed, mark_simulated
 from maniladder_ms.catalog import CatalogError, TaskSpec, default_catalog
 
 from .memory import EpisodeMemory
@@ -269,6 +269,7 @@ class ManiLadderEnv(BaseEnv):
             self.ladder_scene.initialize(env_idx, keep_out=self.TASK_REGION)
             self.memory.reset(env_idx)
             self.ee.new_state()
+            mark_placed(self.scene, env_idx)  # PhysX's contact list is the previous episode's until a step
 
     # ---- episode memory and state -----------------------------------------------------------------
     def _update_memory(self):
@@ -277,6 +278,7 @@ class ManiLadderEnv(BaseEnv):
 
     def _after_simulation_step(self):
         super()._after_simulation_step()
+        mark_simulated(self.scene)
         self.ee.new_state()  # contacts and poses changed: `ee`'s cached contact answers are stale
 
     def _after_control_step(self):

@@ -9,6 +9,7 @@ import torch
 
 from mani_skill.utils.structs.pose import Pose
 
+from maniladder_ms.agents.effectors import contact_forces
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.geometry import yaw_quat
 from maniladder_ms.objects import containers
@@ -59,7 +60,7 @@ class LiftBottleHandEnv(ManiLadderEnv):
     def evaluate(self):
         height = self.bottle.pose.p[:, 2]  # of the base above the table, where it starts
         is_grasped = self.ee.holds(self.bottle)
-        on_table = self.scene.get_pairwise_contact_forces(self.bottle, self.ladder_scene.table).norm(dim=1) > 1e-3
+        on_table = contact_forces(self.scene, self.ladder_scene.table, [self.bottle])[0].norm(dim=1) > 1e-3
         is_lifted = height >= self.lift_height
         return {
             "success": is_lifted & is_grasped & ~on_table,
