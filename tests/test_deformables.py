@@ -560,6 +560,9 @@ def test_cloth_layouts():
     seams = [(i, j) for i, j in bag.links if j == i + 36]
     assert len(seams) == 6 + 6 + 4  # both sides and the bottom between the corners
     assert len(cloth.tent_panel().named["grommets"]) == 4
+    towel = cloth.towel(10, 8)  # particle r * 8 + c at row r, column c
+    assert [towel.neighbours(i) for i in towel.named["corners"]] == [[1, 8], [6, 15], [64, 73], [71, 78]]
+    assert towel.neighbours(9) == [1, 8, 10, 17]
 
 
 # ---- clay -----------------------------------------------------------------------------------------

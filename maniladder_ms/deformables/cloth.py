@@ -103,6 +103,10 @@ class ClothLayout:
     named: dict[str, list[int]] = field(default_factory=dict)
     cords: set[int] = field(default_factory=set)
 
+    def neighbours(self, i: int) -> list[int]:
+        """The particles linked to particle `i` (a towel corner's: the next one along each of its edges)."""
+        return sorted(b if a == i else a for a, b in self.links if i in (a, b))
+
 
 def _grid(mask: np.ndarray, spacing: float, z: float = 0.0, offset: int = 0):
     """Particles on the True cells of `mask` [rows, cols] (rows along x, cols along y), centred;

@@ -354,9 +354,7 @@ def both_hooked(task: HangTowelOnBarEnv) -> torch.Tensor:
     rows and the one along its edge): its inner finger sits inside the corner's cell."""
     hooked = torch.ones(task.num_envs, dtype=torch.bool, device=task.device)
     for side, k in CORNER.items():
-        c = task.towel.layout.named["corners"][k]
-        step = -1 if k == 3 else 1  # the edge neighbour: towards the other corner
-        for i in (c - COLS, c + step):
+        for i in task.towel.layout.neighbours(task.towel.layout.named["corners"][k]):
             hooked &= task.ee.touches(task.towel.spheres[i], side)
     return hooked
 
