@@ -121,12 +121,28 @@ left lifts / after backing 3 cm and a 12 cm carry at 3 mm a step, seeds 100, 101
 lip at reset). Seed 100: sweep at 2 mm with the left's knuckles 0.2: 9/2/2; tips 1.4 cm from the face: 9/5/4
 (carried 14); tips pressed to the face (TCP 8 mm nearer; the hand stops on it, tips 1.3-1.6 cm off): 6/3/1, also with
 the left retreating +y before it lifts; knuckles 0.9 (a deeper cup), also in a 13 cm wide ledge: 0 (all fall
-between the tips and the face); a fingers-along-x right hand (ring side at the face) stopped 2.3 cm off the face: 0-1 (the beans fall
-through the gap); fingers -y (palm heel at the face): the right arm does not reach palm-up (palm normal
+between the tips and the face); a fingers-along-x right hand (ring side at the face) stopped 2.3 cm off the face:
+0-1 (the beans fall through the gap); fingers -y (palm heel at the face): the right arm does not reach palm-up (palm normal
 (-0.63, -0.77, -0.08)).
-Status after session 18: no way found to >= 10 beans in the palm after a carry; the sweep-and-catch is the best so
-far (5-11 caught, 2-6 kept) and the catalog's plan now names it. Next: stop the beans between the tips and the
-face (tips at the face, the ledge overhanging the fingers by ~1 cm), a deeper cup, and the left's retreat.
+A ledge that OVERHANGS the stand (the stand's face 4 cm behind the floor's near edge, a 1 cm floor slab; the right's
+tips 2.2 cm under the slab, 2.6 cm below its top; same sweep): in the palm at the sweep's end / after the left lifts /
+after backing / after the carry, seeds 100, 101, 102: 26/18/16/13, 11/6/5/5, 12/7/5/3 (carried 37, 34, 30): the
+overhang stops the losses between the tips and the face; half of the catch then leaves as the left lifts off.
+Then the left stopped 0.8 cm past the inner edge (not 1.5) and retreating +y while it lifts: 24/22/20/17, 22/12/8/7,
+19/10/9/9 (retreating +y alone, still 1.5 cm past: 11/6/5/5 on 101, unchanged); and the right palm tilted 10 degrees
+(palm normal (0, 0.17, 0.99): tips 4.4 cm under the ledge top, the heel up) held through the carry: 20/15/14/14,
+25/19/17/14, 22/18/14/10 (carried memory 33, 34, 28) - the best palm loading so far: >= 10 kept on all 3 seeds,
+none >= 15 yet. The probe, for rebuilding it: ledge 14 x 12 cm (TRAY_INNER (0.07, 0.06)), 3 cm walls, 6 mm lip at
+-y, floor top 0.38 m, a 1 cm floor slab over a stand whose -y face is 4 cm behind the floor's near edge, tray y
+range shifted +3 cm, the 150 beans packed in the floor's middle 6 cm; right: roll_targets(yaw -90, sign -1) to
+palm-up, "cup", TCP (tray x + 0.03, slab edge - 0.078, floor - 0.035), tilted 10 degrees about its y axis; left:
+the blade pose, open hand (side joints 0.1 in), middle tip at (tray x, far inner wall - 1 cm, floor + 3 mm), swept
+12.8 cm -y at 3 mm a step, 20 steps held, then 20 steps of (+0.5 cm y, +0.5 cm z) a step; right backs 3 cm at
+1.5 mm a step and moves 12 cm -x at 3 mm a step, palm as tilted.
+Status after session 18: the sweep-and-catch (catalog plan) keeps 10-14 beans after a short carry on seeds 100-102
+(min_beans 10). Next: a few more beans held (the catch is 20-25: the left's retreat and the backing lose 5-10),
+then build the overhanging ledge (build_raised_tray with an overhang option), the left's cup grasp after the
+sweep (from the blade pose back to READY_JOINTS) and the tip-in over the held cup.
 """
 
 from __future__ import annotations
