@@ -38,7 +38,21 @@ pinch for a single-layer flag drape: the corners nearest the bar cannot be reach
 rack's bar, 3.4 cm above the corner) nor those nearest the robot (the arm stalls 16 cm up, at x -0.39); the middle
 pinch (`gather_open`) at the middle of a side edge instead (centred on rows 4-5 x its two outer columns) reaches the
 sheet but lets it slip during the lift (110).
-Next: the pile must leave the rod's top before the fingers open (a drape with ~0.2 on top, ~0.4 per side): e.g. a
+Session 18 (helper/rackhand3; solver unchanged, still 32/50; dev seeds as session 17, solver 4/10): (a) the middle
+pinch carried at 6 cm over the top on the near side, swept 6 cm past the axis, then sunk on the far side with a
+closed-loop depth: the bundle slides over the rod whole (near 0.00, 0.99 on top), 0/1; (b) the same gather pinch at
+the middle of the towel's edge nearest the bar (between its last two rows): a flat single-layer wrap when it
+works (100: 0.38 / 0.43, 0.20 on top), but the pinch is unreachable where that edge lies within ~8 cm of the bar's
+axis (the hand's body stalls on the rod: 104, 108, 114, 123, 132 never lifted): 1/10; at the edge nearest the robot
+it lifts 7/10 but hangs as a tube that piles on the rod like the middle pinch (0/10 swept over, 0/7 lower down);
+(c) with the rack moved 6 cm further (bar x 0.06-0.12, a scene change, not committed) the far-edge pinch reaches on
+every seed; carried 25 cm over the top to above the axis, lowered to 8 cm over it, then slid 4 mm/step out and down
+to 5.4 cm past the axis until far >= near (near > 0.1, pinch below the top): dev 7/10 (8/10 lowered 3 cm past the
+axis), but seeds 100-149 30/50 (successes 219-278 steps): the successes are clean (0.40 / 0.40, 0.20 on top), the
+failures again a pile (0.45-0.77 on top before the opening; pulling the pinch 4 cm further down does not move it:
+0/3). Next: the pile is the lever for both pinches: detect it before opening (top fraction > 0.35, the pinch still
+holds) and re-drape (lift off, lower again: ~70% each try), which needs faster phases to fit the horizon.
+Session 17's next: the pile must leave the rod's top before the fingers open (a drape with ~0.2 on top, ~0.4 per side): e.g. a
 second contact that strokes the sheet down both sides of the rod while the pinch holds (the open thumb or palm), a
 towel taken off-centre so only one layer folds over the rod (the pinch then lowered down the far side, as
 HangTowelOnBar's corners: needs a pinch that holds at an edge), or a scene change (towel or rack placed so a corner
