@@ -192,6 +192,14 @@ RISE_BACK = 0.08  # m above the lid top where the opened hand turns back between
 # hold, the row's jar and the 0.05 N m thread while doing so (none of the catalog changes above helped).
 RELEASE_STEPS = 15
 BACK_MARGIN = 1.2
+# the rim grasp (session 18): index and middle fingers bent down at their knuckles, the thumb swung down from the
+# palm's wrist end opposite them, all three tips at one height, the lid between them (a top-down pinch on its rim,
+# the palm ~9 cm above it); it closes by bending the finger knuckles and the thumb's tip joint towards each other
+RIM_OPEN = np.array([0.0, 1.45, 0.0, 0.0, 0.0, 1.45, 0.0, 0.0, 0.0, 0.2, 0.2, 0.2, 1.67, 0.0, -0.1, 0.0])
+RIM_CLOSE = np.array([0.0, 1.75, 0.0, 0.0, 0.0, 1.75, 0.0, 0.0, 0.0, 0.2, 0.2, 0.2, 1.67, 0.0, 0.3, 0.0])
+RIM_OFFSET = (-0.0205, 0.007, 0.0395)  # the lid's mid-height centre in the TCP frame where the rim grasp closes
+RIM = True
+HOLD_GAIN = 0.3
 
 
 @register_solver("OpenJarHands", control_modes=TCP_DELTA_MODES)
@@ -211,16 +219,17 @@ def solve_open_jar_hands(env, seed: int) -> dict:
         s.set_ee(hold.ee, HOLD_GRASP["approach"], steps=0)
         for k in range(WIND_UP_STEPS):
             target = (s.above(hold.lined_up[0], ABOVE), hold.q) if k < HOLD_PRESHAPE_STEPS else hold.lined_up
-            errs = s.step({hold.arm: target, twist_arm: wind_up_target(s, twist_arm, high(), GRIP_OFFSET)})
+            errs = s.step({hold.arm: target, twist_arm: wind_up_target(s, twist_arm, high(), RIM_OFFSET if RIM else GRIP_OFFSET)})
             ep, _ = errs[twist_arm]
             hp, _ = errs[hold.arm]
             if k >= HOLD_PRESHAPE_STEPS and bool((ep < 0.01).all() and (hp < 0.01).all()) and is_wound_up(s, twist_arm):
                 break
         s.move({hold.arm: (hold.p, hold.q)}, max_steps=40, pos_tol=0.003)
         close_hands(s, {hold.ee: HOLD_GRASP["close"]}, ramp_steps=20)
-        unscrew(s, task, twist_arm, f"{TWISTER}_hand", offset=GRIP_OFFSET, synergy="power", ramp_steps=RAMP_STEPS,
-                preshape="preshape", follow=FOLLOW, measured_axis=True,
+        offset, synergy, preshape = (RIM_OFFSET, RIM_CLOSE, RIM_OPEN) if RIM else (GRIP_OFFSET, "power", "preshape")
+        unscrew(s, task, twist_arm, f"{TWISTER}_hand", offset=offset, synergy=synergy, ramp_steps=RAMP_STEPS,
+                preshape=preshape, follow=FOLLOW, measured_axis=True,
                 rise_back=RISE_BACK, release_steps=RELEASE_STEPS, still_release=True, back_margin=BACK_MARGIN,
-                soft_end=True, stop_on_release=True)
+                soft_end=True, stop_on_release=True, hold_gain=HOLD_GAIN if RIM else 0.0)
         s.hold_until_success()
         return s.info
