@@ -112,7 +112,7 @@ def unscrew(s: DrivenSolver, task, arm: str, ee: str, max_strokes: int = 4, stro
             follow: float = 1.0, measured_axis: bool = False,
             rise_back: float | None = None, release_steps: int = 5, still_release: bool = False,
             back_margin: float = BACK_MARGIN, soft_end: bool = False,
-            stop_on_release: bool = False, hold_gain: float = 0.0):
+            stop_on_release: bool = False, hold_gain: float = 0.0, release_pose=None):
     """Unscrew `task.jar`'s lid (UnscrewCapTask) in strokes with `arm` / `ee` (see the module docstring);
     the hand winds up first unless it already has (`wind_up_target`). `offset`: the grip point in the TCP
     frame (`grip_target`; None: the TCP); `synergy`: the LEAP grasp that grips the lid, closed over
@@ -134,7 +134,8 @@ def unscrew(s: DrivenSolver, task, arm: str, ee: str, max_strokes: int = 4, stro
     tipping a held container); `stop_on_release`: stop if the task succeeds as the hand lets go (the last
     bit of the turn can come with the opening hand; a needless regrasp then risked the held container);
     `hold_gain`: the gain of a `HoldPosition` integral on the TCP's position while the hand reaches the lid,
-    closes on it and turns it (0: none)."""
+    closes on it and turns it (0: none); `release_pose`: the hand posture (joint targets) the hand opens to
+    after a stroke and keeps while it turns back (None: "open", the flat hand)."""
     release = float(torch.deg2rad(torch.tensor(float(task.release_angle))))
     grip_point, above = lid_points(task)
 
@@ -184,7 +185,10 @@ def unscrew(s: DrivenSolver, task, arm: str, ee: str, max_strokes: int = 4, stro
         if still_release:
             tcp = s.tcp(arm)
             s.arm_targets[arm] = (tcp.p.clone(), tcp.q.clone())
-        s.release(ee, steps=release_steps)
+        if release_pose is None:
+            s.release(ee, steps=release_steps)
+        else:
+            s.set_ee(ee, release_pose, steps=release_steps)
         if stop_on_release and done():
             return
         back = above
