@@ -86,12 +86,33 @@ def lid_points(task):
     return (lambda: task.lid_top() - down), (lambda: task.lid_top() + up)
 
 
+class HoldPosition:
+    """An integral term on a TCP's position error: `at(goal)` (n, 3) is where to command the TCP so that it
+    settles at `goal` against a steady load (the arm's IK-step controller leaves ~1 cm under a LEAP hand's
+    weight, and a grip on a lid pushes the hand up as the wrist turns): each call adds `gain` times the last
+    step's error, up to `limit` m."""
+
+    def __init__(self, s: DrivenSolver, arm: str, gain: float, limit: float = 0.03):
+        self.s, self.arm, self.gain, self.limit = s, arm, gain, limit
+        self.bias = None
+
+    def at(self, goal: torch.Tensor) -> torch.Tensor:
+        """`goal` (n, 3): a TCP position, or a point that moves with the TCP (a grip point)."""
+        tcp = self.s.tcp(self.arm).p
+        if self.bias is None:
+            self.bias = torch.zeros_like(tcp)
+        else:  # the last step's target, less the bias, is where the TCP should have gone
+            last = self.s.arm_targets[self.arm][0] - self.bias
+            self.bias = (self.bias + self.gain * (last - tcp)).clamp(-self.limit, self.limit)
+        return goal + self.bias
+
+
 def unscrew(s: DrivenSolver, task, arm: str, ee: str, max_strokes: int = 4, stroke_steps: int = 200,
             offset=None, synergy: str | None = None, ramp_steps: int = 40, preshape: str | None = None,
             follow: float = 1.0, measured_axis: bool = False,
             rise_back: float | None = None, release_steps: int = 5, still_release: bool = False,
             back_margin: float = BACK_MARGIN, soft_end: bool = False,
-            stop_on_release: bool = False):
+            stop_on_release: bool = False, hold_gain: float = 0.0, release_pose=None):
     """Unscrew `task.jar`'s lid (UnscrewCapTask) in strokes with `arm` / `ee` (see the module docstring);
     the hand winds up first unless it already has (`wind_up_target`). `offset`: the grip point in the TCP
     frame (`grip_target`; None: the TCP); `synergy`: the LEAP grasp that grips the lid, closed over
@@ -111,7 +132,10 @@ def unscrew(s: DrivenSolver, task, arm: str, ee: str, max_strokes: int = 4, stro
     as the hand closes); `soft_end`: the stroke's yaw target leads by no more than joint 7 has left before
     the stroke's end (with `LEAD` past it, the arm's other joints turned the TCP on, and off the lid's axis,
     tipping a held container); `stop_on_release`: stop if the task succeeds as the hand lets go (the last
-    bit of the turn can come with the opening hand; a needless regrasp then risked the held container)."""
+    bit of the turn can come with the opening hand; a needless regrasp then risked the held container);
+    `hold_gain`: the gain of a `HoldPosition` integral on the TCP's position while the hand reaches the lid,
+    closes on it and turns it (0: none); `release_pose`: the hand posture (joint targets) the hand opens to
+    after a stroke and keeps while it turns back (None: "open", the flat hand)."""
     release = float(torch.deg2rad(torch.tensor(float(task.release_angle))))
     grip_point, above = lid_points(task)
 
@@ -126,9 +150,22 @@ def unscrew(s: DrivenSolver, task, arm: str, ee: str, max_strokes: int = 4, stro
     for _ in range(max_strokes):
         if preshape is not None:
             s.set_ee(ee, preshape, steps=5)
-        s.move({arm: grip_target(grip_point(), tcp_yaw(s, arm), offset)}, max_steps=30, pos_tol=0.003)
+        if hold_gain > 0:
+            hold = HoldPosition(s, arm, hold_gain)
+            yaw = tcp_yaw(s, arm)
+            for _ in range(30):
+                p, q = grip_target(grip_point(), yaw, offset)
+                s.step({arm: (hold.at(p), q)})
+        else:
+            s.move({arm: grip_target(grip_point(), tcp_yaw(s, arm), offset)}, max_steps=30, pos_tol=0.003)
         if synergy is None:
             s.grasp(ee)
+        elif hold_gain > 0:
+            start = s.ee_cmd[ee].clone()
+            goal = torch.as_tensor(synergy, dtype=torch.float32, device=start.device)
+            for k in range(1, ramp_steps + 9):
+                s.ee_cmd[ee] = start + (goal - start) * min(k, ramp_steps) / ramp_steps
+                s.step({arm: (hold.at(p), q)})
         else:
             s.close_hand(ee, synergy, ramp_steps=ramp_steps)
         axis, grip = grip_point, offset
@@ -138,6 +175,9 @@ def unscrew(s: DrivenSolver, task, arm: str, ee: str, max_strokes: int = 4, stro
             grip = quaternion_apply(quaternion_invert(tcp.q), point - tcp.p)  # the lid's axis point in the TCP frame
             axis = lambda: point  # noqa: E731
         ahead = (lambda: (_j7(s, arm) + J7_LIMIT - J7_MARGIN).clamp(0.05, LEAD)) if soft_end else None
+        if hold_gain > 0:
+            axis_point = axis
+            axis = lambda: hold.at(axis_point())  # noqa: E731  (a shift of the grip point shifts the TCP alike)
         turn_wrist(s, arm, axis, 1, lambda: done() or bool((_j7(s, arm) <= -J7_LIMIT + J7_MARGIN).all()),
                    max_steps=stroke_steps, offset=grip, lead=ahead)
         if done():
@@ -145,7 +185,10 @@ def unscrew(s: DrivenSolver, task, arm: str, ee: str, max_strokes: int = 4, stro
         if still_release:
             tcp = s.tcp(arm)
             s.arm_targets[arm] = (tcp.p.clone(), tcp.q.clone())
-        s.release(ee, steps=release_steps)
+        if release_pose is None:
+            s.release(ee, steps=release_steps)
+        else:
+            s.set_ee(ee, release_pose, steps=release_steps)
         if stop_on_release and done():
             return
         back = above
