@@ -384,6 +384,19 @@ class HandoverMugHandsEnv(HandoverTask):
 # rate (87%) is ~43/50, so check the rule on more seeds. Not registered yet (the bar was reached at 03:54, late):
 # next session, raise the catalog horizon (~1100: demos 599-1011 steps), register, 20 demos + verify, samples,
 # render, bench, README row.
+# Session 18 (helper/mughands11; 10-60 s a seed, load 4-5). The lean traced at its source (the giver's pick, seeds
+# 122 and 100, mug tilt in the world / in the giver's TCP frame, contacts on the mug): it arises in the giver's CLOSE
+# (122: 0 -> 15 deg in the hand, the mug lifted 0.8 cm with one rim edge on the table at ~50 N; 100: 0 -> 6), +4
+# deg in the lift (122), none in the roll; the hand itself ends the roll ~5.3 deg short of palm-up (174.7 deg).
+# At GIVER_TCP_HEIGHT 6.5 cm the index / middle DIPs close on the mug's base edge (0.3 cm from its bottom) and the
+# thumb tip 3-6 cm down its side: an edge grip that tips it. A lower grasp (dev seeds = the 7 losses + 100-105,
+# run to 1200 steps; lean at the meet): 6.5 cm (as on main) 6/13 (lean 8-25 deg); 4.5 cm 9/13 (120, 123, 142
+# saved; lean 3-10 deg, the mug ~1.3 cm deeper in the palm, the fingertips up to 8 cm along the body, near the
+# taker's grip); 5 cm 1 of the first 6; 4 cm 4/13 (102, 104 lost). 4.5 cm swept on seeds 100-149: 35/50 (lost
+# 113, 115, 128, 131, 132, 140, 141, 147, 148 after the pass; 122, 130, 133, 135, 146, 149 in the swap): the
+# smaller lean does not save the swap (122 at 3.2 deg, 146 at 3.7 still lost) and the deeper mug changes the
+# taker's grip for the worse. Code unchanged (43/50). Next: the giver's finger contacts below the base edge without
+# the mug sitting deeper (e.g. a less curled GIVER_SYNERGY MCP at 4.5 cm, or 4.5 cm with TAKER_DEPTH re-measured).
 # ----------------------------------------------------------------------------------------------------
 GIVER_TCP_HEIGHT = 0.065  # the giver's top-down TCP above the table at the pick (the upside-down mug's base at 9 cm)
 GIVER_ROLL_SIGN = -1.0  # about the TCP y axis (the finger row, world x): the left Panda's joint 7 stays mid-range
