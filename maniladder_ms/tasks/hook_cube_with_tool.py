@@ -102,6 +102,12 @@ class HookCubeWithToolEnv(ManiLadderEnv):
         return ((depth > 0) & (depth <= self.cube_half * np.sqrt(2) + self.engage_gap) & (local[:, 1] >= lo)
                 & (local[:, 1] <= hi) & (local[:, 2].abs() < shape.height))
 
+    def hooked_and_engaged(self) -> torch.Tensor:
+        """`engaged` where the hook has pressed on the cube (memory `hooked`); the pose product only when some
+        sub-scene is hooked (it was a quarter of a control step before the hook reached the cube)."""
+        hooked = self.memory["hooked"]
+        return hooked & self.engaged() if bool(hooked.any()) else hooked.clone()
+
     def near_tool(self) -> torch.Tensor:
         """(num_envs,) bool: the cube's centre is within its half diagonal and a centimetre of the hook's
         bounding box (in the hook's frame): elsewhere the two cannot touch."""
@@ -130,7 +136,7 @@ class HookCubeWithToolEnv(ManiLadderEnv):
             on_cube = near & self.tool_on_cube()
             if bool(on_cube.any()):
                 self.memory.latch("hooked", on_cube & self.ee.holds(self.tool))
-        engaged = self.memory["hooked"] & self.engaged()
+        engaged = self.hooked_and_engaged()
         if bool(engaged.any()):
             travel = self.memory["tool_travel"][:, 0] + moved * (engaged & self.ee.holds(self.tool))
             self.memory.store("tool_travel", travel[:, None])
@@ -159,7 +165,7 @@ class HookCubeWithToolEnv(ManiLadderEnv):
             "tool_travel": travel,
             "gripper_touched": gripper_touched,
             "tool_grasped": self.ee.holds(self.tool),
-            "engaged": self.memory["hooked"] & self.engaged(),
+            "engaged": self.hooked_and_engaged(),
         }
 
     def behind_cube(self) -> torch.Tensor:
