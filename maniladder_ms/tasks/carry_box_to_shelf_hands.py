@@ -113,22 +113,29 @@ class CarryBoxToShelfHandsEnv(ManiLadderEnv):
         """Per side, (p, q, n): the TCP pose at which that hand's palm lies flat on the carton's side (palm in,
         finger row along the side, thumb up; `GRIP_HEIGHT` above the bottom, `GRIP_BACK` behind the centre) and
         the palm normal `n` (into the carton), (num_envs, 3 / 4 / 3) each."""
+        return {side: (p, tcp_quat(normal, torch.cross(normal, ex, dim=1)), normal)
+                for side, (p, normal, ex) in self.grip_points().items()}
+
+    def grip_points(self) -> dict[str, tuple[torch.Tensor, torch.Tensor, torch.Tensor]]:
+        """Per side, `grip_poses`' TCP position and palm normal, and the carton's x axis, without the TCP
+        orientation (the observation and the reward use only the position: the quaternion was a third of a
+        control step)."""
         pose = self.box.pose
         ex = quaternion_apply(pose.q, torch.tensor([[1.0, 0.0, 0.0]], device=self.device).expand(self.num_envs, 3))
         ey = quaternion_apply(pose.q, torch.tensor([[0.0, 1.0, 0.0]], device=self.device).expand(self.num_envs, 3))
         up = quaternion_apply(pose.q, torch.tensor([[0.0, 0.0, 1.0]], device=self.device).expand(self.num_envs, 3))
-        grips = {}
+        points = {}
         for side, sign in SIDES.items():
             normal = -sign * ey
             face = pose.p + sign * self.box_half[1] * ey + GRIP_HEIGHT * up - GRIP_BACK * ex
-            grips[side] = (face + PALM_DEPTH * normal, tcp_quat(normal, torch.cross(normal, ex, dim=1)), normal)
-        return grips
+            points[side] = (face + PALM_DEPTH * normal, normal, ex)
+        return points
 
     def _get_obs_extra(self, info: dict):
         obs = dict(left_tcp_pose=self.ee.tcp("left").raw_pose, right_tcp_pose=self.ee.tcp("right").raw_pose,
                    left_grasped=info["left_grasped"], right_grasped=info["right_grasped"], carried=info["carried"])
         if "state" in self.obs_mode:
-            grips = self.grip_poses()
+            grips = self.grip_points()
             obs.update(box_pose=self.box.pose.raw_pose, shelf_pos=self.shelf.pose.p,
                        box_to_shelf=self.shelf.pose.p - self.box.pose.p,
                        left_tcp_to_grip=grips["left"][0] - self.ee.tcp("left").p,
@@ -138,7 +145,7 @@ class CarryBoxToShelfHandsEnv(ManiLadderEnv):
     def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
         # reach each side and hold it; lift with both hands (kept once carried); then over the shelf, down on it,
         # let go
-        grips = self.grip_poses()
+        grips = self.grip_points()
         reward = torch.zeros(self.num_envs, device=self.device)
         for side in SIDES:
             reach = torch.linalg.norm(grips[side][0] - self.ee.tcp(side).p, dim=1)
