@@ -15,7 +15,7 @@ from mani_skill.agents.registration import REGISTERED_AGENTS
 import maniladder_ms  # noqa: F401  (registers the agents)
 from maniladder_ms.agents import AGENT_UIDS
 from maniladder_ms.agents.effectors import contact_forces, link_forces
-from maniladder_ms.agents.helpers import Driver, drive_base_to, hold_action, leap_fingertip
+from maniladder_ms.agents.helpers import LEAP_SYNERGIES, Driver, drive_base_to, hold_action, leap_fingertip
 from maniladder_ms.solvers.driven import DrivenSolver
 from maniladder_ms.agents.gallery import CUBE_HALF, CYLINDER_HALF_LENGTH
 
@@ -406,5 +406,31 @@ def test_leap_meshes_changed_visuals_only(uid):
         hands = 2 if "dual" in uid else 1
         assert len(links) == 17 * hands
         assert len(shapes) == 18 * hands and all(isinstance(s, sapien.physx.PhysxCollisionShapeBox) for s in shapes)
+    finally:
+        env.close()
+
+
+def test_driver_takes_targets_that_are_recomputed_every_step():
+    """`move` and `close_hand` accept a function for the arm targets and call it once a control step (a target
+    tracking something that moves, or a hold correction), and the arm follows what it returns."""
+    env = make("ml_panda_leap", "pd_ee_delta_pose")
+    try:
+        env.reset(seed=0)
+        driver = Driver(env)
+        start = driver.tcp().p.clone()
+        q = driver.tcp().q.clone()
+        calls = []
+
+        def rising():  # 5 mm higher at each call
+            calls.append(len(calls))
+            return {"arm": (start + torch.tensor([0.0, 0.0, 0.005 * len(calls)]), q)}
+
+        driver.move(rising, max_steps=12, pos_tol=0.0)
+        assert len(calls) == 12  # no tolerance: every step, each calling it once
+        driver.close_hand("hand", "power", ramp_steps=5, hold_steps=3, arm_targets=rising)
+        assert len(calls) == 12 + 5 + 3
+        assert driver.arm_targets["arm"][0][0, 2].item() == pytest.approx(start[0, 2].item() + 0.1)
+        assert driver.tcp().p[0, 2].item() > start[0, 2].item() + 0.05  # the arm followed the rising targets
+        assert torch.equal(driver.ee_cmd["hand"][0], torch.as_tensor(LEAP_SYNERGIES["power"], dtype=torch.float32))
     finally:
         env.close()

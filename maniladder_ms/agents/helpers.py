@@ -186,10 +186,12 @@ class Driver:
         self.last = self.env.step(action)
         return errs
 
-    def move(self, targets: dict, max_steps: int = 60, pos_tol: float = 0.005, rot_tol: float = 0.03):
-        """Step towards world TCP targets {arm: (p, q)} until all are within tolerance (or max_steps)."""
+    def move(self, targets, max_steps: int = 60, pos_tol: float = 0.005, rot_tol: float = 0.03):
+        """Step towards world TCP targets {arm: (p, q)} until all are within tolerance (or max_steps).
+        `targets` may be a function returning them, called once a control step (targets that track a
+        moving object, or a hold that corrects them step by step)."""
         for _ in range(max_steps):
-            errs = self.step(targets)
+            errs = self.step(targets() if callable(targets) else targets)
             if all(bool((ep < pos_tol).all() and (er < rot_tol).all()) for ep, er in errs.values()):
                 break
         return self.last
@@ -204,9 +206,11 @@ class Driver:
             self.step()
         return self.last
 
-    def close_hand(self, part: str = "hand", synergy="power", ramp_steps: int = 40, hold_steps: int = 8):
+    def close_hand(self, part: str = "hand", synergy="power", ramp_steps: int = 40, hold_steps: int = 8,
+                   arm_targets=None):
         """Move LEAP joint targets from the current command to a synergy (a name, or 16 joint targets)
-        linearly, then hold.
+        linearly, then hold. `arm_targets`: a function returning {arm: (p, q)}, called once a control step
+        (an arm held in place by a correction while its hand closes; None: the arms keep their targets).
 
         The slow ramp (2 s) lets fingers and thumb reach the object together; faster closing pushes a
         small object out (a 5 cm cube: 19/20 seeds lifted at 40 steps, 17/20 at 25).
@@ -216,8 +220,12 @@ class Driver:
         start, goal = self.ee_cmd[part].clone(), torch.as_tensor(np.asarray(synergy), dtype=torch.float32,
                                                                   device=self.base.device)
         for k in range(1, ramp_steps + 1):
-            self.set_ee(part, start + (goal - start) * k / ramp_steps, steps=1)
-        return self.set_ee(part, goal.expand_as(start), steps=hold_steps)
+            self.set_ee(part, start + (goal - start) * k / ramp_steps, steps=0)
+            self.step(arm_targets() if arm_targets else None)
+        self.set_ee(part, goal.expand_as(start), steps=0)
+        for _ in range(hold_steps):
+            self.step(arm_targets() if arm_targets else None)
+        return self.last
 
     def grip(self, closed: bool, part: str = "gripper", steps: int = 10):
         """Close (-1) or open (+1) a parallel gripper (normalised command)."""

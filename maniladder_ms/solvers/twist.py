@@ -150,24 +150,24 @@ def unscrew(s: DrivenSolver, task, arm: str, ee: str, max_strokes: int = 4, stro
     for _ in range(max_strokes):
         if preshape is not None:
             s.set_ee(ee, preshape, steps=5)
+        held = None  # the arm's targets while the hand closes: None, or the hold's correction of the reached grip
         if hold_gain > 0:
             hold = HoldPosition(s, arm, hold_gain)
             yaw = tcp_yaw(s, arm)
-            for _ in range(30):
-                p, q = grip_target(grip_point(), yaw, offset)
-                s.step({arm: (hold.at(p), q)})
+            reached = {}  # the last grip target the reach commanded
+
+            def held_grip():  # the grip target as the lid now stands, corrected by the hold
+                reached["p"], reached["q"] = grip_target(grip_point(), yaw, offset)
+                return {arm: (hold.at(reached["p"]), reached["q"])}
+
+            s.move(held_grip, max_steps=30, pos_tol=0.0)  # all 30 steps (no tolerance): the hold's integral settles
+            held = lambda: {arm: (hold.at(reached["p"]), reached["q"])}  # noqa: E731  (the last grip target, held)
         else:
             s.move({arm: grip_target(grip_point(), tcp_yaw(s, arm), offset)}, max_steps=30, pos_tol=0.003)
         if synergy is None:
             s.grasp(ee)
-        elif hold_gain > 0:
-            start = s.ee_cmd[ee].clone()
-            goal = torch.as_tensor(synergy, dtype=torch.float32, device=start.device)
-            for k in range(1, ramp_steps + 9):
-                s.ee_cmd[ee] = start + (goal - start) * min(k, ramp_steps) / ramp_steps
-                s.step({arm: (hold.at(p), q)})
         else:
-            s.close_hand(ee, synergy, ramp_steps=ramp_steps)
+            s.close_hand(ee, synergy, ramp_steps=ramp_steps, arm_targets=held)
         axis, grip = grip_point, offset
         if measured_axis:
             point = grip_point()
