@@ -309,3 +309,90 @@ class CupBeansHandsEnv(ScoopBeansTask, ManiLadderEnv):
         reward += 2 * (info["beans_delivered"].float() / self.min_beans).clamp(0, 1) * lifted
         reward[info["success"]] = self.max_dense_reward
         return reward
+
+
+# ---- after the sweep-and-catch: the left takes the cup, the right tips its palm's beans in (session 19, cupbeans6) --
+from mani_skill.utils.geometry.rotation_conversions import (axis_angle_to_matrix, matrix_to_quaternion,  # noqa: E402
+                                                            quaternion_apply, quaternion_to_matrix)
+
+from maniladder_ms.agents.helpers import top_down_quat  # noqa: E402
+from maniladder_ms.solvers.bimanual import close_hands, glide, side_grasp  # noqa: E402
+from maniladder_ms.solvers.driven import DrivenSolver  # noqa: E402
+
+from .pour_grains_hand_to_cup import ABOVE, LINE_UP_DISTANCE, PRESHAPE_STEPS, SIDE_GRASP  # noqa: E402
+
+# The left's side grasp: PourGrainsHandToCup's pourer grasp (palm normal -y, the finger row upright, thumb low) from
+# its ready pose, here on the wider cup (outer radius 3.9 cm, its glass 2.9)
+CUP_GRASP = dict(SIDE_GRASP["left"])
+CUP_LIFT = 0.1  # straight up after the close
+# where the left holds the cup for the pour: its axis at (x, y), -x of the ledge's stand, its bottom this high
+CUP_HOLD_AT, CUP_HOLD_BOTTOM = (-0.20, -0.03), 0.15
+CUP_CARRY_STEP = 0.01  # m per control step carrying the held cup
+# the right's palm-up pose: HandoverBallHands' roll (top-down yaw -90 deg rolled half a turn about its TCP y axis,
+# sign -1: palm-up, fingers +y), tilted `PALM_TILT` about the TCP y axis (+: fingertips down, the heel up)
+PALM_UP_YAW, PALM_UP_ROLL_SIGN = -np.pi / 2, -1.0
+PALM_TILT = np.deg2rad(10.0)
+# where the beans leave the hand: over the middle fingertip's pad, TCP frame (x along the fingers, z out of the palm)
+POUR_LIP = (0.14, 0.03, -0.06)
+POUR_LIP_APPROACH = 0.06  # the lip this far above the held cup's rim when the loaded palm arrives
+POUR_LIP_OVER_RIM = 0.01  # ... and this far at the end of the tilt
+# the lip this far past the cup's axis along the fingers (+y): before it, just inside the near rim, so that the
+# beans sliding off the tips fall into the 7 cm mouth before they fly past the far rim (at the axis and 3 cm over
+# the rim, seed 100: 1 of 21 in the cup, the rest 10-38 cm past it)
+POUR_LIP_PAST_AXIS = -0.025
+BACK_OUT, BACK_OUT_STEP = 0.04, 0.002  # from under the ledge: first straight back (-y), m and m per control step
+CARRY_STEP = 0.003  # m per control step with the loaded palm
+POUR_TILT, POUR_TILT_STEPS, POUR_HOLD_STEPS = np.deg2rad(60.0), 90, 30
+# during the tilt the middle finger opens flat while the index and ring stay raised as in "cup" (walls funnelling
+# the beans onto the middle finger, the 7 cm mouth being narrower than the 12.6 cm hand); the "cup" hand's curl
+# (knuckles 0.6, PIP/DIP 0.3) hooks the beans in at any tilt: tilted to 70 deg, 9 of 21 still on it on seed 100
+POUR_HAND = np.array([0.1, 0.6, 0.3, 0.3, 0.0, 0.0, 0.0, 0.0, -0.1, 0.6, 0.3, 0.3, 1.0, 0.0, 0.3, 0.3])
+
+
+def palm_up_quat(n: int, device, tilt: float = PALM_TILT) -> torch.Tensor:
+    """(n, 4) wxyz TCP orientation of the right hand palm-up, fingers +y, tilted `tilt` rad fingertips-down."""
+    r0 = quaternion_to_matrix(top_down_quat(PALM_UP_YAW, n, device=device))
+    up = axis_angle_to_matrix(r0[:, :, 1] * PALM_UP_ROLL_SIGN * np.pi) @ r0
+    return matrix_to_quaternion(axis_angle_to_matrix(up[:, :, 1] * tilt) @ up)
+
+
+def left_takes_cup(s: DrivenSolver, task: CupBeansHandsEnv):
+    """From wherever the sweep left it, the left lines up for its side grasp on the cup (above the line-up point,
+    turned), comes in, closes, lifts the cup and carries it upright to `CUP_HOLD_AT`."""
+    p, q, normal = side_grasp(task.cup.pose.p, CUP_GRASP)
+    lined_up = p - LINE_UP_DISTANCE * normal
+    s.move({"left_arm": (s.above(lined_up, ABOVE), q)}, max_steps=80, pos_tol=0.01)
+    s.set_ee("left_hand", CUP_GRASP["approach"], steps=PRESHAPE_STEPS)
+    s.move({"left_arm": (lined_up, q)}, max_steps=60)
+    s.move({"left_arm": (p, q)}, max_steps=40, pos_tol=0.003)
+    close_hands(s, {"left_hand": CUP_GRASP["close"]})
+    s.move({"left_arm": (s.above(p, CUP_LIFT), q)}, max_steps=30)
+    held = s.tcp("left_arm").p - task.cup.pose.p  # the TCP from the cup's bottom centre, as held
+    goal = torch.tensor([[*CUP_HOLD_AT, CUP_HOLD_BOTTOM]], device=task.device) + held
+    glide(s, {"left_arm": (s.tcp("left_arm").p.clone(), goal, q)}, step_length=CUP_CARRY_STEP)
+
+
+def pour_palm_into_cup(s: DrivenSolver, task: CupBeansHandsEnv):
+    """The loaded right palm backs out from under the ledge, carries its beans until its lip (`POUR_LIP`) is over
+    the held cup's axis, then tilts fingertips-down about the lip, lowering it to just above the rim."""
+    n, dev = task.num_envs, task.device
+    lip = torch.tensor([POUR_LIP], device=dev).expand(n, 3)
+    start = s.tcp("right_arm").p.clone()
+    q0 = palm_up_quat(n, dev)
+    back = start - torch.tensor([0.0, BACK_OUT, 0.0], device=dev)
+    glide(s, {"right_arm": (start, back, q0)}, step_length=BACK_OUT_STEP, settle_steps=5)
+    rim = task.cup.pose.p[:, 2] + task.cup_shape.inner[-1][0]
+    over = task.cup.pose.p.clone()
+    over[:, 1] += POUR_LIP_PAST_AXIS
+    over[:, 2] = rim + POUR_LIP_APPROACH
+    arrive = over - quaternion_apply(q0, lip)
+    glide(s, {"right_arm": (back, arrive, q0)}, step_length=CARRY_STEP, settle_steps=10)
+    end = over.clone()
+    end[:, 2] = rim + POUR_LIP_OVER_RIM
+    cupped = s.ee_cmd["right_hand"].clone()
+    flat = torch.as_tensor(POUR_HAND, dtype=torch.float32, device=dev)
+    for k in range(1, POUR_TILT_STEPS + POUR_HOLD_STEPS + 1):
+        f = min(k, POUR_TILT_STEPS) / POUR_TILT_STEPS
+        q = palm_up_quat(n, dev, PALM_TILT + (POUR_TILT - PALM_TILT) * f)
+        s.set_ee("right_hand", cupped + (flat - cupped) * f, steps=0)
+        s.step({"right_arm": (over + (end - over) * f - quaternion_apply(q, lip), q)})
