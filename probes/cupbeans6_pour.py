@@ -17,6 +17,7 @@ from maniladder_ms.tasks import cup_beans_hands as cbh  # noqa: E402
 
 LEDGE_TOP = 0.38
 N_DROP = 25
+CONCURRENT = False
 
 
 def setup(s, task):
@@ -42,7 +43,9 @@ def setup(s, task):
           f"left at {s.tcp('left_arm').p.numpy().round(3)}")
     # drop beans over the palm: a grid in the TCP frame
     xs, ys = np.linspace(-0.04, 0.06, 5), np.linspace(0.0, 0.06, 5)
-    local = torch.tensor([[x, y, -0.02] for x in xs for y in ys][:N_DROP], dtype=torch.float32, device=dev)
+    grid = [[x, y, -0.02] for x in xs for y in ys]
+    pick = np.linspace(0, len(grid) - 1, N_DROP).round().astype(int)  # spread over the palm
+    local = torch.tensor([grid[i] for i in pick], dtype=torch.float32, device=dev)
     world = cbh.quaternion_apply(tcp.q.expand(len(local), 4), local) + tcp.p
     pos = task.beans.positions().clone()
     pos[:, :N_DROP] = world[None]
@@ -67,10 +70,24 @@ def run(seed, env):
                 held.append(bool(task.ee.holds(task.cup, "left")[0]))
             return out
         s.step = watched
+        if CONCURRENT:  # the right carries its beans (background) while the left takes the cup
+            s.background = cbh.carry_palm_to_cup(s, task)
         cbh.left_takes_cup(s, task)
+        while s.background is not None:
+            s.step()
         k1 = int(task.elapsed_steps[0])
         palm1 = int(task.in_palm().sum())
-        cbh.pour_palm_into_cup(s, task)
+        cup_z = float(task.cup.pose.p[0, 2])
+        touched = []
+        step2 = s.step
+
+        def watched2(*a, **kw):
+            out = step2(*a, **kw)
+            touched.append(bool(task.ee.touches(task.cup, "right")[0]))
+            return out
+        s.step = watched2
+        cbh.pour_palm_into_cup(s, task, carried=CONCURRENT)
+        print(f"  cup bottom z {cup_z:.3f} before the tilt; the right touched the cup on {sum(touched)} steps")
         info = s.info
         m = task.delivery_metrics()
         b = task.beans.positions()[0, :N_DROP] - task.cup.pose.p[0]
@@ -92,8 +109,11 @@ if __name__ == "__main__":
     for a in sys.argv[1:]:
         if "=" in a:
             name, expr = a.split("=", 1)
-            setattr(cbh, name, eval(expr, {"np": np, "cbh": cbh}))
-            print("override", name, "=", getattr(cbh, name))
+            if name in ("CONCURRENT", "N_DROP"):  # the probe's own settings
+                globals()[name] = int(expr)
+            else:
+                setattr(cbh, name, eval(expr, {"np": np, "cbh": cbh}))
+            print("override", name, "=", expr)
     env = make_env()
     for seed in seeds:
         run(seed, env)

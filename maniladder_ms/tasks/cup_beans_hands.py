@@ -325,6 +325,9 @@ from .pour_grains_hand_to_cup import ABOVE, LINE_UP_DISTANCE, PRESHAPE_STEPS, SI
 # its ready pose, here on the wider cup (outer radius 3.9 cm, its glass 2.9)
 CUP_GRASP = dict(SIDE_GRASP["left"])
 CUP_LIFT = 0.1  # straight up after the close
+# from the sweep's end (the blade pose over the ledge) the left first moves level this far +y, turning to the side
+# grasp, clear of the ledge before it descends to the cup (a direct move drops the saturated z first)
+LEFT_CLEAR_Y = 0.15
 # where the left holds the cup for the pour: its axis at (x, y), -x of the ledge's stand, its bottom this high
 CUP_HOLD_AT, CUP_HOLD_BOTTOM = (-0.20, -0.03), 0.15
 CUP_CARRY_STEP = 0.01  # m per control step carrying the held cup
@@ -335,12 +338,17 @@ PALM_TILT = np.deg2rad(10.0)
 # where the beans leave the hand: over the middle fingertip's pad, TCP frame (x along the fingers, z out of the palm)
 POUR_LIP = (0.14, 0.03, -0.06)
 POUR_LIP_APPROACH = 0.06  # the lip this far above the held cup's rim when the loaded palm arrives
-POUR_LIP_OVER_RIM = 0.01  # ... and this far at the end of the tilt
+# ... and this far at the end of the tilt: at 1-2 cm the lowered fingertips press the near rim (the right touches
+# the cup on 5-52 of the 120 tilt steps, the held cup pushed 0.5-3.5 cm down in the grasp; delivered 16/15/17/17/20
+# at 2 cm, 18/18/16/14/14 at 3 cm with no touch, seeds 100-104)
+POUR_LIP_OVER_RIM = 0.03
 # the lip this far past the cup's axis along the fingers (+y): before it, just inside the near rim, so that the
 # beans sliding off the tips fall into the 7 cm mouth before they fly past the far rim (at the axis and 3 cm over
 # the rim, seed 100: 1 of 21 in the cup, the rest 10-38 cm past it)
 POUR_LIP_PAST_AXIS = -0.025
-BACK_OUT, BACK_OUT_STEP = 0.04, 0.002  # from under the ledge: first straight back (-y), m and m per control step
+# from under the ledge: first straight back (-y) until the fingertips are out in front of its edge (m, m per
+# control step); then straight up, then level to the cup
+BACK_OUT, BACK_OUT_STEP = 0.06, 0.002
 CARRY_STEP = 0.003  # m per control step with the loaded palm
 POUR_TILT, POUR_TILT_STEPS, POUR_HOLD_STEPS = np.deg2rad(60.0), 90, 30
 # during the tilt the middle finger opens flat while the index and ring stay raised as in "cup" (walls funnelling
@@ -357,10 +365,12 @@ def palm_up_quat(n: int, device, tilt: float = PALM_TILT) -> torch.Tensor:
 
 
 def left_takes_cup(s: DrivenSolver, task: CupBeansHandsEnv):
-    """From wherever the sweep left it, the left lines up for its side grasp on the cup (above the line-up point,
-    turned), comes in, closes, lifts the cup and carries it upright to `CUP_HOLD_AT`."""
+    """From the sweep's end over the ledge, the left moves level `LEFT_CLEAR_Y` away (+y) turning to its side grasp,
+    lines up for it above the cup (above the line-up point), comes in, closes, lifts the cup and carries it upright to `CUP_HOLD_AT`."""
     p, q, normal = side_grasp(task.cup.pose.p, CUP_GRASP)
     lined_up = p - LINE_UP_DISTANCE * normal
+    clear = s.tcp("left_arm").p + torch.tensor([0.0, LEFT_CLEAR_Y, 0.0], device=task.device)
+    s.move({"left_arm": (clear, q)}, max_steps=40, pos_tol=0.02)
     s.move({"left_arm": (s.above(lined_up, ABOVE), q)}, max_steps=80, pos_tol=0.01)
     s.set_ee("left_hand", CUP_GRASP["approach"], steps=PRESHAPE_STEPS)
     s.move({"left_arm": (lined_up, q)}, max_steps=60)
@@ -372,21 +382,47 @@ def left_takes_cup(s: DrivenSolver, task: CupBeansHandsEnv):
     glide(s, {"left_arm": (s.tcp("left_arm").p.clone(), goal, q)}, step_length=CUP_CARRY_STEP)
 
 
-def pour_palm_into_cup(s: DrivenSolver, task: CupBeansHandsEnv):
-    """The loaded right palm backs out from under the ledge, carries its beans until its lip (`POUR_LIP`) is over
-    the held cup's axis, then tilts fingertips-down about the lip, lowering it to just above the rim."""
+def cup_hold_rim(task: CupBeansHandsEnv) -> torch.Tensor:
+    """(n, 3) the centre of the held cup's mouth where `left_takes_cup` brings it."""
+    rim = torch.tensor([[*CUP_HOLD_AT, CUP_HOLD_BOTTOM + task.cup_shape.inner[-1][0]]], device=task.device)
+    return rim.expand(task.num_envs, 3)
+
+
+def carry_palm_to_cup(s: DrivenSolver, task: CupBeansHandsEnv):
+    """Targets, one item a control step ({"right_arm": (p, q)}; run it as a `HandoverSolver.background` while the
+    left takes the cup, or step through it): the loaded palm-up right hand backs straight out from under the
+    ledge (-y), rises to the pour height and carries its beans level until its lip (`POUR_LIP`) is
+    `POUR_LIP_APPROACH` above where the held cup's rim will be (`cup_hold_rim`), `POUR_LIP_PAST_AXIS` along +y."""
+    n, dev = task.num_envs, task.device
+    q = palm_up_quat(n, dev)
+    over = cup_hold_rim(task) + torch.tensor([0.0, POUR_LIP_PAST_AXIS, POUR_LIP_APPROACH], device=dev)
+    arrive = over - quaternion_apply(q, torch.tensor([POUR_LIP], device=dev).expand(n, 3))
+    start = s.tcp("right_arm").p.clone()
+    back = start - torch.tensor([0.0, BACK_OUT, 0.0], device=dev)
+    up = back.clone()
+    up[:, 2] = arrive[:, 2]
+    for a, b, step_length in ((start, back, BACK_OUT_STEP), (back, up, CARRY_STEP), (up, arrive, CARRY_STEP)):
+        steps = max(1, round(float((b - a).norm(dim=1).max()) / step_length))
+        for k in range(1, steps + 1):
+            yield {"right_arm": (a + (b - a) * k / steps, q)}
+
+
+def pour_palm_into_cup(s: DrivenSolver, task: CupBeansHandsEnv, carried: bool = False):
+    """The loaded right palm (`carry_palm_to_cup` first, unless `carried`) tilts fingertips-down to `POUR_TILT`
+    about its lip, the lip going from `POUR_LIP_APPROACH` to `POUR_LIP_OVER_RIM` above the held cup's measured
+    rim, `POUR_LIP_PAST_AXIS` from its axis; the middle finger opens flat meanwhile (`POUR_HAND`)."""
+    if not carried:
+        for targets in carry_palm_to_cup(s, task):
+            s.step(targets)
     n, dev = task.num_envs, task.device
     lip = torch.tensor([POUR_LIP], device=dev).expand(n, 3)
-    start = s.tcp("right_arm").p.clone()
     q0 = palm_up_quat(n, dev)
-    back = start - torch.tensor([0.0, BACK_OUT, 0.0], device=dev)
-    glide(s, {"right_arm": (start, back, q0)}, step_length=BACK_OUT_STEP, settle_steps=5)
+    s.move({"right_arm": (s.arm_targets["right_arm"][0], q0)}, max_steps=10)
     rim = task.cup.pose.p[:, 2] + task.cup_shape.inner[-1][0]
     over = task.cup.pose.p.clone()
     over[:, 1] += POUR_LIP_PAST_AXIS
     over[:, 2] = rim + POUR_LIP_APPROACH
-    arrive = over - quaternion_apply(q0, lip)
-    glide(s, {"right_arm": (back, arrive, q0)}, step_length=CARRY_STEP, settle_steps=10)
+    start = s.tcp("right_arm").p + quaternion_apply(q0, lip)  # the lip, where it is
     end = over.clone()
     end[:, 2] = rim + POUR_LIP_OVER_RIM
     cupped = s.ee_cmd["right_hand"].clone()
@@ -395,4 +431,4 @@ def pour_palm_into_cup(s: DrivenSolver, task: CupBeansHandsEnv):
         f = min(k, POUR_TILT_STEPS) / POUR_TILT_STEPS
         q = palm_up_quat(n, dev, PALM_TILT + (POUR_TILT - PALM_TILT) * f)
         s.set_ee("right_hand", cupped + (flat - cupped) * f, steps=0)
-        s.step({"right_arm": (over + (end - over) * f - quaternion_apply(q, lip), q)})
+        s.step({"right_arm": (start + (end - start) * f - quaternion_apply(q, lip), q)})
