@@ -143,6 +143,21 @@ Status after session 18: the sweep-and-catch (catalog plan) keeps 10-14 beans af
 (min_beans 10). Next: a few more beans held (the catch is 20-25: the left's retreat and the backing lose 5-10),
 then build the overhanging ledge (build_raised_tray with an overhang option), the left's cup grasp after the
 sweep (from the blade pose back to READY_JOINTS) and the tip-in over the held cup.
+Session 19, pour (cupbeans6): the phases after the catch, at the module's end (`left_takes_cup`, `carry_palm_to_cup`,
+`pour_palm_into_cup`), measured without the ledge by probes/cupbeans6_pour.py (the bin moved away, the right rolled
+palm-up as roll_targets and tilted 10 deg at TCP (tray x + 0.03, -0.16, 0.345), beans dropped on its palm and
+settled 40 steps; the left starting from the blade pose 10 cm over the ledge). The left takes PourGrainsHandToCup's
+pourer side grasp on the cup (same spec), lifts 10 cm and carries it to x -0.2, y -0.03 (clear of the stand), its
+bottom 15 cm up: `ee.holds(cup, "left")` on every step after the lift (149-154 of 149-154) on seeds 100-104. The right
+(in the background meanwhile, HandoverSolver) backs 6 cm out, rises and carries level until its lip (middle
+fingertip pad) is 3 cm over the rim, 2.5 cm before the axis, then tilts to 60 deg fingertips-down about the lip
+over 90 steps (+30 held) while its middle finger opens flat, index/ring kept raised as walls. 276-286 steps after
+the sweep. Beans in the palm before the cup phase -> delivered (all `carried`, success true), seeds 100-104:
+25 dropped: 24/24/24/24/24 -> 18/18/16/14/14; 17 dropped: 15/15/15/15/15 -> 11/11/12/12/11 (5/5 success each).
+Tried: lip over the axis, 3 cm over the rim, fingers kept in "cup": 1 of 21 in (the curl hooks the beans in at
+70 deg; opened flat they shoot 10-38 cm past the cup); lip 1-2 cm over the rim: the fingertips press the rim (the
+held cup pushed 0.5-3.5 cm down in the grasp) for +1 bean on average. The 7 cm mouth is wide enough for this
+pour (~75 % of the palm's load goes in); the losses fall beside it. Not yet run behind the real sweep.
 """
 
 from __future__ import annotations
