@@ -157,7 +157,10 @@ the sweep. Beans in the palm before the cup phase -> delivered (all `carried`, s
 Tried: lip over the axis, 3 cm over the rim, fingers kept in "cup": 1 of 21 in (the curl hooks the beans in at
 70 deg; opened flat they shoot 10-38 cm past the cup); lip 1-2 cm over the rim: the fingertips press the rim (the
 held cup pushed 0.5-3.5 cm down in the grasp) for +1 bean on average. The 7 cm mouth is wide enough for this
-pour (~75 % of the palm's load goes in); the losses fall beside it. Not yet run behind the real sweep.
+pour (~75 % of the palm's load goes in): the 3-4 lost of 15 land ~18 cm on the hand's side (-y) of the cup, off
+the palm's sides during the tilt, not past the far rim. With 17 dropped, seeds 100-102: a slower tilt (130 steps)
+11/11/11, the lip 1.5 cm before the axis 11/11/9 (and touching the rim): not kept. Next: a side wall against those
+losses (the thumb raised further, index/ring curled more during the tilt); run behind the real sweep (cupbeans5).
 """
 
 from __future__ import annotations
