@@ -153,14 +153,17 @@ bottom 15 cm up: `ee.holds(cup, "left")` on every step after the lift (149-154 o
 fingertip pad) is 3 cm over the rim, 2.5 cm before the axis, then tilts to 60 deg fingertips-down about the lip
 over 90 steps (+30 held) while its middle finger opens flat, index/ring kept raised as walls. 276-286 steps after
 the sweep. Beans in the palm before the cup phase -> delivered (all `carried`, success true), seeds 100-104:
-25 dropped: 24/24/24/24/24 -> 18/18/16/14/14; 17 dropped: 15/15/15/15/15 -> 11/11/12/12/11 (5/5 success each).
+25 dropped: 24/24/24/24/24 -> 18/18/16/14/14; 17 dropped: 15/15/15/15/15 -> 11/11/12/12/11 (5/5 success each;
+index/ring kept in "cup"'s curl); with them half curled (`POUR_HAND`, kept): 17 dropped, 15 -> 12/11/13/12/11; 25 dropped, 23/21/23/24/20 in
+the palm after the cup phase -> 17/17/16/19/17 (5/5 success each).
 Tried: lip over the axis, 3 cm over the rim, fingers kept in "cup": 1 of 21 in (the curl hooks the beans in at
 70 deg; opened flat they shoot 10-38 cm past the cup); lip 1-2 cm over the rim: the fingertips press the rim (the
 held cup pushed 0.5-3.5 cm down in the grasp) for +1 bean on average. The 7 cm mouth is wide enough for this
 pour (~75 % of the palm's load goes in): the 3-4 lost of 15 land ~18 cm on the hand's side (-y) of the cup, off
 the palm's sides during the tilt, not past the far rim. With 17 dropped, seeds 100-102: a slower tilt (130 steps)
-11/11/11, the lip 1.5 cm before the axis 11/11/9 (and touching the rim): not kept. Next: a side wall against those
-losses (the thumb raised further, index/ring curled more during the tilt); run behind the real sweep (cupbeans5).
+11/11/11, the lip 1.5 cm before the axis 11/11/9 (and touching the rim); index/ring curled 0.9/0.5 during the tilt
+6/6/8, flat 8/9/11: not kept. Next: run behind the real sweep (cupbeans5): with ~15 in the palm the margin over
+min_beans 10 is 1-3 beans; a wall on the thumb's side (thumb raised further) is untried.
 """
 
 from __future__ import annotations
@@ -369,10 +372,12 @@ POUR_LIP_PAST_AXIS = -0.025
 BACK_OUT, BACK_OUT_STEP = 0.06, 0.002
 CARRY_STEP = 0.003  # m per control step with the loaded palm
 POUR_TILT, POUR_TILT_STEPS, POUR_HOLD_STEPS = np.deg2rad(60.0), 90, 30
-# during the tilt the middle finger opens flat while the index and ring stay raised as in "cup" (walls funnelling
-# the beans onto the middle finger, the 7 cm mouth being narrower than the 12.6 cm hand); the "cup" hand's curl
-# (knuckles 0.6, PIP/DIP 0.3) hooks the beans in at any tilt: tilted to 70 deg, 9 of 21 still on it on seed 100
-POUR_HAND = np.array([0.1, 0.6, 0.3, 0.3, 0.0, 0.0, 0.0, 0.0, -0.1, 0.6, 0.3, 0.3, 1.0, 0.0, 0.3, 0.3])
+# during the tilt the middle finger opens flat, the index and ring half ("cup"'s knuckles 0.6 / PIP-DIP 0.3 halved),
+# low walls funnelling the beans onto the middle finger (the 7 cm mouth is narrower than the 12.6 cm hand); kept in
+# "cup" the curl hooks the beans in at any tilt (tilted to 70 deg, 9 of 21 still on it, seed 100). Delivered of 15
+# in the palm, seeds 100-104 (102-104 for some): index/ring at 0.9/0.5 6/6/8, at "cup"'s 0.6/0.3 11/11/12/12/11,
+# at 0.3/0.15 12/11/13/12/11, flat 8/9/11
+POUR_HAND = np.array([0.1, 0.3, 0.15, 0.15, 0.0, 0.0, 0.0, 0.0, -0.1, 0.3, 0.15, 0.15, 1.0, 0.0, 0.3, 0.3])
 
 
 def palm_up_quat(n: int, device, tilt: float = PALM_TILT) -> torch.Tensor:
