@@ -143,6 +143,27 @@ Status after session 18: the sweep-and-catch (catalog plan) keeps 10-14 beans af
 (min_beans 10). Next: a few more beans held (the catch is 20-25: the left's retreat and the backing lose 5-10),
 then build the overhanging ledge (build_raised_tray with an overhang option), the left's cup grasp after the
 sweep (from the blade pose back to READY_JOINTS) and the tip-in over the held cup.
+Session 19, pour (cupbeans6): the phases after the catch, at the module's end (`left_takes_cup`, `carry_palm_to_cup`,
+`pour_palm_into_cup`), measured without the ledge by probes/cupbeans6_pour.py (the bin moved away, the right rolled
+palm-up as roll_targets and tilted 10 deg at TCP (tray x + 0.03, -0.16, 0.345), beans dropped on its palm and
+settled 40 steps; the left starting from the blade pose 10 cm over the ledge). The left takes PourGrainsHandToCup's
+pourer side grasp on the cup (same spec), lifts 10 cm and carries it to x -0.2, y -0.03 (clear of the stand), its
+bottom 15 cm up: `ee.holds(cup, "left")` on every step after the lift (149-154 of 149-154) on seeds 100-104. The right
+(in the background meanwhile, HandoverSolver) backs 6 cm out, rises and carries level until its lip (middle
+fingertip pad) is 3 cm over the rim, 2.5 cm before the axis, then tilts to 60 deg fingertips-down about the lip
+over 90 steps (+30 held) while its middle finger opens flat, index/ring kept raised as walls. 276-286 steps after
+the sweep. Beans in the palm before the cup phase -> delivered (all `carried`, success true), seeds 100-104:
+25 dropped: 24/24/24/24/24 -> 18/18/16/14/14; 17 dropped: 15/15/15/15/15 -> 11/11/12/12/11 (5/5 success each;
+index/ring kept in "cup"'s curl); with them half curled (`POUR_HAND`, kept): 17 dropped, 15 -> 12/11/13/12/11; 25 dropped, 23/21/23/24/20 in
+the palm after the cup phase -> 17/17/16/19/17 (5/5 success each).
+Tried: lip over the axis, 3 cm over the rim, fingers kept in "cup": 1 of 21 in (the curl hooks the beans in at
+70 deg; opened flat they shoot 10-38 cm past the cup); lip 1-2 cm over the rim: the fingertips press the rim (the
+held cup pushed 0.5-3.5 cm down in the grasp) for +1 bean on average. The 7 cm mouth is wide enough for this
+pour (~75 % of the palm's load goes in): the 3-4 lost of 15 land ~18 cm on the hand's side (-y) of the cup, off
+the palm's sides during the tilt, not past the far rim. With 17 dropped, seeds 100-102: a slower tilt (130 steps)
+11/11/11, the lip 1.5 cm before the axis 11/11/9 (and touching the rim); index/ring curled 0.9/0.5 during the tilt
+6/6/8, flat 8/9/11: not kept. Next: run behind the real sweep (cupbeans5): with ~15 in the palm the margin over
+min_beans 10 is 1-3 beans; a wall on the thumb's side (thumb raised further) is untried.
 """
 
 from __future__ import annotations
@@ -309,3 +330,128 @@ class CupBeansHandsEnv(ScoopBeansTask, ManiLadderEnv):
         reward += 2 * (info["beans_delivered"].float() / self.min_beans).clamp(0, 1) * lifted
         reward[info["success"]] = self.max_dense_reward
         return reward
+
+
+# ---- after the sweep-and-catch: the left takes the cup, the right tips its palm's beans in (session 19, cupbeans6) --
+from mani_skill.utils.geometry.rotation_conversions import (axis_angle_to_matrix, matrix_to_quaternion,  # noqa: E402
+                                                            quaternion_apply, quaternion_to_matrix)
+
+from maniladder_ms.agents.helpers import top_down_quat  # noqa: E402
+from maniladder_ms.solvers.bimanual import close_hands, glide, side_grasp  # noqa: E402
+from maniladder_ms.solvers.driven import DrivenSolver  # noqa: E402
+
+from .pour_grains_hand_to_cup import ABOVE, LINE_UP_DISTANCE, PRESHAPE_STEPS, SIDE_GRASP  # noqa: E402
+
+# The left's side grasp: PourGrainsHandToCup's pourer grasp (palm normal -y, the finger row upright, thumb low) from
+# its ready pose, here on the wider cup (outer radius 3.9 cm, its glass 2.9)
+CUP_GRASP = dict(SIDE_GRASP["left"])
+CUP_LIFT = 0.1  # straight up after the close
+# from the sweep's end (the blade pose over the ledge) the left first moves level this far +y, turning to the side
+# grasp, clear of the ledge before it descends to the cup (a direct move drops the saturated z first)
+LEFT_CLEAR_Y = 0.15
+# where the left holds the cup for the pour: its axis at (x, y), -x of the ledge's stand, its bottom this high
+CUP_HOLD_AT, CUP_HOLD_BOTTOM = (-0.20, -0.03), 0.15
+CUP_CARRY_STEP = 0.01  # m per control step carrying the held cup
+# the right's palm-up pose: HandoverBallHands' roll (top-down yaw -90 deg rolled half a turn about its TCP y axis,
+# sign -1: palm-up, fingers +y), tilted `PALM_TILT` about the TCP y axis (+: fingertips down, the heel up)
+PALM_UP_YAW, PALM_UP_ROLL_SIGN = -np.pi / 2, -1.0
+PALM_TILT = np.deg2rad(10.0)
+# where the beans leave the hand: over the middle fingertip's pad, TCP frame (x along the fingers, z out of the palm)
+POUR_LIP = (0.14, 0.03, -0.06)
+POUR_LIP_APPROACH = 0.06  # the lip this far above the held cup's rim when the loaded palm arrives
+# ... and this far at the end of the tilt: at 1-2 cm the lowered fingertips press the near rim (the right touches
+# the cup on 5-52 of the 120 tilt steps, the held cup pushed 0.5-3.5 cm down in the grasp; delivered 16/15/17/17/20
+# at 2 cm, 18/18/16/14/14 at 3 cm with no touch, seeds 100-104)
+POUR_LIP_OVER_RIM = 0.03
+# the lip this far past the cup's axis along the fingers (+y): before it, just inside the near rim, so that the
+# beans sliding off the tips fall into the 7 cm mouth before they fly past the far rim (at the axis and 3 cm over
+# the rim, seed 100: 1 of 21 in the cup, the rest 10-38 cm past it)
+POUR_LIP_PAST_AXIS = -0.025
+# from under the ledge: first straight back (-y) until the fingertips are out in front of its edge (m, m per
+# control step); then straight up, then level to the cup
+BACK_OUT, BACK_OUT_STEP = 0.06, 0.002
+CARRY_STEP = 0.003  # m per control step with the loaded palm
+POUR_TILT, POUR_TILT_STEPS, POUR_HOLD_STEPS = np.deg2rad(60.0), 90, 30
+# during the tilt the middle finger opens flat, the index and ring half ("cup"'s knuckles 0.6 / PIP-DIP 0.3 halved),
+# low walls funnelling the beans onto the middle finger (the 7 cm mouth is narrower than the 12.6 cm hand); kept in
+# "cup" the curl hooks the beans in at any tilt (tilted to 70 deg, 9 of 21 still on it, seed 100). Delivered of 15
+# in the palm, seeds 100-104 (102-104 for some): index/ring at 0.9/0.5 6/6/8, at "cup"'s 0.6/0.3 11/11/12/12/11,
+# at 0.3/0.15 12/11/13/12/11, flat 8/9/11
+POUR_HAND = np.array([0.1, 0.3, 0.15, 0.15, 0.0, 0.0, 0.0, 0.0, -0.1, 0.3, 0.15, 0.15, 1.0, 0.0, 0.3, 0.3])
+
+
+def palm_up_quat(n: int, device, tilt: float = PALM_TILT) -> torch.Tensor:
+    """(n, 4) wxyz TCP orientation of the right hand palm-up, fingers +y, tilted `tilt` rad fingertips-down."""
+    r0 = quaternion_to_matrix(top_down_quat(PALM_UP_YAW, n, device=device))
+    up = axis_angle_to_matrix(r0[:, :, 1] * PALM_UP_ROLL_SIGN * np.pi) @ r0
+    return matrix_to_quaternion(axis_angle_to_matrix(up[:, :, 1] * tilt) @ up)
+
+
+def left_takes_cup(s: DrivenSolver, task: CupBeansHandsEnv):
+    """From the sweep's end over the ledge, the left moves level `LEFT_CLEAR_Y` away (+y) turning to its side grasp,
+    lines up for it above the cup (above the line-up point), comes in, closes, lifts the cup and carries it upright to `CUP_HOLD_AT`."""
+    p, q, normal = side_grasp(task.cup.pose.p, CUP_GRASP)
+    lined_up = p - LINE_UP_DISTANCE * normal
+    clear = s.tcp("left_arm").p + torch.tensor([0.0, LEFT_CLEAR_Y, 0.0], device=task.device)
+    s.move({"left_arm": (clear, q)}, max_steps=40, pos_tol=0.02)
+    s.move({"left_arm": (s.above(lined_up, ABOVE), q)}, max_steps=80, pos_tol=0.01)
+    s.set_ee("left_hand", CUP_GRASP["approach"], steps=PRESHAPE_STEPS)
+    s.move({"left_arm": (lined_up, q)}, max_steps=60)
+    s.move({"left_arm": (p, q)}, max_steps=40, pos_tol=0.003)
+    close_hands(s, {"left_hand": CUP_GRASP["close"]})
+    s.move({"left_arm": (s.above(p, CUP_LIFT), q)}, max_steps=30)
+    held = s.tcp("left_arm").p - task.cup.pose.p  # the TCP from the cup's bottom centre, as held
+    goal = torch.tensor([[*CUP_HOLD_AT, CUP_HOLD_BOTTOM]], device=task.device) + held
+    glide(s, {"left_arm": (s.tcp("left_arm").p.clone(), goal, q)}, step_length=CUP_CARRY_STEP)
+
+
+def cup_hold_rim(task: CupBeansHandsEnv) -> torch.Tensor:
+    """(n, 3) the centre of the held cup's mouth where `left_takes_cup` brings it."""
+    rim = torch.tensor([[*CUP_HOLD_AT, CUP_HOLD_BOTTOM + task.cup_shape.inner[-1][0]]], device=task.device)
+    return rim.expand(task.num_envs, 3)
+
+
+def carry_palm_to_cup(s: DrivenSolver, task: CupBeansHandsEnv):
+    """Targets, one item a control step ({"right_arm": (p, q)}; run it as a `HandoverSolver.background` while the
+    left takes the cup, or step through it): the loaded palm-up right hand backs straight out from under the
+    ledge (-y), rises to the pour height and carries its beans level until its lip (`POUR_LIP`) is
+    `POUR_LIP_APPROACH` above where the held cup's rim will be (`cup_hold_rim`), `POUR_LIP_PAST_AXIS` along +y."""
+    n, dev = task.num_envs, task.device
+    q = palm_up_quat(n, dev)
+    over = cup_hold_rim(task) + torch.tensor([0.0, POUR_LIP_PAST_AXIS, POUR_LIP_APPROACH], device=dev)
+    arrive = over - quaternion_apply(q, torch.tensor([POUR_LIP], device=dev).expand(n, 3))
+    start = s.tcp("right_arm").p.clone()
+    back = start - torch.tensor([0.0, BACK_OUT, 0.0], device=dev)
+    up = back.clone()
+    up[:, 2] = arrive[:, 2]
+    for a, b, step_length in ((start, back, BACK_OUT_STEP), (back, up, CARRY_STEP), (up, arrive, CARRY_STEP)):
+        steps = max(1, round(float((b - a).norm(dim=1).max()) / step_length))
+        for k in range(1, steps + 1):
+            yield {"right_arm": (a + (b - a) * k / steps, q)}
+
+
+def pour_palm_into_cup(s: DrivenSolver, task: CupBeansHandsEnv, carried: bool = False):
+    """The loaded right palm (`carry_palm_to_cup` first, unless `carried`) tilts fingertips-down to `POUR_TILT`
+    about its lip, the lip going from `POUR_LIP_APPROACH` to `POUR_LIP_OVER_RIM` above the held cup's measured
+    rim, `POUR_LIP_PAST_AXIS` from its axis; the middle finger opens flat meanwhile (`POUR_HAND`)."""
+    if not carried:
+        for targets in carry_palm_to_cup(s, task):
+            s.step(targets)
+    n, dev = task.num_envs, task.device
+    lip = torch.tensor([POUR_LIP], device=dev).expand(n, 3)
+    q0 = palm_up_quat(n, dev)
+    s.move({"right_arm": (s.arm_targets["right_arm"][0], q0)}, max_steps=10)
+    rim = task.cup.pose.p[:, 2] + task.cup_shape.inner[-1][0]
+    over = task.cup.pose.p.clone()
+    over[:, 1] += POUR_LIP_PAST_AXIS
+    over[:, 2] = rim + POUR_LIP_APPROACH
+    start = s.tcp("right_arm").p + quaternion_apply(q0, lip)  # the lip, where it is
+    end = over.clone()
+    end[:, 2] = rim + POUR_LIP_OVER_RIM
+    cupped = s.ee_cmd["right_hand"].clone()
+    flat = torch.as_tensor(POUR_HAND, dtype=torch.float32, device=dev)
+    for k in range(1, POUR_TILT_STEPS + POUR_HOLD_STEPS + 1):
+        f = min(k, POUR_TILT_STEPS) / POUR_TILT_STEPS
+        q = palm_up_quat(n, dev, PALM_TILT + (POUR_TILT - PALM_TILT) * f)
+        s.set_ee("right_hand", cupped + (flat - cupped) * f, steps=0)
+        s.step({"right_arm": (start + (end - start) * f - quaternion_apply(q, lip), q)})
