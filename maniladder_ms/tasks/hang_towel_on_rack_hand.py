@@ -17,7 +17,12 @@ column by column: a single-layer drape (0.25-0.30 on top, ~0.4 / 0.4) whenever t
 a 35-step scissor ramp, a 4 mm/step first 4 cm of lift: no miss fixed; spread 0.65 rad holds them but gathers more
 (the flag 15-19 cm long, piles: 13/20), 0.75 6/20; the balance only during the lay 14/20 (kept: also 30 steps
 after it, 16/20). Failures on 100-149: the pinch never held (103, 128, 143, 146: the towel left on
-the table), a pile on the rod before the opening (106, 137: all on the near side after it; 121: 0.20 / 0.80). Next: a re-pinch where the lift leaves the towel
+the table), a pile on the rod before the opening (106, 137: all on the near side after it; 121: 0.20 / 0.80).
+All 7 pinch misses (4 here, dev 2, 17, 19) take the last column (towel yaw < 0; the hand there is the mirror of
+the first column's grasp, not the same one); none of the ~25 first-column seeds missed. Tried: that pinch shifted
+7 mm along the edge towards row 5: held on 3 of 5 misses (14 mm 2/5, -7 mm 1/5) but the 25 last-column seeds of
+100-149 fell from 19/25 to 14/25 (not kept); a pinch mirrored properly (e.g. the hand turned 180 degrees, past
+the wrist's range?) is untried. Next: a re-pinch where the lift leaves the towel
 on the table (the hang length shows it at once), after speeding up the carry (successes end at up to 297 of 300
 steps: the lift and the wrist turn could overlap the carry); the remaining piles are flags whose lay drifted.
 Session 16: the middle pinch, 32/50 on seeds 100-149 (the failing seeds in the catalog comment).
