@@ -78,13 +78,20 @@ def open_box_parts(inner_half_size: tuple[float, float], wall_height: float, wal
 
 def build_raised_tray(
     scene: ManiSkillScene, name: str, inner_half_size: tuple[float, float], wall_height: float, lip_height: float,
-    wall_thickness: float, floor_height: float, color,
+    wall_thickness: float, floor_height: float, color, overhang: float = 0.0, slab: float = 0.01,
 ) -> "Actor":
     """A fixed (kinematic) tray on a solid stand: its floor's top face `floor_height` above the table, walls
     `wall_height` high round it except at -y, where a lip only `lip_height` high lets a hand slide in over it.
-    The actor origin is on the table under the floor's centre."""
+    `overhang` > 0: the floor is a `slab` thick plate whose -y edge (the lip's outer face) overhangs the stand by
+    `overhang` (the stand's -y face that far behind it: a ledge a hand can reach under). The actor origin is on
+    the table under the floor's centre."""
     stand, *walls = open_box_parts(inner_half_size, wall_height, wall_thickness, floor_height)  # the stand: a base
     parts = [stand]
+    if overhang > 0:
+        (x, y, _), (hx, hy, _) = stand
+        under = floor_height - slab  # the stand's top: the slab lies on it
+        parts = [([x, y, floor_height - slab / 2], [hx, hy, slab / 2]),
+                 ([x, y + overhang / 2, under / 2], [hx, hy - overhang / 2, under / 2])]
     for (x, y, z), (hx, hy, hz) in walls:
         if y < 0:  # the -y wall: the lip
             z = hz = lip_height / 2

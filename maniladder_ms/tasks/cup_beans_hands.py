@@ -144,7 +144,7 @@ Status after session 18: the sweep-and-catch (catalog plan) keeps 10-14 beans af
 then build the overhanging ledge (build_raised_tray with an overhang option), the left's cup grasp after the
 sweep (from the blade pose back to READY_JOINTS) and the tip-in over the held cup.
 Session 19, pour (cupbeans6): the phases after the catch, at the module's end (`left_takes_cup`, `carry_palm_to_cup`,
-`pour_palm_into_cup`), measured without the ledge by probes/cupbeans6_pour.py (the bin moved away, the right rolled
+`pour_palm_into_cup`), measured without the ledge by scripts/probes/cupbeans6_pour.py (the bin moved away, the right rolled
 palm-up as roll_targets and tilted 10 deg at TCP (tray x + 0.03, -0.16, 0.345), beans dropped on its palm and
 settled 40 steps; the left starting from the blade pose 10 cm over the ledge). The left takes PourGrainsHandToCup's
 pourer side grasp on the cup (same spec), lifts 10 cm and carries it to x -0.2, y -0.03 (clear of the stand), its
@@ -164,6 +164,14 @@ the palm's sides during the tilt, not past the far rim. With 17 dropped, seeds 1
 11/11/11, the lip 1.5 cm before the axis 11/11/9 (and touching the rim); index/ring curled 0.9/0.5 during the tilt
 6/6/8, flat 8/9/11: not kept. Next: run behind the real sweep (cupbeans5): with ~15 in the palm the margin over
 min_beans 10 is 1-3 beans; a wall on the thumb's side (thumb raised further) is untried.
+Session 19 (status): the overhanging ledge scene is built (cupbeans5; `build_raised_tray(overhang=, slab=)`), with
+`sweep_and_catch` (the session-18 probe as a solver phase) and, from cupbeans6, `left_takes_cup`,
+`carry_palm_to_cup`, `pour_palm_into_cup` (measured in the paragraph above: 11-13 of ~15 palm beans delivered,
+5/5 seeds). NOT yet composed into one solver nor measured together in this scene (cupbeans5 stopped without a
+report; its catch numbers on the built ledge are unmeasured). Next: measure `sweep_and_catch` on seeds 100-109
+(caught / after the left's retreat / after backing), compose (HandoverSolver: sweep_and_catch, then
+`s.background = carry_palm_to_cup(...)`, `left_takes_cup`, `pour_palm_into_cup(carried=True)`), raise the horizon
+with a comment (the pour half alone takes ~280 steps), sweep seeds 100-149.
 """
 
 from __future__ import annotations
@@ -175,21 +183,30 @@ import torch
 
 from mani_skill.utils.structs.pose import Pose
 
-from maniladder_ms.agents.helpers import LEAP_SYNERGIES
+from mani_skill.utils.geometry.rotation_conversions import (axis_angle_to_matrix, matrix_to_quaternion, quaternion_apply,
+                                                            quaternion_to_matrix)
+
+from maniladder_ms.agents.helpers import LEAP_SYNERGIES, leap_fingertip, top_down_quat
 from maniladder_ms.deformables import particles
 from maniladder_ms.envs import ManiLadderEnv, register_task  # noqa: F401 (register_task: once the solver passes)
 from maniladder_ms.objects import containers
 from maniladder_ms.objects.tabletop import build_raised_tray
-from maniladder_ms.solvers.bimanual import READY_ARM_JOINTS
+from maniladder_ms.solvers.bimanual import READY_ARM_JOINTS, close_hands, glide, roll_targets, side_grasp, tcp_quat
+from maniladder_ms.solvers.driven import DrivenSolver
 
+from .pour_grains_hand_to_cup import ABOVE, LINE_UP_DISTANCE, PRESHAPE_STEPS, SIDE_GRASP
 from .scoop_beans_with_spoon import ScoopBeansTask
 
-# a narrow deep bin (session 17, second try): 15 x 6 cm floor, 8 cm walls, 6 cm on the hand's side; 150 beans of 6 mm fill it
-# ~5.7 cm deep (4 layers), so the right hand's fingers plunge fingertips-down into the pile (module notes)
-TRAY_INNER = (0.075, 0.03)  # half sizes (m) of the tray's floor
-PILE_DEPTH = 0.06  # the beans start packed in the tray's far (+y) 6 cm: its whole floor
-TRAY_WALL, TRAY_WALL_HEIGHT, TRAY_LIP = 0.006, 0.08, 0.06
-TRAY_FLOOR = 0.24  # the tray's floor above the table
+# the ledge the beans are swept off (session 19, the session-18 probe built): a 14 x 12 cm floor 38 cm up (palm-up the
+# right TCP goes no lower than ~0.34), 3 cm walls, a 6 mm lip at -y; its floor a 1 cm slab overhanging the stand by 4 cm
+# at -y, so the right's fingertips go in under the edge (without it the swept beans fell between the tips and the
+# stand's face: 5-11 caught, with it 20-26); the 150 beans start packed in the floor's middle 6 cm (module notes)
+TRAY_INNER = (0.07, 0.06)  # half sizes (m) of the tray's floor
+PILE_DEPTH, PILE_Y = 0.08, 0.005  # the beans start packed 6 cm deep (along y) round this y on the floor (tray frame)
+TRAY_WALL, TRAY_WALL_HEIGHT, TRAY_LIP = 0.006, 0.03, 0.006
+TRAY_FLOOR = 0.38  # the floor's top face above the table
+TRAY_OVERHANG, TRAY_SLAB = 0.04, 0.01  # the floor slab's -y edge this far in front of the stand's face; its thickness
+TRAY_X, TRAY_Y = (-0.04, 0.0), (-0.07, -0.03)  # the tray's centre ranges (the right hand at rest clears the stand)
 CUP_DENSITY = 400.0  # a light plastic cup (PourGrainsHandToCup's)
 # the left holds the cup: PourGrainsHandToCup's measured side grasp of its pourer (left Panda, thumb low, joint 7
 # >= 0.8 rad from its limits); the right's joint 7 is at its limit for that grasp, so the right scoops
@@ -211,10 +228,10 @@ class CupBeansHandsEnv(ScoopBeansTask, ManiLadderEnv):
     its cupped palm, carries them over the cup and pours them in.
 
     **Randomisation:**
-    - the tray (a fixed stand, its 15 x 6 cm floor 24 cm above the table, 8 cm walls, 6 cm on the right
-      hand's side) stands at x in [-0.04, 0], y in [-0.10, -0.06], holding `bean_count` beans (granular
-      spheres of radius `bean_radius`) packed from its floor (~4 layers of 6 mm beans) with a small random
-      jitter;
+    - the tray (a ledge on a fixed stand: its 14 x 12 cm floor 38 cm above the table, a 1 cm slab overhanging
+      the stand by 4 cm on the right hand's (-y) side, 3 cm walls, a 6 mm lip on that side) stands at x in
+      [-0.04, 0], y in [-0.07, -0.03], holding `bean_count` beans (granular spheres of radius `bean_radius`)
+      packed in the middle 8 cm (along y) of its floor with a small random jitter;
     - the cup (plastic, inner radius 3.5 cm, 11 cm tall) stands at x in [-0.16, -0.1], y in [0.14, 0.2];
     - the left arm starts in a ready pose (`READY_JOINTS`: its hand raised above the cup, turned for a side
       grasp), the right at rest, plus the usual joint noise.
@@ -240,7 +257,7 @@ class CupBeansHandsEnv(ScoopBeansTask, ManiLadderEnv):
     def _load_scene(self, options: dict):
         super()._load_scene(options)
         self.tray = build_raised_tray(self.scene, "tray", TRAY_INNER, TRAY_WALL_HEIGHT, TRAY_LIP, TRAY_WALL, TRAY_FLOOR,
-                                      color=(0.45, 0.6, 0.4, 1))
+                                      color=(0.45, 0.6, 0.4, 1), overhang=TRAY_OVERHANG, slab=TRAY_SLAB)
         self.cup = containers.build_container(self.scene, "cup", self.cup_shape, color=(0.8, 0.35, 0.3, 1),
                                               density=CUP_DENSITY)
         self.beans = particles.build_particles(self.scene, "beans", self.particle_config)
@@ -252,20 +269,20 @@ class CupBeansHandsEnv(ScoopBeansTask, ManiLadderEnv):
         with torch.device(self.device):
             b = len(env_idx)
             # (x, y, z) uniform in [low, high] per env: the tray, then the cup
-            low, high = torch.tensor([[-0.04, -0.1, 0.0], [-0.16, 0.14, 0.0]]), torch.tensor([[0.0, -0.06, 0.0], [-0.1, 0.2, 0.0]])
+            low = torch.tensor([[TRAY_X[0], TRAY_Y[0], 0.0], [-0.16, 0.14, 0.0]])
+            high = torch.tensor([[TRAY_X[1], TRAY_Y[1], 0.0], [-0.1, 0.2, 0.0]])
             tray, cup = (low + (high - low) * torch.rand(b, 2, 3)).unbind(dim=1)
             self.tray.set_pose(Pose.create_from_pq(tray))
             self.cup.set_pose(Pose.create_from_pq(cup))
             self.beans.set_positions(self.pile(tray))
 
     def pile(self, tray: torch.Tensor) -> torch.Tensor:
-        """Bean positions [b, N, 3]: a square lattice (spacing 2.1 radii) filling the far `PILE_DEPTH` of the
-        tray's floor layer by layer, jittered by 0.05 radius (as `particles.pack_in_container`)."""
+        """Bean positions [b, N, 3]: a square lattice (spacing 2.1 radii) filling the middle `PILE_DEPTH` (along
+        y) of the tray's floor layer by layer, jittered by 0.05 radius (as `particles.pack_in_container`)."""
         r = self.bean_radius
         spacing = 2.1 * r
         kx, ky = (int((half - 1.2 * r) // spacing) for half in (TRAY_INNER[0], PILE_DEPTH / 2))
-        far = TRAY_INNER[1] - PILE_DEPTH / 2
-        xy = np.stack(np.meshgrid(np.arange(-kx, kx + 1) * spacing, far + np.arange(-ky, ky + 1) * spacing), -1).reshape(-1, 2)
+        xy = np.stack(np.meshgrid(np.arange(-kx, kx + 1) * spacing, PILE_Y + np.arange(ky, -ky - 1, -1) * spacing), -1).reshape(-1, 2)
         layers = -(-self.bean_count // len(xy))
         z = np.repeat(TRAY_FLOOR + 1.05 * r + spacing * np.arange(layers), len(xy))[:, None]
         pts = np.concatenate([np.tile(xy, (layers, 1)), z], axis=1)[: self.bean_count]
@@ -333,15 +350,6 @@ class CupBeansHandsEnv(ScoopBeansTask, ManiLadderEnv):
 
 
 # ---- after the sweep-and-catch: the left takes the cup, the right tips its palm's beans in (session 19, cupbeans6) --
-from mani_skill.utils.geometry.rotation_conversions import (axis_angle_to_matrix, matrix_to_quaternion,  # noqa: E402
-                                                            quaternion_apply, quaternion_to_matrix)
-
-from maniladder_ms.agents.helpers import top_down_quat  # noqa: E402
-from maniladder_ms.solvers.bimanual import close_hands, glide, side_grasp  # noqa: E402
-from maniladder_ms.solvers.driven import DrivenSolver  # noqa: E402
-
-from .pour_grains_hand_to_cup import ABOVE, LINE_UP_DISTANCE, PRESHAPE_STEPS, SIDE_GRASP  # noqa: E402
-
 # The left's side grasp: PourGrainsHandToCup's pourer grasp (palm normal -y, the finger row upright, thumb low) from
 # its ready pose, here on the wider cup (outer radius 3.9 cm, its glass 2.9)
 CUP_GRASP = dict(SIDE_GRASP["left"])
@@ -455,3 +463,98 @@ def pour_palm_into_cup(s: DrivenSolver, task: CupBeansHandsEnv, carried: bool = 
         q = palm_up_quat(n, dev, PALM_TILT + (POUR_TILT - PALM_TILT) * f)
         s.set_ee("right_hand", cupped + (flat - cupped) * f, steps=0)
         s.step({"right_arm": (start + (end - start) * f - quaternion_apply(q, lip), q)})
+# ---- the sweep-and-catch (session 19): the right's cupped palm under the ledge's edge, the left sweeps the beans off --
+# the right rolls palm-up (HandoverBallHands' roll: 12 waypoints of 15 degrees, 8 steps each) from top-down yaw -90
+# (fingers +y), sense -1, to a point CATCH_APPROACH in front of (-y) its catch pose, then moves in level
+CATCH_YAW, CATCH_ROLL_SIGN, CATCH_ROLL_WAYPOINTS, CATCH_ROLL_STEPS = -np.pi / 2, -1.0, 12, 8
+CATCH_APPROACH = 0.06
+# the catch pose (tray frame, from the slab's -y edge and the floor's top): palm-up the TCP goes no lower than ~0.34
+# (floor - 0.035 at a 38 cm floor); the TCP 7.8 cm in front of the edge puts the cupped tips ~2 cm under the slab
+CATCH_X, CATCH_FROM_EDGE, CATCH_BELOW_FLOOR = 0.03, -0.078, -0.035
+# tilted about the TCP's y axis, tips down / heel up (the palm normal towards +y): 20/25/22 caught vs 26/11/12 level
+CATCH_TILT = np.deg2rad(10)
+# the left hand as a blade: palm normal -y, fingers straight down (closing along +x), open with the side joints 0.1
+# towards the middle finger; its middle tip starts at the tray's x, BLADE_FROM_FAR_WALL in front of the far wall,
+# BLADE_OVER_FLOOR over the floor, and sweeps BLADE_SWEEP in -y at BLADE_STEP a step (to 0.8 cm past the lip's inner
+# face: 1.5 cm lost half the catch as the left lifted off), comes down from BLADE_ABOVE over the start
+BLADE_HAND = [0.1, 0, 0, 0, 0, 0, 0, 0, -0.1, 0, 0, 0, 0, 0, 0, 0]
+BLADE_FROM_FAR_WALL, BLADE_OVER_FLOOR, BLADE_ABOVE = 0.01, 0.003, 0.1
+BLADE_SWEEP, BLADE_STEP = 0.128, 0.003
+SWEEP_SETTLE_STEPS = 20  # held at the sweep's end while the beans come to rest in the palm
+# the left then retreats +y while it lifts (lifting straight up took half the catch off): per step, steps
+RETREAT_STEP, RETREAT_STEPS = (0.0, 0.005, 0.005), 20
+# the right backs away from the ledge (-y) slowly, then carries the load -x towards the cup
+BACK_OFF, BACK_OFF_STEP = 0.03, 0.0015
+CARRY, CARRY_STEP = 0.12, 0.003
+
+
+def catch_point(task: CupBeansHandsEnv) -> torch.Tensor:
+    """The right TCP's catch position under the ledge's -y edge (the slab's edge: the lip's outer face)."""
+    tray = task.tray.pose.p
+    edge = tray[:, 1] - TRAY_INNER[1] - TRAY_WALL
+    return torch.stack([tray[:, 0] + CATCH_X, edge + CATCH_FROM_EDGE, tray[:, 2] + TRAY_FLOOR + CATCH_BELOW_FLOOR], 1)
+
+
+def catch_pose(task: CupBeansHandsEnv, q_palm_up: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """The right TCP's catch pose (p, q): `q_palm_up` (palm up, fingers +y) tilted CATCH_TILT about the TCP's y
+    axis so that the palm normal leans towards the ledge (+y)."""
+    p = catch_point(task)
+    r = quaternion_to_matrix(q_palm_up)
+    axis = r[:, :, 1]
+    sense = torch.sign(torch.linalg.cross(axis, r[:, :, 2])[:, 1:2])  # +: a positive turn leans the normal to +y
+    tilted = axis_angle_to_matrix(axis * sense * CATCH_TILT) @ r
+    return p, matrix_to_quaternion(tilted)
+
+
+def blade_pose(task: CupBeansHandsEnv) -> torch.Tensor:
+    n = task.num_envs
+    return tcp_quat(torch.tensor([[0.0, -1.0, 0.0]], device=task.device).expand(n, 3),
+                    torch.tensor([[1.0, 0.0, 0.0]], device=task.device).expand(n, 3))
+
+
+def sweep_and_catch(s: DrivenSolver, task: CupBeansHandsEnv) -> dict:
+    """The right rolls palm-up into "cup" and comes under the ledge's edge; the left, a blade, sweeps the pile off
+    the ledge into it, retreats +y while it lifts; the right backs away and carries the load CARRY towards -x.
+    Returns the beans in the right palm at the sweep's end, after the left's retreat and after the carry."""
+    dev, n = task.device, task.num_envs
+    counts = {}
+    # right: roll palm-up to the approach point in the background
+    tray = task.tray.pose.p
+    approach = catch_point(task) - torch.tensor([0.0, CATCH_APPROACH, 0.0], device=dev)
+    s.background = roll_targets(s, "right_arm", CATCH_YAW, CATCH_ROLL_SIGN, approach, CATCH_ROLL_WAYPOINTS,
+                                CATCH_ROLL_STEPS)
+    # left: the blade over its start, while the right rolls
+    bq = blade_pose(task)
+    far = tray[:, 1] + TRAY_INNER[1] - BLADE_FROM_FAR_WALL
+    tip_start = torch.stack([tray[:, 0], far, tray[:, 2] + TRAY_FLOOR + BLADE_OVER_FLOOR], 1)
+    s.set_ee("left_hand", BLADE_HAND, steps=0)
+    s.move({"left_arm": (tip_start + torch.tensor([0.0, 0.0, 0.2], device=dev), bq)}, max_steps=80, pos_tol=0.01)
+    while s.background is not None:
+        s.step()
+    palm_up_q = s.arm_targets["right_arm"][1]
+    cp, cq = catch_pose(task, palm_up_q)
+    s.set_ee("right_hand", CUP_SYNERGY, steps=0)
+    s.move({"right_arm": (cp - torch.tensor([0.0, CATCH_APPROACH, 0.0], device=dev), cq)}, max_steps=40, pos_tol=0.005)
+    s.move({"right_arm": (cp, cq)}, max_steps=40, pos_tol=0.003)
+    # the blade's middle tip from its TCP, measured in the air
+    offset = leap_fingertip(task.agent, "middle", "left_") - s.tcp("left_arm").p
+    start = tip_start - offset
+    s.move({"left_arm": (start + torch.tensor([0.0, 0.0, BLADE_ABOVE], device=dev), bq)}, max_steps=40, pos_tol=0.005)
+    glide(s, {"left_arm": (s.tcp("left_arm").p.clone(), start, bq)}, step_length=BLADE_STEP, settle_steps=10)
+    end = start - torch.tensor([0.0, BLADE_SWEEP, 0.0], device=dev)
+    glide(s, {"left_arm": (start, end, bq)}, step_length=BLADE_STEP, settle_steps=0)
+    for _ in range(SWEEP_SETTLE_STEPS):
+        s.step()
+    counts["swept"] = task.in_palm().sum(1)
+    step = torch.tensor(RETREAT_STEP, device=dev)
+    for k in range(1, RETREAT_STEPS + 1):
+        s.step({"left_arm": (end + k * step, bq)})
+    counts["left_off"] = task.in_palm().sum(1)
+    back = cp - torch.tensor([0.0, BACK_OFF, 0.0], device=dev)
+    glide(s, {"right_arm": (cp, back, cq)}, step_length=BACK_OFF_STEP, settle_steps=0)
+    counts["backed"] = task.in_palm().sum(1)
+    carried = back - torch.tensor([CARRY, 0.0, 0.0], device=dev)
+    glide(s, {"right_arm": (back, carried, cq)}, step_length=CARRY_STEP, settle_steps=10)
+    counts["carried"] = task.in_palm().sum(1)
+    counts["memory"] = (task.memory["carried"] > 0.5).sum(1)
+    return counts

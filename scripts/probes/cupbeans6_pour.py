@@ -2,7 +2,7 @@
 The bin is moved out of reach, the right hand rolled palm-up (tilted 10 deg) where the catch leaves it, ~25
 beans dropped on its palm; the left starts from the sweep's end (blade pose 10 cm over the ledge). Then the
 module's phases: the left takes the cup and brings it to the pour point, the right tips the beans in.
-Run: PYTHONPATH=$PWD python probes/cupbeans6_pour.py [seeds...] [CONCURRENT=1] [N_DROP=17] [CONSTANT=expr ...]
+Run: PYTHONPATH=$PWD python scripts/probes/cupbeans6_pour.py [seeds...] [CONCURRENT=1] [N_DROP=17] [CONSTANT=expr ...]
 (CONCURRENT=1: the right carries in the background while the left takes the cup, as the module notes measured it)"""
 import sys
 import time
@@ -10,7 +10,7 @@ import time
 import numpy as np
 import torch
 
-sys.path.insert(0, "probes")
+sys.path.insert(0, "scripts/probes")
 from cupbeans6_setup import make_env  # noqa: E402
 
 from maniladder_ms.solvers.bimanual import HandoverSolver, roll_targets, tcp_quat  # noqa: E402
