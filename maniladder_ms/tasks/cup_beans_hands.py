@@ -172,6 +172,14 @@ report; its catch numbers on the built ledge are unmeasured). Next: measure `swe
 (caught / after the left's retreat / after backing), compose (HandoverSolver: sweep_and_catch, then
 `s.background = carry_palm_to_cup(...)`, `left_takes_cup`, `pour_palm_into_cup(carried=True)`), raise the horizon
 with a comment (the pour half alone takes ~280 steps), sweep seeds 100-149.
+Measured by the lead at the end of session 19 (scripts/probes/cupbeans_compose.py; seeds 100-104): after 30 idle steps
+147-150 of the 150 beans lie in the ledge, 0-1 fell (seeds 100-109). sweep_and_catch, in the palm at the sweep's end /
+after the left's retreat / after backing / after its 12 cm carry: 46/42/40/38, 42/37/35/33, 33/27/25/25, 41/36/35/31,
+42/37/36/36 (memory `carried` 54-70): twice the probe's load. Composed with the pour phases: delivered 6, 0, 14, 7, 26
+of 38, 32, 25, 31, 36 in the palm before the pour; success 2/5 (102, 104), 609-631 steps, the cup held up throughout.
+The pour was tuned on 15-25 beans dropped on a palm-up hand: with 30-38 on the palm (and the catch's tilted pose
+carried over) most leave it before or beside the cup: look there first (a pour that starts from the catch's pose,
+slower or lower tilt for a heavier load).
 """
 
 from __future__ import annotations
@@ -463,6 +471,8 @@ def pour_palm_into_cup(s: DrivenSolver, task: CupBeansHandsEnv, carried: bool = 
         q = palm_up_quat(n, dev, PALM_TILT + (POUR_TILT - PALM_TILT) * f)
         s.set_ee("right_hand", cupped + (flat - cupped) * f, steps=0)
         s.step({"right_arm": (start + (end - start) * f - quaternion_apply(q, lip), q)})
+
+
 # ---- the sweep-and-catch (session 19): the right's cupped palm under the ledge's edge, the left sweeps the beans off --
 # the right rolls palm-up (HandoverBallHands' roll: 12 waypoints of 15 degrees, 8 steps each) from top-down yaw -90
 # (fingers +y), sense -1, to a point CATCH_APPROACH in front of (-y) its catch pose, then moves in level
