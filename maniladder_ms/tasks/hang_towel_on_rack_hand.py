@@ -86,6 +86,13 @@ second contact that strokes the sheet down both sides of the rod while the pinch
 towel taken off-centre so only one layer folds over the rod (the pinch then lowered down the far side, as
 HangTowelOnBar's corners: needs a pinch that holds at an edge), or a scene change (towel or rack placed so a corner
 is reachable) with a catalog comment.
+Session 19, helper/rackhand4 (on the MIDDLE pinch, superseded by the edge pinch above; not merged): measured just
+before the opening, a top fraction (particles at or above the bar's top) <= 0.36 always succeeded (dev 0-39 19/19,
+100-149 17/17); a pile whose mean lies > 0.6 cm on the robot's side of the bar's axis always slid off to that side
+(4/4, 8/8); rebalancing such a pile 0.18 to the far side: 32 -> 36/50 (held-out 21 -> 22/30); re-drapes with the
+pinch closed (lift 6 cm and lower 2.5 cm aside, or lift clear) passed 7-8 of 14 piled seeds ignoring the horizon
+but cost 60-90 steps each. If the edge pinch's 3 failures (unbalanced lays) are to be mended, the pile offset is
+the measure to look at.
 """
 
 from __future__ import annotations
