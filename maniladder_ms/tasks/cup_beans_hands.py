@@ -192,6 +192,12 @@ the stand's corner; the composed solver `solve_cup_beans_hands` (registered as a
 held-out check. To finish: horizon 300 -> ~900 with a comment (episodes ~620 steps), sweep 100-149 (~32 s a seed),
 `@register_task`, demos, samples, render, bench, README row, tests; update the catalog description/instructions
 (the ledge and the sweep: what the robot is asked changes).
+Reset check to redo first (cupbeans5's late report): with this pile (the middle 8 cm, PILE_DEPTH 0.08 at PILE_Y
+0.005) 4-10 beans went over the lip in 40 zero-action steps on every one of seeds 100-109 (the middle 6 cm: 0-4 on
+100-102; a 6 cm band at tray y +0.03: 2-5); a 9 cm band centred at tray y +0.015 with the partial top layer at the
+far wall (~2.4 layers) kept 150/150 on 9 of 100-109 (106: 149). The lead's 30-step check of this pile counted
+147-150 in the tray's box and 0-1 below the floor: count what leaves over the lip at 40+ steps and move the pile if
+it is lost (then re-measure the catch).
 """
 
 from __future__ import annotations
