@@ -198,6 +198,7 @@ Reset check to redo first (cupbeans5's late report): with this pile (the middle 
 far wall (~2.4 layers) kept 150/150 on 9 of 100-109 (106: 149). The lead's 30-step check of this pile counted
 147-150 in the tray's box and 0-1 below the floor: count what leaves over the lip at 40+ steps and move the pile if
 it is lost (then re-measure the catch).
+Then swept 110-149 (probe env, 5000-step limit): 40/40, so seeds 100-149 50/50 (delivered 14-30, 599-623 steps).
 """
 
 from __future__ import annotations
