@@ -136,13 +136,20 @@ def hand_over(s: DrivenSolver, giver_arm: str, giver_ee: str, taker: Grasp, give
     s.move({giver_arm: (tcp.p + giver_retreat, tcp.q)}, max_steps=30, pos_tol=0.02)
 
 
-def glide(s: DrivenSolver, paths: dict, step_length: float = LIFT_STEP, settle_steps: int = 20):
-    """Move arms along straight lines together: `paths` maps arm -> (start p, end p, q); every control step
-    each target advances by its share of the way, the longest path by `step_length`, so all arrive at once."""
+def glide_targets(paths: dict, step_length: float = LIFT_STEP):
+    """`glide`'s targets, one {arm: (p, q)} a control step (to step through, or to run as a
+    `HandoverSolver.background` while the solver moves another arm)."""
     length = max(float((end - start).norm(dim=1).max()) for start, end, _ in paths.values())
     steps = max(1, round(length / step_length))
     for k in range(1, steps + 1):
-        s.step({arm: (start + (end - start) * k / steps, q) for arm, (start, end, q) in paths.items()})
+        yield {arm: (start + (end - start) * k / steps, q) for arm, (start, end, q) in paths.items()}
+
+
+def glide(s: DrivenSolver, paths: dict, step_length: float = LIFT_STEP, settle_steps: int = 20):
+    """Move arms along straight lines together: `paths` maps arm -> (start p, end p, q); every control step
+    each target advances by its share of the way, the longest path by `step_length`, so all arrive at once."""
+    for targets in glide_targets(paths, step_length):
+        s.step(targets)
     s.move({arm: (end, q) for arm, (_, end, q) in paths.items()}, max_steps=settle_steps)
 
 

@@ -155,13 +155,13 @@ def unscrew(s: DrivenSolver, task, arm: str, ee: str, max_strokes: int = 4, stro
             hold = HoldPosition(s, arm, hold_gain)
             yaw = tcp_yaw(s, arm)
             reached = {}  # the last grip target the reach commanded
+            held = lambda: {arm: (hold.at(reached["p"]), reached["q"])}  # noqa: E731  (that target, held)
 
-            def held_grip():  # the grip target as the lid now stands, corrected by the hold
+            def held_grip():  # the grip target as the lid now stands, held
                 reached["p"], reached["q"] = grip_target(grip_point(), yaw, offset)
-                return {arm: (hold.at(reached["p"]), reached["q"])}
+                return held()
 
             s.move(held_grip, max_steps=30, pos_tol=0.0)  # all 30 steps (no tolerance): the hold's integral settles
-            held = lambda: {arm: (hold.at(reached["p"]), reached["q"])}  # noqa: E731  (the last grip target, held)
         else:
             s.move({arm: grip_target(grip_point(), tcp_yaw(s, arm), offset)}, max_steps=30, pos_tol=0.003)
         if synergy is None:

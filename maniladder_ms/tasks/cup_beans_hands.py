@@ -219,8 +219,8 @@ from maniladder_ms.envs import ManiLadderEnv, register_task  # noqa: F401 (regis
 from maniladder_ms.objects import containers
 from maniladder_ms.objects.tabletop import build_raised_tray
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
-from maniladder_ms.solvers.bimanual import (READY_ARM_JOINTS, HandoverSolver, close_hands, glide, roll_targets, side_grasp,
-                                            tcp_quat)
+from maniladder_ms.solvers.bimanual import (READY_ARM_JOINTS, HandoverSolver, close_hands, glide, glide_targets,
+                                            roll_targets, side_grasp, tcp_quat)
 from maniladder_ms.solvers.driven import DrivenSolver
 
 from .pour_grains_hand_to_cup import ABOVE, LINE_UP_DISTANCE, PRESHAPE_STEPS, SIDE_GRASP
@@ -392,7 +392,7 @@ CUP_CARRY_STEP = 0.01  # m per control step carrying the held cup
 # the right's palm-up pose: HandoverBallHands' roll (top-down yaw -90 deg rolled half a turn about its TCP y axis,
 # sign -1: palm-up, fingers +y), tilted `PALM_TILT` about the TCP y axis (+: fingertips down, the heel up)
 PALM_UP_YAW, PALM_UP_ROLL_SIGN = -np.pi / 2, -1.0
-PALM_TILT = np.deg2rad(10.0)
+PALM_TILT = np.deg2rad(10.0)  # also under the ledge, where it caught 20/25/22 beans against 26/11/12 level
 # where the beans leave the hand: over the middle fingertip's pad, TCP frame (x along the fingers, z out of the palm)
 POUR_LIP = (0.14, 0.03, -0.06)
 POUR_LIP_APPROACH = 0.06  # the lip this far above the held cup's rim when the loaded palm arrives
@@ -467,9 +467,7 @@ def carry_palm_to_cup(s: DrivenSolver, task: CupBeansHandsEnv):
     up = back.clone()
     up[:, 2] = arrive[:, 2]
     for a, b, step_length in ((start, back, BACK_OUT_STEP), (back, up, CARRY_STEP), (up, arrive, CARRY_STEP)):
-        steps = max(1, round(float((b - a).norm(dim=1).max()) / step_length))
-        for k in range(1, steps + 1):
-            yield {"right_arm": (a + (b - a) * k / steps, q)}
+        yield from glide_targets({"right_arm": (a, b, q)}, step_length)
 
 
 def pour_palm_into_cup(s: DrivenSolver, task: CupBeansHandsEnv, carried: bool = False):
@@ -500,15 +498,13 @@ def pour_palm_into_cup(s: DrivenSolver, task: CupBeansHandsEnv, carried: bool = 
 
 
 # ---- the sweep-and-catch (session 19): the right's cupped palm under the ledge's edge, the left sweeps the beans off --
-# the right rolls palm-up (HandoverBallHands' roll: 12 waypoints of 15 degrees, 8 steps each) from top-down yaw -90
-# (fingers +y), sense -1, to a point CATCH_APPROACH in front of (-y) its catch pose, then moves in level
-CATCH_YAW, CATCH_ROLL_SIGN, CATCH_ROLL_WAYPOINTS, CATCH_ROLL_STEPS = -np.pi / 2, -1.0, 12, 8
+# the right rolls palm-up (HandoverBallHands' roll: 12 waypoints of 15 degrees, 8 steps each; `palm_up_quat`'s yaw and
+# sense, fingers +y) to a point CATCH_APPROACH in front of (-y) its catch pose, then moves in level
+CATCH_ROLL_WAYPOINTS, CATCH_ROLL_STEPS = 12, 8
 CATCH_APPROACH = 0.06
 # the catch pose (tray frame, from the slab's -y edge and the floor's top): palm-up the TCP goes no lower than ~0.34
 # (floor - 0.035 at a 38 cm floor); the TCP 7.8 cm in front of the edge puts the cupped tips ~2 cm under the slab
 CATCH_X, CATCH_FROM_EDGE, CATCH_BELOW_FLOOR = 0.03, -0.078, -0.035
-# tilted about the TCP's y axis, tips down / heel up (the palm normal towards +y): 20/25/22 caught vs 26/11/12 level
-CATCH_TILT = np.deg2rad(10)
 # the left hand as a blade: palm normal -y, fingers straight down (closing along +x), open with the side joints 0.1
 # towards the middle finger; its middle tip starts at the tray's x, BLADE_FROM_FAR_WALL in front of the far wall,
 # BLADE_OVER_FLOOR over the floor, and sweeps BLADE_SWEEP in -y at BLADE_STEP a step (to 0.8 cm past the lip's inner
@@ -532,13 +528,13 @@ def catch_point(task: CupBeansHandsEnv) -> torch.Tensor:
 
 
 def catch_pose(task: CupBeansHandsEnv, q_palm_up: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-    """The right TCP's catch pose (p, q): `q_palm_up` (palm up, fingers +y) tilted CATCH_TILT about the TCP's y
+    """The right TCP's catch pose (p, q): `q_palm_up` (palm up, fingers +y) tilted PALM_TILT about the TCP's y
     axis so that the palm normal leans towards the ledge (+y)."""
     p = catch_point(task)
     r = quaternion_to_matrix(q_palm_up)
     axis = r[:, :, 1]
     sense = torch.sign(torch.linalg.cross(axis, r[:, :, 2])[:, 1:2])  # +: a positive turn leans the normal to +y
-    tilted = axis_angle_to_matrix(axis * sense * CATCH_TILT) @ r
+    tilted = axis_angle_to_matrix(axis * sense * PALM_TILT) @ r
     return p, matrix_to_quaternion(tilted)
 
 
@@ -557,7 +553,7 @@ def sweep_and_catch(s: DrivenSolver, task: CupBeansHandsEnv) -> dict:
     # right: roll palm-up to the approach point in the background
     tray = task.tray.pose.p
     approach = catch_point(task) - torch.tensor([0.0, CATCH_APPROACH, 0.0], device=dev)
-    s.background = roll_targets(s, "right_arm", CATCH_YAW, CATCH_ROLL_SIGN, approach, CATCH_ROLL_WAYPOINTS,
+    s.background = roll_targets(s, "right_arm", PALM_UP_YAW, PALM_UP_ROLL_SIGN, approach, CATCH_ROLL_WAYPOINTS,
                                 CATCH_ROLL_STEPS)
     # left: the blade over its start, while the right rolls
     bq = blade_pose(task)

@@ -146,7 +146,8 @@ class HangTowelOnRackHandEnv(HangTowelEnv):
 
     SUPPORTED_ROBOTS = ["ml_panda_leap"]
     HOLD_MEMORY = "lifted"
-    TASK_REGION = (-0.38, 0.16, -0.28, 0.28)  # towel start (centre plus its half diagonal) and the rack with its feet (bar axis x <= 0.06, feet 9.5 cm either side)
+    # towel start (centre plus its half diagonal) and the rack with its feet (bar axis x <= 0.06, feet 9.5 cm either side)
+    TASK_REGION = (-0.38, 0.16, -0.28, 0.28)
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -274,17 +275,16 @@ def solve_hang_towel_on_rack_hand(env, seed: int) -> dict:
         start, _ = tcp_for(bar[:, 0], y_start, z)
         glide(s, {"arm": (over, start, q2)}, step_length=LOWER_STEP, settle_steps=3)
         shift = torch.zeros(n, device=device)
-        y, reached = y_start.clone(), torch.zeros(n, dtype=torch.bool, device=device)
+        y = y_start.clone()
         while True:
             sides = task.hanging()
             shift = (shift + GAIN * (sides[:, 0] - sides[:, 1])).clamp(-MAX_SHIFT, MAX_SHIFT)
-            y = torch.where(reached, y_end, y - sign * LAY_STEP)
-            reached = reached | ((y - y_end) * sign <= 0)
-            y = torch.where(reached, y_end, y)
+            y = y - sign * LAY_STEP
+            y = torch.where((y - y_end) * sign <= 0, y_end, y)  # stopped at the ridge's far end
             z = (z - LAY_STEP).clamp(min=top)
             low, _ = tcp_for(bar[:, 0] + shift, y, z)
             s.step({"arm": (low, q2)})
-            if bool(reached.all()) and bool((z <= top).all()):
+            if bool((y == y_end).all()) and bool((z <= top).all()):
                 break
         for _ in range(5):
             s.step({"arm": (low, q2)})
