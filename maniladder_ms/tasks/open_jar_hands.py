@@ -44,8 +44,7 @@ class OpenJarHandsEnv(UnscrewCapTask):
     regrasp between them: 6 stages (hold the jar, grip the lid, twist, let go and turn back, grip again,
     twist), 326-657 control steps (mean 459) in the solver's episodes on seeds 100-149 (50/50); the
     twisting grasp must stay centred on the lid's axis within ~1 cm while the wrist turns ~8 rad, and the jar, held
-    only by the
-    other hand, must not tip or turn in that hand's grip.
+    only by the other hand, must not tip or turn in that hand's grip.
     """
 
     SUPPORTED_ROBOTS = ["ml_dual_panda_leap"]
