@@ -144,6 +144,8 @@ def cmd_render(args) -> int:
 
     if [args.task, args.robot, args.scene].count(None) != 2:
         raise ValueError("render takes exactly one of: a task id, --robot UID, --scene KIND")
+    if args.solved and args.task is None:
+        raise ValueError("--solved shows a task after its scripted solver: give a task id")
     if args.robot:
         _check_choice("robot", args.robot, _robots())
         path = render.render_agent(args.robot, args.seed, args.out or Path(f"agent_{args.robot}.png"), size=args.size)
@@ -158,7 +160,7 @@ def cmd_render(args) -> int:
         if args.visual_seed is not None and not args.domain_randomization:
             raise ValueError("--visual-seed picks the look of domain randomisation: add --dr")
         path = render.render_task(spec.id, args.seed, out, domain_randomization=args.domain_randomization,
-                                  size=args.size, visual_seed=args.visual_seed)
+                                  size=args.size, visual_seed=args.visual_seed, solved=args.solved)
     print(f"wrote {path}")
     return 0
 
@@ -226,6 +228,8 @@ def build_parser() -> argparse.ArgumentParser:
     rd.add_argument("--domain-randomization", "--dr", action="store_true")
     rd.add_argument("--visual-seed", type=int, help="with --dr: the look's seed (textures, lighting, distractors); "
                     "the layout stays the --seed episode's (default: the look of --seed)")
+    rd.add_argument("--solved", action="store_true",
+                    help="the task at the end of its scripted solver's --seed episode (what a demo reaches), not at reset")
     rd.set_defaults(func=cmd_render)
 
     bn = sub.add_parser("bench", help="control steps/s of tasks as ratios to PickCube-v1 (same process)")

@@ -45,19 +45,31 @@ def save_tiled(images: dict[str, np.ndarray], title: str, out: Path) -> Path:
 
 
 def render_task(task_id: str, seed: int, out: Path, domain_randomization: bool = False,
-                size: int = RENDER_CAMERA_SIZE, visual_seed: int | None = None) -> Path:
-    """Every camera of episode `seed`; with domain randomisation in look `visual_seed` (default: the seed's)."""
+                size: int = RENDER_CAMERA_SIZE, visual_seed: int | None = None, solved: bool = False) -> Path:
+    """Every camera of episode `seed`; with domain randomisation in look `visual_seed` (default: the seed's).
+    `solved`: at the last step of the task's scripted solver on that episode (the result a demo reaches), not
+    at the reset; the title says whether it succeeded."""
     import maniladder_ms
 
-    env = maniladder_ms.make(
-        task_id, obs_mode="rgb", domain_randomization=domain_randomization,
-        sensor_configs=dict(width=size, height=size),
-    )
+    make_kwargs = dict(obs_mode="rgb", domain_randomization=domain_randomization,
+                       sensor_configs=dict(width=size, height=size))
+    if solved:
+        from maniladder_ms.solvers import solve, solver_for
+
+        if visual_seed is not None:
+            raise ValueError("a solved render replays the --seed episode in its own look: drop --visual-seed")
+        # the solver's own control mode; state observations (the cameras are rendered once, at the end)
+        make_kwargs.update(obs_mode="state", control_mode=solver_for(task_id).control_mode)
+    env = maniladder_ms.make(task_id, **make_kwargs)
     try:
-        env.reset(seed=seed, options=None if visual_seed is None else {"visual_seed": visual_seed})
+        if solved:
+            outcome = f", after the scripted solver: success {bool(solve(env, seed)['success'][0])}"
+        else:
+            env.reset(seed=seed, options=None if visual_seed is None else {"visual_seed": visual_seed})
+            outcome = ""
         spec = env.unwrapped.task_spec
         look = f", domain randomisation, visual seed {env.unwrapped.visual_seed}" if domain_randomization else ""
-        title = f"{spec.id}  ({spec.suite}, seed {seed}{look})"
+        title = f"{spec.id}  ({spec.suite}, seed {seed}{look}{outcome})"
         return save_tiled(camera_images(env), title, out)
     finally:
         env.close()

@@ -87,6 +87,18 @@ def test_render_writes_all_cameras(tmp_path, capsys):
     assert all(p.std() > 10 for p in panels)
 
 
+def test_render_solved_shows_the_solver_s_last_step(tmp_path, capsys):
+    reset, solved = tmp_path / "reset.png", tmp_path / "solved.png"
+    for out, extra in ((reset, []), (solved, ["--solved"])):
+        assert main(["render", "PickPlacePen", "--seed", "100", "--out", str(out), "--size", "96", *extra]) == 0
+    a, b = (np.asarray(Image.open(p)).astype(float) for p in (reset, solved))
+    assert a.shape == b.shape
+    # the top camera (third panel) sees the pen moved to its goal and the arm elsewhere
+    assert np.abs(a[22:118, 192:288] - b[22:118, 192:288]).mean() > 2
+    assert main(["render", "--robot", "ml_panda", "--solved"]) == 2
+    assert "--solved shows a task" in capsys.readouterr().err
+
+
 def test_bench_prints_ratios(capsys):
     assert main(["bench", "PickPlacePen", "--steps", "20"]) == 0
     out = capsys.readouterr().out
