@@ -286,9 +286,9 @@ class CupBeansHandsEnv(ScoopBeansTask, ManiLadderEnv):
     be pushed or poured into a cup standing on the table, and the cup's rim is above the tray's.
 
     **Level 2:** (against Level 1's PourGrainsHandToCup, the same hands, cup and a granular load: 3 stages, each
-    hand side-grasps a vessel, lift, tilt the glass, ~258 steps, the grains kept in a rigid glass) 6 stages in ~610
+    hand side-grasps a vessel, lift, tilt the glass, ~258 steps, the grains kept in a rigid glass) 7 stages in ~604
     steps: the right rolls palm-up under the ledge's edge while the left turns into a blade, the sweep, the
-    left's retreat without dragging the catch off, the cup's side grasp, lift and carry round the ledge's
+    left's retreat without dragging the catch off, the cup's side grasp and lift, its carry round the ledge's
     stand, the right's carry of loose beans on an open palm (~a quarter of the catch rolls off between the
     sweep and the pour), the pour off the fingers into a 7 cm mouth. The hands must share the space in front
     of the ledge in turn, and a bean counts only if it lay in the palm away from the tray.
