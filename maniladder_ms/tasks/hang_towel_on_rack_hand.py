@@ -226,6 +226,14 @@ HOLD_YAW = np.deg2rad(89.0)  # the hand's yaw while carrying (the pinched pair a
 LAY_BALANCE_STEPS = 30
 
 
+def rebalance(task: HangTowelOnRackHandEnv, shift: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """The drape's imbalance now (hanging fraction near minus far) and `shift` (the pinch across the bar, m)
+    moved GAIN times it towards the lighter side, within MAX_SHIFT."""
+    sides = task.hanging()
+    imbalance = sides[:, 0] - sides[:, 1]
+    return (shift + GAIN * imbalance).clamp(-MAX_SHIFT, MAX_SHIFT), imbalance
+
+
 @register_solver("HangTowelOnRackHand", control_modes=TCP_DELTA_MODES)
 def solve_hang_towel_on_rack_hand(env, seed: int) -> dict:
     """Pinch the middle of a side edge of the towel (`gather_open`), lift it `EDGE_CARRY_ABOVE` over the bar's
@@ -277,8 +285,7 @@ def solve_hang_towel_on_rack_hand(env, seed: int) -> dict:
         shift = torch.zeros(n, device=device)
         y = y_start.clone()
         while True:
-            sides = task.hanging()
-            shift = (shift + GAIN * (sides[:, 0] - sides[:, 1])).clamp(-MAX_SHIFT, MAX_SHIFT)
+            shift, _ = rebalance(task, shift)
             y = y - sign * LAY_STEP
             y = torch.where((y - y_end) * sign <= 0, y_end, y)  # stopped at the ridge's far end
             z = (z - LAY_STEP).clamp(min=top)
@@ -290,12 +297,10 @@ def solve_hang_towel_on_rack_hand(env, seed: int) -> dict:
             s.step({"arm": (low, q2)})
         streak = 0
         for _ in range(LAY_BALANCE_STEPS):
-            sides = task.hanging()
-            imbalance = sides[:, 0] - sides[:, 1]  # near side heavier: move the pinch to the far side
+            shift, imbalance = rebalance(task, shift)  # near side heavier: the pinch moves to the far side
             streak = streak + 1 if bool((imbalance.abs() < BALANCE_TOL).all()) else 0
             if streak >= BALANCED_STEPS:
                 break
-            shift = (shift + GAIN * imbalance).clamp(-MAX_SHIFT, MAX_SHIFT)
             low, _ = tcp_for(bar[:, 0] + shift, y_end, top)
             s.step({"arm": (low, q2)})
         s.set_ee("hand", gather_open(), steps=RELEASE_STEPS)
