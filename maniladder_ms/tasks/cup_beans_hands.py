@@ -1,7 +1,8 @@
 """CupBeansHands (L2 deformable DX, family ScoopBeans): the left LEAP hand sweeps beans off a ledge into the right's
 cupped palm, then holds a cup while the right pours them in.
 
-STATUS: registered (session 20). `solve_cup_beans_hands` 50/50 on seeds 100-149 at horizon 900 (599-606 steps); the
+STATUS: registered (session 20). `solve_cup_beans_hands` 50/50 on seeds 100-149 at horizon 900 (599-606 steps),
+held-out seeds 150-179 30/30 (601-607); the
 notes below are how it got there (sessions 16-20), kept for whoever changes the scene or the hands.
 Session 16, on seed 100 (scripts in the session-16 report, numbers here):
 - a cupped palm-up right hand HOLDS beans: 40 beans dropped on the palm, after 40 steps and a 20 cm carry at 5 mm a

@@ -1,4 +1,5 @@
-"""Shared setup for the cupbeans6 pour probes: the CupBeansHands env built from its class (unregistered)."""
+"""Shared setup for the cupbeans6 pour probes: the CupBeansHands env (registered since session 20; the probes were
+written before, so they register it if needed) with a 5000-step limit."""
 import gymnasium as gym
 import torch
 
