@@ -2,8 +2,8 @@
 cupped palm, then holds a cup while the right pours them in.
 
 STATUS: registered (session 20). `solve_cup_beans_hands` 50/50 on seeds 100-149 at horizon 900 (599-606 steps),
-held-out seeds 150-179 30/30 (601-607); the
-notes below are how it got there (sessions 16-20), kept for whoever changes the scene or the hands.
+held-out seeds 150-179 30/30 (601-607); the notes below are how it got there (sessions 16-20), kept for whoever
+changes the scene or the hands.
 Session 16, on seed 100 (scripts in the session-16 report, numbers here):
 - a cupped palm-up right hand HOLDS beans: 40 beans dropped on the palm, after 40 steps and a 20 cm carry at 5 mm a
   step still on the hand: LEAP_SYNERGIES["cup"] (added: knuckles 0.6 rad, thumb swung 1.0) 36/40,
