@@ -327,8 +327,9 @@ class CupBeansHandsEnv(ScoopBeansTask, ManiLadderEnv):
             self.beans.set_positions(self.pile(tray))
 
     def pile(self, tray: torch.Tensor) -> torch.Tensor:
-        """Bean positions [b, N, 3]: a square lattice (spacing 2.1 radii) filling the middle `PILE_DEPTH` (along
-        y) of the tray's floor layer by layer, jittered by 0.05 radius (as `particles.pack_in_container`)."""
+        """Bean positions [b, N, 3]: a square lattice (spacing 2.1 radii) filling a `PILE_DEPTH` band (along y)
+        round `PILE_Y` of the tray's floor layer by layer, far rows first, jittered by 0.05 radius (as
+        `particles.pack_in_container`)."""
         r = self.bean_radius
         spacing = 2.1 * r
         kx, ky = (int((half - 1.2 * r) // spacing) for half in (TRAY_INNER[0], PILE_DEPTH / 2))
@@ -536,6 +537,7 @@ CATCH_X, CATCH_FROM_EDGE, CATCH_BELOW_FLOOR = 0.03, -0.078, -0.035
 # face: 1.5 cm lost half the catch as the left lifted off), comes down from BLADE_ABOVE over the start
 BLADE_HAND = [0.1, 0, 0, 0, 0, 0, 0, 0, -0.1, 0, 0, 0, 0, 0, 0, 0]
 BLADE_FROM_FAR_WALL, BLADE_OVER_FLOOR, BLADE_ABOVE = 0.01, 0.003, 0.1
+BLADE_WAIT_ABOVE = 0.2  # the blade waits this far over its start while the right rolls under the ledge
 BLADE_SWEEP, BLADE_STEP = 0.128, 0.003
 SWEEP_SETTLE_STEPS = 20  # held at the sweep's end while the beans come to rest in the palm
 # the left then retreats +y while it lifts (lifting straight up took half the catch off): per step, steps
@@ -574,12 +576,13 @@ def sweep_and_catch(s: DrivenSolver, task: CupBeansHandsEnv) -> dict:
     far = tray[:, 1] + TRAY_INNER[1] - BLADE_FROM_FAR_WALL
     tip_start = torch.stack([tray[:, 0], far, tray[:, 2] + TRAY_FLOOR + BLADE_OVER_FLOOR], 1)
     s.set_ee("left_hand", BLADE_HAND, steps=0)
-    s.move({"left_arm": (tip_start + torch.tensor([0.0, 0.0, 0.2], device=dev), bq)}, max_steps=80, pos_tol=0.01)
+    s.move({"left_arm": (tip_start + torch.tensor([0.0, 0.0, BLADE_WAIT_ABOVE], device=dev), bq)}, max_steps=80,
+           pos_tol=0.01)
     while s.background is not None:
         s.step()
     cp, cq = catch_point(task), palm_up_quat(n, dev)  # palm up, tilted PALM_TILT: the normal leans to the ledge (+y)
     s.set_ee("right_hand", CUP_SYNERGY, steps=0)
-    s.move({"right_arm": (cp - torch.tensor([0.0, CATCH_APPROACH, 0.0], device=dev), cq)}, max_steps=40, pos_tol=0.005)
+    s.move({"right_arm": (approach, cq)}, max_steps=40, pos_tol=0.005)
     s.move({"right_arm": (cp, cq)}, max_steps=40, pos_tol=0.003)
     # the blade's middle tip from its TCP, measured in the air
     offset = leap_fingertip(task.agent, "middle", "left_") - s.tcp("left_arm").p
