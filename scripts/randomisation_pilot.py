@@ -61,7 +61,7 @@ def pick_place_pen_one_side(scale: float) -> None:
 
     from maniladder_ms.envs import ManiLadderEnv
     from maniladder_ms.geometry import yaw_quat
-    from maniladder_ms.tasks.pick_place_pen import PickPlacePenEnv
+    from maniladder_ms.tasks.rigid.pick_place_pen import PickPlacePenEnv
 
     def _initialize_episode(self, env_idx, options):
         ManiLadderEnv._initialize_episode(self, env_idx, options)

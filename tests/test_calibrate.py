@@ -136,7 +136,7 @@ def test_randomisation_pilot_draws_pick_place_pen_layouts_from_the_narrowed_rang
 
     import maniladder_ms
     from maniladder_ms.geometry import actor_yaw
-    from maniladder_ms.tasks.pick_place_pen import PickPlacePenEnv
+    from maniladder_ms.tasks.rigid.pick_place_pen import PickPlacePenEnv
 
     registered = PickPlacePenEnv._initialize_episode
     try:
@@ -159,7 +159,7 @@ def test_randomisation_pilot_shrinks_every_uniform_layout_draw_about_its_middle(
     import randomisation_pilot
 
     import maniladder_ms
-    from maniladder_ms.tasks.hang_mug import HangMugEnv
+    from maniladder_ms.tasks.rigid.hang_mug import HangMugEnv
 
     registered = HangMugEnv._initialize_episode
     try:

@@ -229,7 +229,7 @@ def test_leap_hand_scissor_pinches_a_rope():
     middle fingers (the "scissor" pinch: the only LEAP pinch whose contacts reach down to a 1.6 cm rope's
     middle height), lifts it 28 cm and holds it 60 steps: a friction grasp only."""
     from maniladder_ms.solvers.driven import DrivenSolver
-    from maniladder_ms.tasks.lift_rope_hand import pinch_and_lift
+    from maniladder_ms.tasks.rope.lift_rope_hand import pinch_and_lift
 
     env = gym.make("ManiLadder-LiftRopeHand-v1", obs_mode="state", control_mode="pd_ee_delta_pose")
     try:
@@ -694,7 +694,7 @@ def test_full_container_is_full(make_shape):
 
 
 def test_base_inside_a_bowl():
-    from maniladder_ms.deformables.pouring import base_inside
+    from maniladder_ms.tasks.particles.pour_particles.base import base_inside
 
     bowl = containers.bowl()
     pose = Pose.create_from_pq(torch.tensor([[0.1, -0.2, 0.0]] * 4))
@@ -764,7 +764,7 @@ def test_towel_draped_over_the_bar_stays_put(top_row):
     the sheet slides 13 mm and its long side comes down onto the table."""
     from mani_skill.utils.structs.pose import Pose
 
-    from maniladder_ms.tasks.hang_towel import COLS, ROWS, HangTowelOnBarEnv
+    from maniladder_ms.tasks.cloth.hang_towel.hang_towel_on_bar import COLS, ROWS, HangTowelOnBarEnv
 
     env = HangTowelOnBarEnv(task_id="HangTowelOnBar", obs_mode="state", control_mode="pd_ee_delta_pose", num_envs=1)
     try:

@@ -28,7 +28,7 @@ def test_stack_touch_check_matches_full_contact_query(monkeypatch):
     import torch
 
     from maniladder_ms.solvers import solve
-    from maniladder_ms.tasks.stack_blocks import StackBlocksEnv
+    from maniladder_ms.tasks.rigid.stack_blocks import StackBlocksEnv
 
     fast = StackBlocksEnv._any_block_touched
     seen = []

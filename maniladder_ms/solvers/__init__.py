@@ -1,7 +1,10 @@
-"""Scripted demo solvers: the registry, and per-embodiment motion helpers.
+"""Scripted demo solvers: the registry, the control layer (`panda`, `driven`, `bimanual`, ...) and, in a tree
+that mirrors `maniladder_ms/tasks/`, one module per task's solver (`rigid/pick_place_pen.py` solves the task of
+`tasks/rigid/pick_place_pen.py`; a family's shared phases sit in its package's `phases.py`).
 
-Each task's solver lives beside the task (in its module under `maniladder_ms/tasks/`) and registers
-itself here with `@register_solver(<task id>, control_modes=...)`; `solve(env, seed)` finds and runs it.
+A task's solver registers itself with `@register_solver("<TaskId>", control_modes=...)` written at the start of
+a line; the solver tree is scanned for those lines (no import), so `find_solver` imports only the module of the
+task asked for. `solve(env, seed)` finds and runs it.
 
 A solver drives the env in one of the control modes it was registered with: mplib solvers
 (`solvers.panda`) command joint targets that `JointTargetAdapter` re-expresses in any of
@@ -11,6 +14,9 @@ A solver drives the env in one of the control modes it was registered with: mpli
 
 from __future__ import annotations
 
+import importlib
+import importlib.resources
+import re
 from dataclasses import dataclass
 from typing import Callable
 
@@ -50,12 +56,42 @@ def register_solver(*task_ids: str, control_modes: tuple[str, ...] = JOINT_TARGE
     return decorate
 
 
-def find_solver(task_id: str) -> Solver | None:
-    """The task's solver, importing the task's module first (solvers register there); None if it has none."""
-    if task_id not in SOLVERS:
-        from maniladder_ms.tasks import load
+# the decorator at the start of a line with the task id as a string literal (as tasks' @register_task)
+SOLVER_LINE = re.compile(r"""^@register_solver\(\s*["']([A-Za-z0-9_]+)["']""", re.MULTILINE)
 
-        load(task_id)
+
+def solver_files() -> dict[str, str]:
+    """{task id: solver module path relative to this package ('rigid/pick_place_pen.py')}, by a text scan of
+    the per-task solver tree (this package's sub-folders)."""
+    from maniladder_ms.tasks import module_files
+
+    root = importlib.resources.files(__name__)
+    found = {}
+    for entry in sorted(root.iterdir(), key=lambda e: e.name):
+        if not entry.is_dir() or entry.name.startswith(("_", ".")):
+            continue
+        for name in module_files(entry, f"{entry.name}/"):
+            for task_id in SOLVER_LINE.findall(root.joinpath(name).read_text(encoding="utf-8")):
+                found.setdefault(task_id, name)
+    return found
+
+
+def solver_module(task_id: str) -> str | None:
+    """The dotted name of the module that registers `task_id`'s solver, or None if none does."""
+    name = solver_files().get(task_id)
+    return f"{__name__}.{name[:-3].replace('/', '.')}" if name else None
+
+
+def find_solver(task_id: str) -> Solver | None:
+    """The task's solver, importing its solver module first; None if the task has none."""
+    if task_id not in SOLVERS:
+        module = solver_module(task_id)
+        if module is not None:
+            importlib.import_module(module)
+        else:  # TRANSITION: a solver not yet moved out of its task module
+            from maniladder_ms.tasks import load
+
+            load(task_id)
     return SOLVERS.get(task_id)
 
 

@@ -1,6 +1,10 @@
 """Every implemented ManiLadder task; importing this registers their env ids without importing the modules.
 
-Each module here holds one task (or one parameterised family) with its scripted solver. The decorator
+The tree is by medium: `rigid/`, `articulated/`, `rope/`, `cloth/`, `clay/`, `particles/`. A task is one
+module (`rigid/pick_place_pen.py`); a family of several tasks is one package whose `base.py` holds the
+unregistered base class with the family's rule and whose other modules are its thin registered variants
+(`rigid/handover/`). Task modules import no other task module: what two tasks share lives in their family
+base, `maniladder_ms.objects` or `maniladder_ms.solvers`. The decorator
 `@register_task("<TaskId>")` stays the one place a task is declared: the module sources are scanned for it
 (a text scan, no import), every task found is registered lazily as `ManiLadder-<TaskId>-v1`, and its module
 is imported on first use (`gym.make`, `maniladder_ms.make`, `REGISTERED_ENVS[env_id].cls`,
@@ -22,14 +26,26 @@ from maniladder_ms.envs.registration import import_task_module, register_lazy, r
 TASK_LINE = re.compile(r"""^@register_task\(\s*["']([A-Za-z0-9_]+)["']""", re.MULTILINE)
 
 
+def module_files(root=None, prefix: str = "") -> list[str]:
+    """Paths, relative to this package and '/'-separated, of every module in the tree (`_*` files skipped)."""
+    root = importlib.resources.files(__name__) if root is None else root
+    found = []
+    for entry in sorted(root.iterdir(), key=lambda e: e.name):
+        if entry.is_dir() and not entry.name.startswith(("_", ".")):
+            found += module_files(entry, f"{prefix}{entry.name}/")
+        elif entry.name.endswith(".py") and not entry.name.startswith("_"):
+            found.append(f"{prefix}{entry.name}")
+    return found
+
+
 def scan() -> tuple[dict[str, str], dict[str, list[str]]]:
-    """({task id: module file name}, {task id: [file names]} of ids declared in more than one module)."""
+    """({task id: module file}, {task id: [module files]} of ids declared in more than one module); files are
+    relative to this package (`rigid/pick_place_pen.py`)."""
     found: dict[str, list[str]] = {}
-    files = sorted(f for f in importlib.resources.files(__name__).iterdir()
-                   if f.name.endswith(".py") and not f.name.startswith("_"))
-    for f in files:
-        for task_id in TASK_LINE.findall(f.read_text(encoding="utf-8")):
-            found.setdefault(task_id, []).append(f.name)
+    root = importlib.resources.files(__name__)
+    for name in module_files():
+        for task_id in TASK_LINE.findall(root.joinpath(name).read_text(encoding="utf-8")):
+            found.setdefault(task_id, []).append(name)
     return {t: names[0] for t, names in found.items()}, {t: names for t, names in found.items() if len(names) > 1}
 
 
@@ -37,7 +53,7 @@ FILES, CONFLICTS = scan()
 
 
 def _module(file_name: str) -> str:
-    return f"{__name__}.{file_name[:-3]}"
+    return f"{__name__}.{file_name[:-3].replace('/', '.')}"
 
 
 def _path(file_name: str) -> str:

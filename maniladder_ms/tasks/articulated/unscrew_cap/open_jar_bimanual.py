@@ -11,7 +11,7 @@ from maniladder_ms.solvers.bimanual import Grasp, tcp_quat
 from maniladder_ms.solvers.driven import DrivenSolver
 from maniladder_ms.solvers.twist import is_wound_up, rise_first, unscrew, wind_up_target
 
-from .unscrew_cap import UnscrewCapTask
+from .base import UnscrewCapTask
 
 
 @register_task("OpenJarBimanual")

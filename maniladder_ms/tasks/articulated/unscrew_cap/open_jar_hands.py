@@ -12,7 +12,7 @@ from maniladder_ms.solvers.bimanual import READY_ARM_JOINTS, Grasp, close_hands,
 from maniladder_ms.solvers.driven import DrivenSolver
 from maniladder_ms.solvers.twist import is_wound_up, rise_first, unscrew, wind_up_target
 
-from .unscrew_cap import UnscrewCapTask
+from .base import UnscrewCapTask
 
 HOLDER, TWISTER = "left", "right"
 

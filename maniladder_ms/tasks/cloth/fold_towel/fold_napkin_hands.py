@@ -13,8 +13,8 @@ from maniladder_ms.envs.memory import latch_held_by_both
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.bimanual import follow_paths, glide
 from maniladder_ms.solvers.driven import DrivenSolver
-from maniladder_ms.tasks.fold_towel_in_half import FoldTowelInHalfEnv
-from maniladder_ms.tasks.lift_towel_hands import SIDES, lay_between_hands, pinch_side_corners, side_corners
+from .fold_towel_in_half import FoldTowelInHalfEnv
+from maniladder_ms.tasks.cloth.lift_towel_hands import SIDES, lay_between_hands, pinch_side_corners, side_corners
 
 SIZE = 8  # particles along each edge of the napkin
 

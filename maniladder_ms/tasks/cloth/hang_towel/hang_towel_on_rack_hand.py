@@ -110,7 +110,7 @@ from maniladder_ms.geometry import yaw_quat
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.bimanual import glide
 from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver, SCISSOR_RAMP_STEPS
-from maniladder_ms.tasks.hang_towel import ROWS, HangTowelEnv
+from .hang_towel_on_bar import ROWS, HangTowelEnv
 
 
 @register_task("HangTowelOnRackHand")

@@ -25,7 +25,7 @@ from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.objects import containers
 
-from . import particles
+from maniladder_ms.deformables import particles
 
 
 class CupToBowl:

@@ -12,7 +12,7 @@ import torch
 from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.deformables import particles
-from maniladder_ms.deformables.pouring import CupToBowl
+from .base import CupToBowl
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.solvers import register_solver
 from maniladder_ms.solvers.panda import PandaSolver

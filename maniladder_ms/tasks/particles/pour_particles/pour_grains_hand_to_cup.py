@@ -8,7 +8,7 @@ import numpy as np
 import torch
 
 from maniladder_ms.deformables import particles
-from maniladder_ms.deformables.pouring import CupToBowl
+from .base import CupToBowl
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.objects import containers
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver

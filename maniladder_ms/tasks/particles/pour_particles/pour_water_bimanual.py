@@ -10,7 +10,7 @@ import torch
 from mani_skill.utils.geometry.rotation_conversions import quaternion_apply
 
 from maniladder_ms.deformables import particles
-from maniladder_ms.deformables.pouring import CupToBowl
+from .base import CupToBowl
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.geometry import tilt
 from maniladder_ms.objects import containers

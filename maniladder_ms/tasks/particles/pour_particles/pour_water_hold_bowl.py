@@ -10,7 +10,7 @@ import torch
 from mani_skill.utils.geometry.rotation_conversions import axis_angle_to_quaternion, quaternion_multiply
 
 from maniladder_ms.agents.helpers import top_down_quat
-from maniladder_ms.deformables.pouring import CupToBowl
+from .base import CupToBowl
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.bimanual import Grasp, grasp_together, reach, tcp_quat

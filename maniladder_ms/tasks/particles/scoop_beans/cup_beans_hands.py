@@ -231,7 +231,7 @@ from maniladder_ms.solvers.bimanual import (READY_ARM_JOINTS, HandoverSolver, cl
                                             roll_targets, side_grasp, tcp_quat)
 from maniladder_ms.solvers.driven import DrivenSolver
 
-from .pour_grains_hand_to_cup import ABOVE, LINE_UP_DISTANCE, PRESHAPE_STEPS, SIDE_GRASP
+from maniladder_ms.tasks.particles.pour_particles.pour_grains_hand_to_cup import ABOVE, LINE_UP_DISTANCE, PRESHAPE_STEPS, SIDE_GRASP
 from .scoop_beans_with_spoon import ScoopBeansTask
 
 # the ledge the beans are swept off (session 19, the session-18 probe built): a 14 x 12 cm floor 38 cm up (palm-up the

@@ -19,7 +19,7 @@ from maniladder_ms.objects.tabletop import place_at_rest
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.bimanual import HandoverSolver, glide, roll_targets
 
-from .handover import HandoverTask
+from .base import HandoverTask
 
 BALL_RADIUS = 0.0335  # a tennis ball: 6.7 cm across, 58 g
 BALL_MASS = 0.058

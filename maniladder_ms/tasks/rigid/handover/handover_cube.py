@@ -19,7 +19,7 @@ from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.bimanual import Grasp, hand_over, line_up, tcp_quat
 from maniladder_ms.solvers.driven import DrivenSolver
 
-from .handover import HandoverTask
+from .base import HandoverTask
 
 @register_task("HandoverCube")
 class HandoverCubeEnv(HandoverTask):

@@ -52,7 +52,7 @@ from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.bimanual import Grasp, HandoverSolver, glide, reach, roll_targets
 from maniladder_ms.solvers.mug import mug_to_coaster
 
-from .handover import HandoverTask
+from .base import HandoverTask
 
 UPSIDE_DOWN = (0.0, 1.0, 0.0, 0.0)  # wxyz: half a turn about x
 HANDLE_YAW = 20.0  # degrees: the handle's direction is uniform within this of pointing away from the robot

@@ -17,7 +17,7 @@ from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.bimanual import Grasp, glide, grasp_together, reach
 from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver
 
-from .insert_peg import InsertPegTask, insert_held_peg
+from .base import InsertPegTask, insert_held_peg
 
 
 @register_task("InsertPegBimanual")

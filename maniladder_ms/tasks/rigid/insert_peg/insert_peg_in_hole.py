@@ -15,7 +15,7 @@ from maniladder_ms.geometry import yaw_of, yaw_quat
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.driven import DrivenSolver
 
-from .insert_peg import InsertPegTask, insert_held_peg
+from .base import InsertPegTask, insert_held_peg
 
 
 @register_task("InsertPegInHole")

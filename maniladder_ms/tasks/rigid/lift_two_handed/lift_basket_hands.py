@@ -17,7 +17,7 @@ from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.bimanual import Grasp, lift_together
 from maniladder_ms.solvers.driven import DrivenSolver
 
-from .lift_two_handed import LiftTwoHandedTask
+from .base import LiftTwoHandedTask
 
 SIDES = {"left": 1, "right": -1}  # the left hand takes the +y handle
 

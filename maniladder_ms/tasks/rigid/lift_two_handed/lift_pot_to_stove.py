@@ -16,7 +16,7 @@ from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.bimanual import top_down_carry
 from maniladder_ms.solvers.driven import DrivenSolver
 
-from .lift_two_handed import LiftTwoHandedTask
+from .base import LiftTwoHandedTask
 
 SIDES = {"left": 1, "right": -1}  # the left gripper takes the +y handle
 POT_DENSITY = 1200.0  # kg/m^3: the pot weighs ~0.9 kg

@@ -17,7 +17,7 @@ from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.bimanual import Grasp, lift_together
 from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver
 
-from .lift_two_handed import LiftTwoHandedTask
+from .base import LiftTwoHandedTask
 
 
 @register_task("LiftWideBox")

@@ -19,7 +19,7 @@ from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.bimanual import top_down_carry
 from maniladder_ms.solvers.driven import DrivenSolver
 
-from .lift_two_handed import LiftTwoHandedTask
+from .base import LiftTwoHandedTask
 
 SIDES = {"left": 1, "right": -1}  # the left gripper takes the +y end wall
 TRAY_INNER_HALF = (0.1, 0.15)  # the floor inside the rims, (x, y): 20 x 30 cm

@@ -28,7 +28,7 @@ from maniladder_ms.objects.tabletop import build_flat_box
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver
 
-from .pick_thin_card import PickThinCardTask
+from .base import PickThinCardTask
 
 STAND_HALF = (0.12, 0.15)  # the stand's top: 24 cm deep (x), 30 cm wide (y)
 STAND_FRICTION = 0.3
