@@ -31,6 +31,45 @@ def catalog():
     return maniladder_ms.default_catalog()
 
 
+FIXTURE_TASK = "FixtureUnbuiltTask"  # the first made-up row of `fixture_catalog`
+FIXTURE_LEVEL = 4  # the level `fixture_catalog` makes of made-up rows only
+
+
+@pytest.fixture
+def fixture_catalog(monkeypatch):
+    """The packaged catalog with, for one test, Level `FIXTURE_LEVEL`'s rows replaced by made-up rows that no
+    module builds (`FIXTURE_TASK`, then `FixtureUnbuiltTask2`, ...: same suites, counts and numbers), each
+    registered as the package registers a catalog row no module declares (`register_unbuilt`). Build-state
+    checks ("not implemented yet", "a level / suite with nothing built") run on these rows, whatever the real
+    tasks' state: they hold at 56 built tasks and at 112. The rows go into the cached `default_catalog()`
+    object, which every module reads (monkeypatched, undone after the test)."""
+    import dataclasses
+
+    import gymnasium as gym
+
+    from maniladder_ms.catalog import ENV_ID_FORMAT
+    from maniladder_ms.envs.registration import register_unbuilt
+
+    cat = maniladder_ms.default_catalog()
+    made_up, rows = iter(range(1, len(cat) + 1)), []
+    for spec in cat.tasks:
+        if spec.level == FIXTURE_LEVEL:
+            k = next(made_up)
+            task_id = FIXTURE_TASK if k == 1 else f"{FIXTURE_TASK}{k}"
+            spec = dataclasses.replace(spec, id=task_id, env_id=ENV_ID_FORMAT.format(task_id), family=task_id)
+        rows.append(spec)
+    monkeypatch.setattr(cat, "tasks", tuple(rows))
+    monkeypatch.setattr(cat, "_by_id", {s.id: s for s in rows})
+    made = [s for s in rows if s.level == FIXTURE_LEVEL]
+    for spec in made:
+        assert spec.env_id not in gym.registry, f"{spec.env_id} is registered already: pick another made-up id"
+        register_unbuilt(spec.id)
+    assert made[0].id == FIXTURE_TASK and not any(s.implemented for s in made)
+    yield cat
+    for spec in made:
+        gym.registry.pop(spec.env_id, None)
+
+
 def _git(*args: str) -> str:
     try:
         out = subprocess.run(["git", *args], cwd=REPO, capture_output=True, text=True, timeout=30)
