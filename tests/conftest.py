@@ -34,7 +34,7 @@ import maniladder_ms
 REPO = Path(__file__).resolve().parents[1]
 SAMPLE_SIZE = 8  # tasks a commit checks expensively, besides the ones it changes
 TASKS_ENV = "MANILADDER_TEST_TASKS"
-SHARED_CAP = 6  # tasks a change samples through shared modules it touches, at most (docs: "CI budget")
+SHARED_CAP = 4  # tasks a change samples through shared modules it touches, at most (docs: "CI budget")
 
 
 @pytest.fixture(scope="session")
