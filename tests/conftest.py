@@ -3,14 +3,24 @@
 
 Cheap contract checks (make, reset, step, metadata, no success at reset) run on every implemented task.
 Expensive ones (solver run, demo record + verify, rgb obs, state round trip, committed-sample replay) take
-their tasks from `sampled_tasks()`: the tasks whose files the branch changes, plus `SAMPLE_SIZE` tasks that
-change with the commit (ranked by a hash of `git rev-parse HEAD` and the task id, picked so the first few
-cover every embodiment and object class); the rest are marked `slow`, so `pytest -m slow` sweeps them all.
+their tasks from `sampled_tasks()`: the tasks the branch's changes sample (`changed_tasks`), plus `SAMPLE_SIZE`
+tasks that change with the commit (ranked by a hash of `git rev-parse HEAD` and the task id, picked so the first
+few cover every embodiment and object class); the rest are marked `slow`, so `pytest -m slow` sweeps them all.
 `MANILADDER_TEST_TASKS=all` (or a comma-separated list of task ids) overrides the sample.
+
+A change samples a task when it touches the task's own files (its task module, its solver module under
+`solvers/`, `demos/<TaskId>/`), or a module in the task's import closure: the maniladder_ms modules that
+importing its task and solver modules runs, read statically (`ast`, no import; relative imports resolved, the
+packages above each module included). Modules in many closures (envs/base.py, catalog.py, solvers/bimanual.py)
+add at most `SHARED_CAP` tasks in all, the narrowest changed module first, each in the commit's hash order.
+
+`fixture_catalog` gives build-state tests made-up unbuilt catalog rows (Level `FIXTURE_LEVEL`), so they hold
+whichever real tasks are built.
 """
 
 from __future__ import annotations
 
+import ast
 import hashlib
 import os
 import subprocess
@@ -24,11 +34,54 @@ import maniladder_ms
 REPO = Path(__file__).resolve().parents[1]
 SAMPLE_SIZE = 8  # tasks a commit checks expensively, besides the ones it changes
 TASKS_ENV = "MANILADDER_TEST_TASKS"
+SHARED_CAP = 4  # tasks a change samples through shared modules it touches, at most (docs: "CI budget")
 
 
 @pytest.fixture(scope="session")
 def catalog():
     return maniladder_ms.default_catalog()
+
+
+FIXTURE_TASK = "FixtureUnbuiltTask"  # the first made-up row of `fixture_catalog`
+FIXTURE_LEVEL = 4  # the level `fixture_catalog` makes of made-up rows only
+
+
+@pytest.fixture
+def fixture_catalog(monkeypatch):
+    """The packaged catalog with, for one test, Level `FIXTURE_LEVEL`'s rows replaced by made-up rows that no
+    module builds (`FIXTURE_TASK`, then `FixtureUnbuiltTask2`, ...: same suites, counts and numbers), each
+    registered as the package registers a catalog row no module declares (`register_unbuilt`). Build-state
+    checks ("not implemented yet", "a level / suite with nothing built") run on these rows, whatever the real
+    tasks' state: they hold at 56 built tasks and at 112. The rows go into the cached `default_catalog()`
+    object, which every module reads (monkeypatched, undone after the test); `get` still finds the real Level
+    `FIXTURE_LEVEL` rows by id."""
+    import dataclasses
+
+    import gymnasium as gym
+
+    from maniladder_ms.catalog import ENV_ID_FORMAT
+    from maniladder_ms.envs.registration import register_unbuilt
+
+    cat = maniladder_ms.default_catalog()
+    made_up, rows = iter(range(1, len(cat) + 1)), []
+    for spec in cat.tasks:
+        if spec.level == FIXTURE_LEVEL:
+            k = next(made_up)
+            task_id = FIXTURE_TASK if k == 1 else f"{FIXTURE_TASK}{k}"
+            spec = dataclasses.replace(spec, id=task_id, env_id=ENV_ID_FORMAT.format(task_id), family=task_id)
+        rows.append(spec)
+    monkeypatch.setattr(cat, "tasks", tuple(rows))
+    # the real rows stay reachable by id (a demo or results file of a real Level 4 task still resolves); only
+    # listing and filtering see the made-up level
+    monkeypatch.setattr(cat, "_by_id", {**cat._by_id, **{s.id: s for s in rows}})
+    made = [s for s in rows if s.level == FIXTURE_LEVEL]
+    for spec in made:
+        assert spec.env_id not in gym.registry, f"{spec.env_id} is registered already: pick another made-up id"
+        register_unbuilt(spec.id)
+    assert made[0].id == FIXTURE_TASK and not any(s.implemented for s in made)
+    yield cat
+    for spec in made:
+        gym.registry.pop(spec.env_id, None)
 
 
 def _git(*args: str) -> str:
@@ -45,22 +98,115 @@ def commit() -> str:
     return _git("rev-parse", "HEAD")
 
 
+@lru_cache(maxsize=None)
+def _module_file(dotted: str) -> str | None:
+    """The repo-relative file of a maniladder_ms module or package (`a/b.py` or `a/b/__init__.py`), if any."""
+    parts = dotted.split(".")
+    if parts[0] != "maniladder_ms" or not all(p.isidentifier() for p in parts):
+        return None
+    base = REPO.joinpath(*parts)
+    for path in (base.with_suffix(".py"), base / "__init__.py"):
+        if path.is_file():
+            return path.relative_to(REPO).as_posix()
+    return None
+
+
+@lru_cache(maxsize=None)
+def _with_packages(dotted: str) -> frozenset[str]:
+    """The files Python runs to import `dotted`: the module's and every package's above it."""
+    parts = dotted.split(".")
+    return frozenset(f for k in range(1, len(parts) + 1) if (f := _module_file(".".join(parts[:k]))))
+
+
+@lru_cache(maxsize=None)
+def module_imports(path: str) -> frozenset[str]:
+    """The maniladder_ms files that the module file `path` (repo-relative) imports, read statically (`ast`, no
+    import): `import a.b`, `from a.b import c` (c a submodule or a name), relative imports resolved, imports
+    inside functions included, each with the packages above it. A file that does not parse imports nothing
+    here (its own tests fail on it)."""
+    try:
+        tree = ast.parse((REPO / path).read_text(encoding="utf-8"))
+    except (OSError, SyntaxError, UnicodeDecodeError, ValueError):
+        return frozenset()
+    package = path[:-3].replace("/", ".").removesuffix(".__init__")
+    if not path.endswith("/__init__.py"):
+        package = package.rpartition(".")[0]
+    names = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            names += [a.name for a in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                up = package.split(".")[: len(package.split(".")) - (node.level - 1)]
+                module = ".".join(up + ([node.module] if node.module else []))
+            else:
+                module = node.module or ""
+            names += [module, *(f"{module}.{a.name}" for a in node.names if a.name != "*")]
+    return frozenset(f for name in names for f in _with_packages(name))
+
+
+def import_closure(*dotted: str) -> frozenset[str]:
+    """Every maniladder_ms file that importing the modules `dotted` runs, transitively (static, see
+    `module_imports`)."""
+    todo = [f for d in dotted for f in _with_packages(d)]
+    seen = set(todo)
+    while todo:
+        for f in module_imports(todo.pop()):
+            if f not in seen:
+                seen.add(f)
+                todo.append(f)
+    return frozenset(seen)
+
+
+@lru_cache(maxsize=1)
+def task_files() -> dict[str, tuple[frozenset[str], frozenset[str]]]:
+    """{implemented task: (its own files, its import closure)}: own = its task module, its solver module (once
+    moved to solvers/) and its demos folder prefix; the closure = every maniladder_ms file that importing the two
+    modules runs."""
+    from maniladder_ms import solvers, tasks
+
+    implemented = {t.id for t in maniladder_ms.default_catalog().filter(implemented=True)}
+    solver_files = solvers.solver_files()
+    out = {}
+    for task_id, name in tasks.FILES.items():
+        if task_id not in implemented:
+            continue
+        modules = [tasks._module(name)]
+        own = {f"maniladder_ms/tasks/{name}", f"demos/{task_id}/"}
+        if task_id in solver_files:
+            modules.append(solvers.solver_module(task_id))
+            own.add(f"maniladder_ms/solvers/{solver_files[task_id]}")
+        out[task_id] = (frozenset(own), import_closure(*modules))
+    return out
+
+
+def tasks_for_changes(files, key: str = "", cap: int = SHARED_CAP) -> list[str]:
+    """The tasks a change to `files` (repo-relative paths) samples: every task whose own module, solver module
+    or demos/<TaskId>/ is among them; then, through the changed files in tasks' import closures, at most `cap`
+    more: the narrowest changed module first (fewest importing tasks), each adding the tasks that import it,
+    in the order of `_rank(..., key)` (the commit's hash order), until `cap` are added."""
+    by_task = task_files()
+    files = sorted(set(files))
+    own = sorted(t for t, (mine, _) in by_task.items()
+                 if any(f in mine or f.startswith(tuple(m for m in mine if m.endswith("/"))) for f in files))
+    users = {f: [t for t, (_, closure) in sorted(by_task.items()) if f in closure and t not in own]
+             for f in files if f.endswith(".py")}
+    added: list[str] = []
+    for f in sorted((f for f in users if users[f]), key=lambda f: (len(users[f]), f)):
+        added += [t for t in _rank(users[f], key) if t not in added][: cap - len(added)]
+    return own + added
+
+
 @lru_cache(maxsize=1)
 def changed_tasks() -> tuple[str, ...]:
-    """Implemented tasks whose module or committed demos differ from the merge base with main (committed,
-    uncommitted or untracked); none on main itself or outside a checkout."""
-    from maniladder_ms import tasks
-
+    """The tasks the branch's changes sample (`tasks_for_changes` of the files that differ from the merge base
+    with main: committed, uncommitted or untracked); none on main itself or outside a checkout."""
     base = next((b for ref in ("main", "origin/main") if (b := _git("merge-base", "HEAD", ref))), "")
     if not base:
         return ()
     files = _git("diff", "--name-only", base).splitlines()
-    files += _git("ls-files", "--others", "--exclude-standard", "maniladder_ms/tasks", "demos").splitlines()
-    by_file = {f"maniladder_ms/tasks/{name}": task_id for task_id, name in tasks.FILES.items()}
-    implemented = {t.id for t in maniladder_ms.default_catalog().filter(implemented=True)}
-    found = {by_file.get(f) or (f.split("/")[1] if f.startswith("demos/") and f.count("/") >= 2 else None)
-             for f in files}
-    return tuple(sorted(found & implemented))
+    files += _git("ls-files", "--others", "--exclude-standard", "maniladder_ms", "demos").splitlines()
+    return tuple(tasks_for_changes(files, commit()))
 
 
 def _rank(task_ids, key: str) -> list[str]:

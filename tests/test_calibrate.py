@@ -15,6 +15,8 @@ import pytest
 from maniladder_ms.policy.calibrate import CalibrationProtocol, TaskCalibration, calibrate, measured_level
 from maniladder_ms.policy.flow import LadderFlowConfig
 
+from conftest import FIXTURE_TASK
+
 REPO = Path(__file__).resolve().parents[1]
 
 # the committed PickPlacePen samples (2 demos), a random-projection encoder and a tiny network: every stage
@@ -30,18 +32,18 @@ def test_measured_level_follows_the_catalog_intervals():
     assert {r: measured_level(r) for r in cases} == cases
 
 
-def test_calibrating_an_unbuilt_task_is_a_clear_error(tmp_path):
+def test_calibrating_an_unbuilt_task_is_a_clear_error(tmp_path, fixture_catalog):
     import maniladder_ms
 
-    catalog = maniladder_ms.default_catalog()
-    unbuilt = next(s.id for s in catalog.tasks if not s.implemented)
+    catalog, unbuilt = fixture_catalog, FIXTURE_TASK
     with pytest.raises(maniladder_ms.TaskNotImplementedError, match="not implemented"):
         TaskCalibration(unbuilt, tmp_path / "work", tmp_path / "out")
 
     # the command says so in one line (exit 2), and so for a suite with nothing built
     from maniladder_ms.cli import main
 
-    empty = next(s.suite for s in catalog.tasks if not any(t.implemented for t in catalog.filter(suite=s.suite)))
+    empty = catalog.get(unbuilt).suite  # every row of the fixture level is made up
+    assert not any(t.implemented for t in catalog.filter(suite=empty))
     for args in (["--tasks", unbuilt], ["--suite", empty]):
         assert main(["calibrate", *args, "--work", str(tmp_path / "w"), "--out", str(tmp_path / "o")]) == 2
     assert not (tmp_path / "w").exists() and not (tmp_path / "o").exists()

@@ -18,7 +18,7 @@ from maniladder_ms.demos.stats import plot_stats
 from maniladder_ms.demos.wheel import build_wheel_site, maniskill_replay
 from maniladder_ms.solvers import solver_for
 
-from conftest import sampled_tasks, task_sample
+from conftest import FIXTURE_TASK, sampled_tasks, task_sample
 
 TASKS = [t.id for t in maniladder_ms.default_catalog().filter(implemented=True)]
 # Recording and verifying 3 demos costs 20-60 s a task, ManiSkill's rgbd conversion (every step of a demo
@@ -193,14 +193,14 @@ def test_broken_demo_files_are_clear_errors(recorded, tmp_path):
         generate("PickPlacePen", 1, tmp_path, seed=999_990, progress=False)
 
 
-def test_cli_demos_commands(recorded, demo_root, capsys):
+def test_cli_demos_commands(recorded, demo_root, capsys, fixture_catalog):
     from maniladder_ms.cli import main
 
     assert main(["demos", "verify", str(recorded("PickPlacePen"))]) == 0
     assert "3/3 episodes replay to success" in capsys.readouterr().out
     assert main(["demos", "stats", str(demo_root)]) == 0
     assert "PickPlacePen" in capsys.readouterr().out
-    assert main(["demos", "generate", "FlipPancake", "--num", "1", "--out", str(demo_root)]) == 2
+    assert main(["demos", "generate", FIXTURE_TASK, "--num", "1", "--out", str(demo_root)]) == 2
     assert "not implemented yet" in capsys.readouterr().err
 
 
@@ -343,7 +343,7 @@ def test_resample_rerecords_a_copy_of_the_committed_samples(tmp_path, capsys):
     assert all(c.success_from_actions for c in verify(old, progress=False))
 
 
-def test_resample_asks_before_replacing(tmp_path, capsys, monkeypatch):
+def test_resample_asks_before_replacing(tmp_path, capsys, monkeypatch, fixture_catalog):
     from maniladder_ms.cli import main
 
     root = tmp_path / "demos"
@@ -355,7 +355,8 @@ def test_resample_asks_before_replacing(tmp_path, capsys, monkeypatch):
     monkeypatch.setattr("builtins.input", lambda prompt: "n")
     assert main(["demos", "resample", RESAMPLE_TASK, "--root", str(root)]) == 1
     assert {p.name: p.read_bytes() for p in (root / RESAMPLE_TASK).iterdir()} == before
-    assert main(["demos", "resample", "FlipPancake", "--root", str(root), "--yes"]) == 2
+    assert main(["demos", "resample", FIXTURE_TASK, "--root", str(root), "--yes"]) == 2
+    assert "no demo files" in capsys.readouterr().err
 
 
 def test_demos_only_in_a_mode_the_solver_drives(tmp_path):

@@ -11,7 +11,7 @@ from maniladder_ms import TaskNotImplementedError, UnknownTaskError, Unsupported
 from maniladder_ms.envs import resolve_render_backend
 from maniladder_ms.envs.scene import DISTRACTOR_AREA, DISTRACTOR_REACH, KEEP_OUT_MARGIN, MAX_DISTRACTORS
 
-from conftest import sampled_tasks
+from conftest import FIXTURE_TASK, sampled_tasks
 
 
 TASKS = [t.id for t in maniladder_ms.default_catalog().filter(implemented=True)]
@@ -306,11 +306,11 @@ def test_visual_seed_kwarg_fixes_the_look():
     env.close()
 
 
-def test_unknown_and_unbuilt_tasks_are_clear_errors():
+def test_unknown_and_unbuilt_tasks_are_clear_errors(fixture_catalog):
     with pytest.raises(UnknownTaskError, match="unknown ManiLadder task 'PickPlacePencil'"):
         make("PickPlacePencil")
-    with pytest.raises(TaskNotImplementedError, match="FlipPancake .* not implemented"):
-        make("FlipPancake")
+    with pytest.raises(TaskNotImplementedError, match=f"{FIXTURE_TASK} .* not implemented"):
+        make(FIXTURE_TASK)
     with pytest.raises(gym.error.Error):
         gym.make("ManiLadder-NoSuchTask-v1")
 

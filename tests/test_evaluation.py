@@ -19,8 +19,9 @@ from maniladder_ms.evaluation.results import ResultsError, load_results, read_ep
 from maniladder_ms.evaluation.runner import as_action_chunk, evaluate
 from maniladder_ms.evaluation.stats import ladder_level, level_thresholds, summarize, wilson_interval
 
+from conftest import FIXTURE_LEVEL, FIXTURE_TASK
+
 PEN = "PickPlacePen"
-UNBUILT = "FlipPancake"  # an L4 task no session is near building
 
 
 def _records(task, successes, n):
@@ -273,10 +274,10 @@ def test_env_driving_policy_is_checked_too(tmp_path):
         evaluate(f"{pol}:Oracle", tmp_path / "out", tasks=[PEN], episodes=1, progress=False)
 
 
-def test_unimplemented_tasks_are_refused_or_skipped(tmp_path, capsys):
-    assert eval_main(["eval", "--policy", "random", "--tasks", UNBUILT, "--out", str(tmp_path / "a")]) == 2
+def test_unimplemented_tasks_are_refused_or_skipped(tmp_path, capsys, fixture_catalog):
+    assert eval_main(["eval", "--policy", "random", "--tasks", FIXTURE_TASK, "--out", str(tmp_path / "a")]) == 2
     assert "not implemented yet" in capsys.readouterr().err
-    assert eval_main(["eval", "--policy", "random", "--level", "3", "--out", str(tmp_path / "b")]) == 2
+    assert eval_main(["eval", "--policy", "random", "--level", str(FIXTURE_LEVEL), "--out", str(tmp_path / "b")]) == 2
     assert "nothing to evaluate" in capsys.readouterr().err
     assert eval_main(["eval", "--policy", "nonsense", "--tasks", PEN, "--out", str(tmp_path / "c")]) == 2
 

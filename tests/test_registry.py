@@ -16,6 +16,8 @@ from maniladder_ms import tasks
 from maniladder_ms.envs.registration import UNSCANNED, LazyEnvSpec
 from maniladder_ms.solvers import find_solver
 
+from conftest import FIXTURE_TASK
+
 PACKAGE = Path(maniladder_ms.__file__).resolve().parent
 
 
@@ -55,23 +57,36 @@ def test_registry_is_complete_and_every_module_registers_what_the_scan_found():
 
 
 def test_a_broken_task_module_breaks_only_its_task(tmp_path):
-    """A copy of the package with one more task module that raises: the package imports, the broken task
-    is listed, making it names the file, and the other tasks still load."""
+    """A copy of the package with one more task module that raises, for a made-up catalog row added to the
+    copy's catalog (so the test does not depend on which real task is unbuilt): the package imports, the
+    broken task is listed, making it names the file, and the other tasks still load."""
+    import yaml
+
     copy = tmp_path / "maniladder_ms"
     shutil.copytree(PACKAGE, copy, symlinks=True, ignore=shutil.ignore_patterns("__pycache__"))
     (copy / "data" / "agents").unlink()
     (copy / "data" / "agents").symlink_to((PACKAGE / "data" / "agents").resolve())
-    (copy / "tasks" / "flip_pancake.py").write_text(
+    catalog_file, instructions_file = copy / "data" / "task_catalog.yaml", copy / "data" / "instructions.yaml"
+    data = yaml.safe_load(catalog_file.read_text())
+    suites = [row["suite"] for row in data["tasks"]]
+    row = next(r for r in data["tasks"] if suites.count(r["suite"]) == 3)  # a suite with room for a 4th task
+    data["tasks"].append({**row, "id": FIXTURE_TASK, "env_id": f"ManiLadder-{FIXTURE_TASK}-v1", "family": FIXTURE_TASK})
+    catalog_file.write_text(yaml.safe_dump(data, sort_keys=False))
+    texts = yaml.safe_load(instructions_file.read_text())
+    texts[FIXTURE_TASK] = {"instruction": "Do the made-up fixture task.",
+                           "paraphrases": [f"Made-up fixture task, phrasing {k}." for k in range(4)]}
+    instructions_file.write_text(yaml.safe_dump(texts, sort_keys=False))
+    (copy / "tasks" / "rigid" / "fixture_unbuilt_task.py").write_text(
         'from maniladder_ms.envs import register_task\n\nraise RuntimeError("half-written")\n\n\n'
-        '@register_task("FlipPancake")\nclass FlipPancakeEnv:\n    pass\n'
+        f'@register_task("{FIXTURE_TASK}")\nclass FixtureUnbuiltTaskEnv:\n    pass\n'
     )
     out = run_python(
         "import maniladder_ms\n"
         "from maniladder_ms.envs.registration import TaskImportError\n"
         "from mani_skill.utils.registration import REGISTERED_ENVS\n"
-        "print(maniladder_ms.default_catalog().get('FlipPancake').implemented)\n"
+        f"print(maniladder_ms.default_catalog().get('{FIXTURE_TASK}').implemented)\n"
         "try:\n"
-        "    maniladder_ms.make('FlipPancake')\n"
+        f"    maniladder_ms.make('{FIXTURE_TASK}')\n"
         "except TaskImportError as e:\n"
         "    print(e)\n"
         "print(REGISTERED_ENVS['ManiLadder-PickPlacePen-v1'].cls.__name__)\n",
@@ -79,17 +94,20 @@ def test_a_broken_task_module_breaks_only_its_task(tmp_path):
     )
     listed, error, other = out.splitlines()
     assert listed == "True"
-    assert error == ("task FlipPancake: importing maniladder_ms/tasks/flip_pancake.py failed: "
+    assert error == ("task FixtureUnbuiltTask: importing maniladder_ms/tasks/rigid/fixture_unbuilt_task.py failed: "
                      "RuntimeError: half-written")
     assert other == "PickPlacePenEnv"
 
 
-def test_gym_make_of_an_unbuilt_catalog_task_says_not_implemented():
+def test_gym_make_of_an_unbuilt_catalog_task_says_not_implemented(fixture_catalog):
     """A catalog task no module builds yet: gym.make names it as not implemented (gymnasium would otherwise
-    answer "Did you mean" another task), and it does not count as implemented."""
-    unbuilt = [s for s in maniladder_ms.default_catalog() if not s.implemented]
-    assert unbuilt, "every catalog task is built: nothing to check"
+    answer "Did you mean" another task), and it does not count as implemented. Checked on the fixture
+    catalog's made-up row (registered as the package registers an unbuilt row) and on every real catalog
+    task no module declares (none once all are built)."""
+    unbuilt = [s for s in fixture_catalog if not s.implemented]
+    assert FIXTURE_TASK in {s.id for s in unbuilt}
     for spec in unbuilt:
         assert spec.env_id in gym.registry and spec.env_id not in REGISTERED_ENVS
-    with pytest.raises(maniladder_ms.TaskNotImplementedError, match="not implemented yet"):
-        gym.make(unbuilt[0].env_id)
+        assert spec.id.startswith(FIXTURE_TASK) or spec.id not in tasks.FILES
+    with pytest.raises(maniladder_ms.TaskNotImplementedError, match=f"task {FIXTURE_TASK} .*not implemented yet"):
+        gym.make(fixture_catalog.get(FIXTURE_TASK).env_id)

@@ -1,0 +1,76 @@
+"""The CI task sample's "changed tasks" (tests/conftest.py): a change samples the tasks whose import closure it
+touches, read statically; no env is built and no task module is imported here."""
+
+import sys
+
+import pytest
+
+import conftest
+from conftest import SHARED_CAP, TASKS_ENV, module_imports, task_files, task_sample, tasks_for_changes
+
+BIMANUAL = "maniladder_ms/solvers/bimanual.py"
+
+
+def importers(path: str) -> list[str]:
+    """Tasks whose closure holds `path`."""
+    return sorted(t for t, (_, closure) in task_files().items() if path in closure)
+
+
+def test_closures_are_read_without_importing_task_modules():
+    before = {m for m in sys.modules if m.startswith("maniladder_ms.tasks.")}
+    task_files.cache_clear()
+    closures = task_files()
+    assert {m for m in sys.modules if m.startswith("maniladder_ms.tasks.")} == before
+    assert len(closures) >= 56
+    # absolute, relative and function-level imports, and the packages above each module
+    assert "maniladder_ms/solvers/base.py" in module_imports("maniladder_ms/solvers/driven.py")  # `from .base`
+    own, closure = closures["HandoverCube"]
+    assert own >= {"maniladder_ms/tasks/rigid/handover/handover_cube.py", "demos/HandoverCube/"}
+    assert {"maniladder_ms/tasks/rigid/handover/base.py", "maniladder_ms/tasks/rigid/handover/__init__.py",
+            "maniladder_ms/tasks/rigid/__init__.py", "maniladder_ms/envs/base.py", BIMANUAL} <= closure
+    assert "maniladder_ms/tasks/rigid/pick_place_pen.py" not in closure
+
+
+def test_a_change_to_a_task_module_or_its_demos_samples_that_task():
+    assert tasks_for_changes(["maniladder_ms/tasks/rigid/pick_place_pen.py"]) == ["PickPlacePen"]
+    assert tasks_for_changes(["demos/HandoverCube/trajectory.none.pd_ee_delta_pose.physx_cpu.h5"]) == ["HandoverCube"]
+    assert tasks_for_changes(["README.md", "docs/building-a-task.md", "tests/test_envs.py"]) == []
+
+
+def test_a_change_to_a_family_base_samples_its_tasks():
+    assert sorted(tasks_for_changes(["maniladder_ms/tasks/rigid/handover/base.py"])) == \
+        ["HandoverBallHands", "HandoverCube", "HandoverMugHands"]
+
+
+def test_a_change_to_a_shared_solver_module_samples_tasks_that_import_it():
+    direct = [t for t, (own, _) in task_files().items()
+              if any(BIMANUAL in module_imports(f) for f in own if f.endswith(".py"))]
+    users = importers(BIMANUAL)
+    assert "HandoverCube" in direct and set(direct) <= set(users) and len(users) > SHARED_CAP
+    # uncapped: every task that imports it; capped: SHARED_CAP of them, in the commit's order
+    assert sorted(tasks_for_changes([BIMANUAL], cap=len(users))) == users
+    picked = tasks_for_changes([BIMANUAL], key="some commit")
+    assert len(picked) == SHARED_CAP and set(picked) <= set(users)
+    assert picked == tasks_for_changes([BIMANUAL], key="some commit")
+    assert picked != tasks_for_changes([BIMANUAL], key="another commit")
+
+
+def test_a_core_module_samples_a_few_tasks_and_a_changed_task_comes_first():
+    assert len(importers("maniladder_ms/envs/base.py")) == len(task_files())
+    picked = tasks_for_changes(["maniladder_ms/envs/base.py", "maniladder_ms/tasks/rigid/pick_place_pen.py"], "k")
+    assert picked[0] == "PickPlacePen" and len(picked) == 1 + SHARED_CAP and len(set(picked)) == len(picked)
+    # the narrower module is served first: a family base next to a core module keeps all its tasks
+    picked = tasks_for_changes(["maniladder_ms/envs/base.py", "maniladder_ms/tasks/rigid/handover/base.py"], "k")
+    assert sorted(picked[:3]) == ["HandoverBallHands", "HandoverCube", "HandoverMugHands"]
+    assert len(picked) == SHARED_CAP
+
+
+def test_the_environment_overrides_the_sample(monkeypatch):
+    tasks = ["PickPlacePen", "HandoverCube", "Stack6Blocks"]
+    monkeypatch.setenv(TASKS_ENV, "all")
+    assert task_sample(tasks, 1) == tasks
+    monkeypatch.setenv(TASKS_ENV, "Stack6Blocks, PickPlacePen")
+    assert task_sample(tasks, 1) == ["PickPlacePen", "Stack6Blocks"]
+    monkeypatch.delenv(TASKS_ENV)
+    monkeypatch.setattr(conftest, "changed_tasks", lambda: ("HandoverCube",))
+    assert task_sample(tasks, 1)[0] == "HandoverCube" and len(task_sample(tasks, 1)) == 2
