@@ -13,10 +13,11 @@ from maniladder_ms.deformables import clay
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver
+from maniladder_ms.tasks.clay.base import ClayTask
 
 
 @register_task("PokeClayHand")
-class PokeClayHandEnv(clay.ClayEnvMixin, ManiLadderEnv):
+class PokeClayHandEnv(ClayTask, ManiLadderEnv):
     """**Task:** a block of clay (plastic: it keeps the shape it is pressed into) lies on the table; poke
     a dent at least 1 cm deep into the middle of its top with the LEAP hand's index finger.
 

@@ -12,13 +12,14 @@ from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.bimanual import tcp_quat
 from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver
+from maniladder_ms.tasks.clay.base import ClayTask
 
 SIDES = {"left": 1.0, "right": -1.0}  # sign of y on each arm's side of the table
 SQUEEZE_AXIS = (0.0, 1.0)  # world y, from one arm to the other
 
 
 @register_task("SqueezeClayBimanual")
-class SqueezeClayBimanualEnv(clay.ClayEnvMixin, ManiLadderEnv):
+class SqueezeClayBimanualEnv(ClayTask, ManiLadderEnv):
     """**Task:** a block of clay (plastic: it keeps the shape it is pressed into) lies on the table between
     the two arms, its long side along the line between them; squeeze it from both sides with the closed
     grippers until it is narrower along that line.

@@ -18,13 +18,14 @@ from maniladder_ms.objects.tabletop import place_at_rest
 from maniladder_ms.objects.tools import StarStampShape, build_star_stamp
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.driven import DrivenSolver
+from maniladder_ms.tasks.clay.base import ClayTask
 
 STAMP_DENSITY = 600.0  # kg/m^3 (a wooden stamp)
 NO_PRESS = 1.0  # memory "press" height before any press (above everything)
 
 
 @register_task("StampClay")
-class StampClayEnv(clay.ClayEnvMixin, ManiLadderEnv):
+class StampClayEnv(ClayTask, ManiLadderEnv):
     """**Task:** a slab of clay (plastic: it keeps the shape it is pressed into) lies on the table; a stamp, a
     star-shaped plate with a square post on top as its handle, stands beside it. Grasp the stamp by its
     handle, hold it over the middle of the slab, press the star straight down into the clay and lift it off,

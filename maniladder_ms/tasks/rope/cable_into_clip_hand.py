@@ -16,6 +16,7 @@ from maniladder_ms.geometry import yaw_quat
 from maniladder_ms.objects.tabletop import Channel
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver, SCISSOR_RAMP_STEPS
+from maniladder_ms.tasks.rope.base import RopeTask
 
 CLIP_WALL = 0.008  # thickness of each of the clip's two walls
 CLIP_FLOOR = 0.004  # the clip's base plate: the slot's floor lies this high above the table
@@ -27,7 +28,7 @@ CLIP_COLOR, CLIP_FLOOR_COLOR = (0.15, 0.35, 0.75, 1), (0.1, 0.2, 0.45, 1)
 
 
 @register_task("CableIntoClipHand")
-class CableIntoClipHandEnv(rope.RopeTask, ManiLadderEnv):
+class CableIntoClipHandEnv(RopeTask, ManiLadderEnv):
     """**Task:** a cable lies on the table and beside it a short U-shaped clip is fixed to the table; pinch the
     cable with the LEAP hand, lift it over the clip, lay it along the clip's slot, let go and press it down into
     the slot with the fingers, then take the hand away.
@@ -69,7 +70,7 @@ class CableIntoClipHandEnv(rope.RopeTask, ManiLadderEnv):
     PARAMS = ("min_segments", "slot_width", "clip_depth", "clip_length")
 
     def _load_scene(self, options: dict):
-        super()._load_scene(options)  # the cable (rope.RopeTask)
+        super()._load_scene(options)  # the cable (RopeTask)
         self.clip = Channel(self.scene, "clip", self.slot_width, self.clip_depth, self.clip_length, CLIP_WALL,
                             CLIP_FLOOR, CLIP_COLOR, CLIP_FLOOR_COLOR)
         self.memory.flag("pressed")  # the hand touched the cable while it lay in the slot

@@ -15,10 +15,11 @@ from maniladder_ms.geometry import yaw_quat
 from maniladder_ms.objects.markers import MARKER_THICKNESS, build_zone_marker
 from maniladder_ms.solvers import register_solver
 from maniladder_ms.solvers.panda import PandaSolver
+from maniladder_ms.tasks.rope.base import RopeTask
 
 
 @register_task("DragRopeToGoal")
-class DragRopeToGoalEnv(rope.RopeTask, ManiLadderEnv):
+class DragRopeToGoalEnv(RopeTask, ManiLadderEnv):
     """**Task:** a rope lies on the table on one side of the robot's centre line, a square goal zone is
     marked on the other side; grasp the rope near its middle and drag the whole rope into the zone.
 
@@ -43,7 +44,7 @@ class DragRopeToGoalEnv(rope.RopeTask, ManiLadderEnv):
     PARAMS = ("zone_half", "min_inside", "on_table_height", "grip_segments", "drag_share")
 
     def _load_scene(self, options: dict):
-        super()._load_scene(options)  # the rope (rope.RopeTask)
+        super()._load_scene(options)  # the rope (RopeTask)
         self.zone = build_zone_marker(self.scene, "goal_zone", self.zone_half, (0.55, 0.85, 0.55, 1))
         half = self.grip_segments // 2
         self.middle_links = self.rope.links[self.grasp_segment - half:self.grasp_segment + half + 1]

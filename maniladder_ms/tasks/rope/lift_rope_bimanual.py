@@ -13,12 +13,13 @@ from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.bimanual import Grasp, glide, grasp_together, reach
 from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver
+from maniladder_ms.tasks.rope.base import RopeBetweenArmsTask
 
 SIDES = {"left": 1.0, "right": -1.0}  # sign of y on each arm's side of the table
 
 
 @register_task("LiftRopeBimanual")
-class LiftRopeBimanualEnv(rope.RopeBetweenArmsTask, ManiLadderEnv):
+class LiftRopeBimanualEnv(RopeBetweenArmsTask, ManiLadderEnv):
     """**Task:** a rope lies across the table between the two arms; each gripper takes one end of it and
     together they lift it and hold it taut in the air.
 

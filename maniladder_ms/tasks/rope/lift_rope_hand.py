@@ -11,10 +11,11 @@ from maniladder_ms.deformables import rope
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver, SCISSOR_RAMP_STEPS
+from maniladder_ms.tasks.rope.base import RopeTask
 
 
 @register_task("LiftRopeHand")
-class LiftRopeHandEnv(rope.RopeTask, ManiLadderEnv):
+class LiftRopeHandEnv(RopeTask, ManiLadderEnv):
     """**Task:** a rope lies on the table; pick it up with the LEAP hand, so that at least half of it
     hangs well clear of the table.
 

@@ -17,6 +17,7 @@ from maniladder_ms.objects.tabletop import Channel
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.bimanual import RELEASE_WAIT_STEPS, SET_DOWN_STEP, Grasp, glide, grasp_together, reach
 from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver
+from maniladder_ms.tasks.rope.base import RopeBetweenArmsTask
 
 GROOVE_LENGTH = 0.46  # the rope's 40 cm and 3 cm to spare at each end
 GROOVE_WALL = 0.015  # thickness of each wall
@@ -27,13 +28,13 @@ GROOVE_COLOR, GROOVE_FLOOR_COLOR = (0.55, 0.45, 0.35, 1), (0.3, 0.25, 0.2, 1)
 
 
 @register_task("RopeIntoGroove")
-class RopeIntoGrooveEnv(rope.RopeBetweenArmsTask, ManiLadderEnv):
+class RopeIntoGrooveEnv(RopeBetweenArmsTask, ManiLadderEnv):
     """**Task:** a rope lies across the table between the two arms, and beyond it (away from the robot) a
     straight U-shaped groove is fixed to the table, running the same way; each gripper takes one end of the rope,
     together they lift it, carry it over the groove, lower it in and let go: the rope lies in the groove.
 
     **Randomisation:**
-    - the rope as in LiftRopeBimanual (`rope.RopeBetweenArmsTask`; `rope.RopeConfig()`: 40 cm, 20 capsules of
+    - the rope as in LiftRopeBimanual (`RopeBetweenArmsTask`; `rope.RopeConfig()`: 40 cm, 20 capsules of
       1.6 cm diameter): flat across the table (along y) in a gentle S (the in-plane turn between capsules k and
       k + 1 is amp * sin(2 pi (k + 1) / 20 + phase), amp uniform in [0, 0.15] rad, phase uniform), the mean of its
       capsule centres at x uniform in [-0.15, -0.05], y uniform in [-0.03, 0.03], its first capsule heading within
@@ -72,13 +73,13 @@ class RopeIntoGrooveEnv(rope.RopeBetweenArmsTask, ManiLadderEnv):
     PARAMS = ("min_fraction", "groove_width", "groove_depth", "end_capsules")
 
     def _load_scene(self, options: dict):
-        super()._load_scene(options)  # the rope (rope.RopeTask)
+        super()._load_scene(options)  # the rope (RopeBetweenArmsTask)
         self.groove = Channel(self.scene, "groove", self.groove_width, self.groove_depth, GROOVE_LENGTH, GROOVE_WALL,
                               GROOVE_FLOOR, GROOVE_COLOR, GROOVE_FLOOR_COLOR)
         self.memory.flag("both_held")  # both grippers held the rope's ends at the same time
 
     def place_by_rope(self, centres: torch.Tensor):
-        """The groove beyond the rope just laid (`rope.RopeBetweenArmsTask`), its `centres` [b, segments, 3]."""
+        """The groove beyond the rope just laid (`RopeBetweenArmsTask`), its `centres` [b, segments, 3]."""
         b = len(centres)
         axis = np.pi / 2 + (torch.rand(b) * 2 - 1) * np.deg2rad(GROOVE_TURN)
         y = torch.rand(b) * 0.06 - 0.03

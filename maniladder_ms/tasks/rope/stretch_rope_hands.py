@@ -11,16 +11,17 @@ from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.bimanual import Grasp, glide, grasp_together, reach
 from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver, SCISSOR_RAMP_STEPS
+from maniladder_ms.tasks.rope.base import RopeBetweenArmsTask
 
 SIDES = {"left": 1.0, "right": -1.0}  # sign of y on each arm's side of the table
 
 
 @register_task("StretchRopeHands")
-class StretchRopeHandsEnv(rope.RopeBetweenArmsTask, ManiLadderEnv):
+class StretchRopeHandsEnv(RopeBetweenArmsTask, ManiLadderEnv):
     """**Task:** a rope lies across the table between the two arms; each LEAP hand pinches it near one end,
     and together they lift it and stretch it straight in the air.
 
-    **Randomisation** (`rope.RopeBetweenArmsTask`): the rope (`rope.RopeConfig()`: 40 cm, 20 capsules of
+    **Randomisation** (`RopeBetweenArmsTask`): the rope (`rope.RopeConfig()`: 40 cm, 20 capsules of
     1.6 cm diameter) lies flat across the table (along y) in a gentle S: the in-plane turn between capsules
     k and k + 1 is amp * sin(2 pi (k + 1) / 20 + phase), amp uniform in [0, 0.15] rad, phase uniform; the mean of its
     capsule centres is at x uniform in [-0.15, -0.05], y uniform in [-0.03, 0.03]; its first capsule

@@ -16,6 +16,7 @@ from maniladder_ms.objects.tabletop import build_standing_ring
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.bimanual import glide
 from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver, SCISSOR_RAMP_STEPS
+from maniladder_ms.tasks.rope.base import RopeTask
 
 RING_COLOR = (0.3, 0.32, 0.38, 1)
 RING_TUBE = 0.006  # radius of the ring's tube (m)
@@ -24,7 +25,7 @@ FEED_SIDE = -1.0  # the rope lies on this side (sign of y) of the ring: the righ
 
 
 @register_task("ThreadRopeThroughRingHands")
-class ThreadRopeThroughRingHandsEnv(rope.RopeTask, ManiLadderEnv):
+class ThreadRopeThroughRingHandsEnv(RopeTask, ManiLadderEnv):
     """**Task:** a ring stands upright on a post fixed to the table, its axis across the table (along y); a rope
     lies on the table on the right arm's side of it, its end pointing at the ring. Thread the rope's end through
     the ring and pull it out on the other side, then let go: one hand feeds the end through, the other takes
@@ -65,7 +66,7 @@ class ThreadRopeThroughRingHandsEnv(rope.RopeTask, ManiLadderEnv):
     rope_config = rope.RopeConfig(bend_stiffness=0.08, bend_damping=0.016)
 
     def _load_scene(self, options: dict):
-        super()._load_scene(options)  # the rope (rope.RopeTask)
+        super()._load_scene(options)  # the rope (RopeTask)
         self.ring = build_standing_ring(self.scene, "ring", self.ring_radius, RING_TUBE, RING_HEIGHT, RING_COLOR)
         self.memory.flag("pulled_through")
         self.memory.value("start_side", 1)

@@ -16,13 +16,14 @@ from maniladder_ms.geometry import yaw_quat
 from maniladder_ms.objects.tabletop import build_upright_cylinder
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.driven import DrivenSolver
+from maniladder_ms.tasks.rope.base import RopeTask
 
 POST_COLOR = (0.35, 0.35, 0.4, 1)
 ANCHOR_HALF = (0.012, 0.012, 0.004)  # the visual clamp over the anchored capsule
 
 
 @register_task("WrapRopeAroundPost")
-class WrapRopeAroundPostEnv(rope.RopeTask, ManiLadderEnv):
+class WrapRopeAroundPostEnv(RopeTask, ManiLadderEnv):
     """**Task:** a rope lies on the table, one end tied down (its first capsule fixed, under a dark clamp)
     beside a short vertical post; grasp the rope's free end, carry it once around the post low over the
     table, lay it down and let go: the rope stays wrapped around the post.
@@ -63,7 +64,7 @@ class WrapRopeAroundPostEnv(rope.RopeTask, ManiLadderEnv):
     rope_config = rope.RopeConfig(length=0.48, segments=24)
 
     def _load_scene(self, options: dict):
-        super()._load_scene(options)  # the anchored rope (rope.RopeTask)
+        super()._load_scene(options)  # the anchored rope (RopeTask)
         self.post = build_upright_cylinder(self.scene, "post", self.post_radius, self.post_height / 2, 800,
                                            POST_COLOR, kinematic=True)
         builder = self.scene.create_actor_builder()

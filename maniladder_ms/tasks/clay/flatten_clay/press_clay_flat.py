@@ -12,10 +12,11 @@ from maniladder_ms.deformables import clay, metrics
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.driven import DrivenSolver
+from maniladder_ms.tasks.clay.base import ClayTask
 
 
 @register_task("PressClayFlat")
-class PressClayFlatEnv(clay.ClayEnvMixin, ManiLadderEnv):
+class PressClayFlatEnv(ClayTask, ManiLadderEnv):
     """**Task:** a ball of clay (plastic: it keeps the shape it is pressed into) lies on the table; press
     it into a flat disk with the closed gripper's fingertips.
 
