@@ -229,7 +229,7 @@ def test_leap_hand_scissor_pinches_a_rope():
     middle fingers (the "scissor" pinch: the only LEAP pinch whose contacts reach down to a 1.6 cm rope's
     middle height), lifts it 28 cm and holds it 60 steps: a friction grasp only."""
     from maniladder_ms.solvers.driven import DrivenSolver
-    from maniladder_ms.tasks.rope.lift_rope_hand import pinch_and_lift
+    from maniladder_ms.solvers.rope.lift_rope_hand import pinch_and_lift
 
     env = gym.make("ManiLadder-LiftRopeHand-v1", obs_mode="state", control_mode="pd_ee_delta_pose")
     try:

@@ -8,7 +8,7 @@ rest offset of every link strained past `yield_distance` back to exactly that st
 plasticity, a return mapping, batched in torch over envs and links). The clay springs back from
 small pokes, and keeps the shape it is pressed into beyond that. Contacts between the spheres keep
 its volume. The rest offsets are state: `Clay.state()` / `Clay.set_state()`. Envs holding clay subclass
-`ClayEnvMixin`, which does both chores: `relax()` after every control step, and the rest offsets in
+`ClayHolder`, which does both chores: `relax()` after every control step, and the rest offsets in
 the env state (`get_state_dict` / `set_state_dict`, and the flat `get_state` / `set_state`).
 
 The drive targets are set through SAPIEN per sub-scene (ManiSkill 3.0.1 wraps no batched setter);
@@ -167,9 +167,9 @@ class Clay(SphereSet):
             self.drives[link]._objs[env].set_drive_target(sapien.Pose(p=target))
 
 
-class ClayEnvMixin:
+class ClayHolder:
     """Plumbing for envs that hold `Clay` bodies (list them in `clay_bodies`; default: `self.clay`).
-    Put it before the env base class, `class MyEnv(ClayEnvMixin, ManiLadderEnv)`:
+    Put it before the env base class, `class MyEnv(ClayHolder, ManiLadderEnv)`:
 
     - plasticity: every clay body `relax()`es after each control step;
     - state: each body's rest offsets (`<name>_rest`) and start positions (`<name>_start`, what its
@@ -192,18 +192,6 @@ class ClayEnvMixin:
     def load_clay(self, layout: np.ndarray):
         """Build the env's clay, `self.clay`, with particles at `layout` (`clay_ball`, `clay_block`)."""
         self.clay = build_clay(self.scene, "clay", layout, self.clay_config)
-
-    def reset_clay(self, env_idx: torch.Tensor, x: tuple, y: tuple, yaw: tuple, scale: tuple = (1.0, 1.15)):
-        """Put `self.clay` back for the envs `env_idx`, its bottom centre on the table uniform in x = (low,
-        high) and y, turned by a yaw uniform in `yaw` and scaled by a factor uniform in `scale` (`Clay.reset`)."""
-        b, device = len(env_idx), self.device
-
-        def uniform(low_high):
-            low, high = low_high
-            return low + torch.rand(b, device=device) * (high - low)
-
-        origin = torch.stack([uniform(x), uniform(y), torch.full((b,), self.clay_config.radius, device=device)], dim=1)
-        self.clay.reset(env_idx, origin, yaw=uniform(yaw), scale=uniform(scale))
 
     def _extra_state_fields(self):
         """The base env's fields (episode memory), then each clay body's rest offsets and start positions."""

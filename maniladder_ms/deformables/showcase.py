@@ -201,7 +201,7 @@ class TentShowcaseEnv(ClothShowcaseEnv):
 
 
 @_register("clay")
-class ClayShowcaseEnv(clay.ClayEnvMixin, ShowcaseEnv):
+class ClayShowcaseEnv(clay.ClayHolder, ShowcaseEnv):
     """A 6 cm clay ball on the table beside a wooden weight; plastic after every control step."""
 
     SHOWCASE_TITLE = "Clay: 6 cm ball, lattice of springs that yield"

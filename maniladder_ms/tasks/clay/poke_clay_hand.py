@@ -8,22 +8,21 @@ import numpy as np
 import torch
 
 from maniladder_ms.agents.effectors import TOUCH_FORCE, link_forces
-from maniladder_ms.agents.helpers import leap_fingertip, top_down_quat
+from maniladder_ms.agents.helpers import leap_fingertip
 from maniladder_ms.deformables import clay
 from maniladder_ms.envs import ManiLadderEnv, register_task
-from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
-from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver
+from maniladder_ms.tasks.clay.base import ClayTask
 
 
 @register_task("PokeClayHand")
-class PokeClayHandEnv(clay.ClayEnvMixin, ManiLadderEnv):
+class PokeClayHandEnv(ClayTask, ManiLadderEnv):
     """**Task:** a block of clay (plastic: it keeps the shape it is pressed into) lies on the table; poke
     a dent at least 1 cm deep into the middle of its top with the LEAP hand's index finger.
 
     **Randomisation:** the block (particle centres within +-`block_half`: 5 x 5 x 3 particles on a 1.2 cm
-    lattice, 6 x 6 x 3.6 cm) is scaled by a
-    uniform factor in [1, 1.15] (`Clay.reset`), turned by a uniform yaw in [0, pi/2), its centre uniform in
-    x in [-0.2, -0.05], y in [-0.15, 0.15].
+    lattice, 6 x 6 x 3.6 cm) is scaled by a uniform factor in [1, 1.15] (`Clay.reset`), turned by a uniform
+    yaw in [0, pi/2) (`CLAY_YAW`), its centre uniform in x in [-0.2, -0.05], y in [-0.15, 0.15] (`CLAY_X`,
+    `CLAY_Y`).
 
     **Success:** the dent at the block's top centre (the start's, a fixed table point) is >= `min_depth`
     deep: `clay.dent_depth`, the start's top there minus the current top of the clay within
@@ -37,6 +36,9 @@ class PokeClayHandEnv(clay.ClayEnvMixin, ManiLadderEnv):
     TASK_REGION = (-0.25, 0.0, -0.2, 0.2)
     PARAMS = ("block_half", "min_depth", "dent_radius")
     INDEX_LINKS = ("leap_index_dip", "leap_index_tip")
+    CLAY_X = (-0.2, -0.05)  # the block's centre: x uniform in this range (`ClayTask.reset_clay`)
+    CLAY_Y = (-0.15, 0.15)  # and y
+    CLAY_YAW = (0.0, np.pi / 2)  # its yaw
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -47,7 +49,7 @@ class PokeClayHandEnv(clay.ClayEnvMixin, ManiLadderEnv):
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
-            self.reset_clay(env_idx, x=(-0.2, -0.05), y=(-0.15, 0.15), yaw=(0.0, np.pi / 2))
+            self.reset_clay(env_idx, x=self.CLAY_X, y=self.CLAY_Y, yaw=self.CLAY_YAW)
 
     def dent_point(self) -> torch.Tensor:
         """The start's top centre of the block, [B, 3]: where the dent goes."""
@@ -89,28 +91,3 @@ class PokeClayHandEnv(clay.ClayEnvMixin, ManiLadderEnv):
         reward = reach + 2 * dent
         reward[info["success"]] = self.max_dense_reward
         return reward
-
-
-POKE_DEPTH = 0.025  # fingertip target below the top: past the 1 cm rule, the clay and the arm give way
-POKE_STEPS = 15
-WITHDRAW = 0.05
-
-
-@register_solver("PokeClayHand", control_modes=TCP_DELTA_MODES)
-def solve_poke_clay_hand(env, seed: int) -> dict:
-    """Point the index finger down, bring its tip above the block's top centre, push it into the clay,
-    pull it back out."""
-    with DrivenSolver.episode(env, seed) as s:
-        task: PokeClayHandEnv = env.unwrapped
-        q = top_down_quat(0.0, task.num_envs, device=task.device)
-        s.set_ee("hand", "point", steps=1)
-        dent = task.dent_point()
-        s.move({"arm": (s.above(dent, APPROACH_HEIGHT), q)}, max_steps=40)
-        # the fingertip's offset from the tcp, the finger pointing (world frame; the hand keeps its orientation)
-        tip_offset = leap_fingertip(task.agent) - task.ee.tcp().p
-        s.move({"arm": (s.above(dent, 0.02) - tip_offset, q)}, max_steps=30)
-        for _ in range(POKE_STEPS):
-            s.step({"arm": (s.above(dent, -POKE_DEPTH) - tip_offset, q)})
-        s.move({"arm": (s.above(dent, WITHDRAW) - tip_offset, q)}, max_steps=15, pos_tol=0.01)
-        s.hold_until_success()
-        return s.info

@@ -10,31 +10,32 @@ import torch
 from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.agents.effectors import TOUCH_FORCE, pair_forces
-from maniladder_ms.agents.helpers import top_down_quat
 from maniladder_ms.deformables import clay
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.geometry import yaw_of, yaw_quat
 from maniladder_ms.objects.tabletop import place_at_rest
 from maniladder_ms.objects.tools import StarStampShape, build_star_stamp
-from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
-from maniladder_ms.solvers.driven import DrivenSolver
+from maniladder_ms.tasks.clay.base import ClayTask
 
 STAMP_DENSITY = 600.0  # kg/m^3 (a wooden stamp)
+STAMP_COLOR = (0.55, 0.35, 0.18, 1)
 NO_PRESS = 1.0  # memory "press" height before any press (above everything)
+PRESS_QUERY_ABOVE = 0.01  # contact queries only with the plate within this of the slab's top
 
 
 @register_task("StampClay")
-class StampClayEnv(clay.ClayEnvMixin, ManiLadderEnv):
+class StampClayEnv(ClayTask, ManiLadderEnv):
     """**Task:** a slab of clay (plastic: it keeps the shape it is pressed into) lies on the table; a stamp, a
     star-shaped plate with a square post on top as its handle, stands beside it. Grasp the stamp by its
     handle, hold it over the middle of the slab, press the star straight down into the clay and lift it off,
     leaving a star-shaped imprint.
 
     **Randomisation:** the slab (particles on a 1.2 cm lattice within `slab_half`: 9 x 9 x 3 of them,
-    10.8 x 10.8 x 3.6 cm, spheres included) is turned by a uniform yaw in [0, pi/2), its centre uniform in x in [-0.05, 0.05],
-    y in [0.0, 0.06]; the stamp (5 arms, tips at radius `outer`, valleys at `inner`, a 1.2 cm plate, a 2 cm
-    post 7 cm high) stands upright to the robot's right, its centre uniform in x in [-0.1, 0.0], y in
-    [-0.2, -0.16], turned by a uniform yaw in [0, 2 pi / 5) (all the star's yaws).
+    10.8 x 10.8 x 3.6 cm, spheres included; not scaled) is turned by a uniform yaw in [0, pi/2), its centre
+    uniform in x in [-0.05, 0.05], y in [0.0, 0.06] (`CLAY_*`); the stamp (5 arms, tips at radius `outer`, valleys
+    at `inner`, a 1.2 cm plate, a 2 cm post 7 cm high) stands upright to the robot's right, its centre uniform in
+    x in [-0.1, 0.0], y in [-0.2, -0.16] (`STAMP_*`), turned by a uniform yaw in [0, 2 pi / 5) (all the star's
+    yaws).
 
     **Success:** the stamp was pressed into the clay while the gripper held it (at some step the held stamp
     touched the clay, `ee.holds`; episode memory `held_press`, and its pose at the lowest such step,
@@ -56,21 +57,28 @@ class StampClayEnv(clay.ClayEnvMixin, ManiLadderEnv):
     max_dense_reward = 6
     TASK_REGION = (-0.17, 0.13, -0.26, 0.14)
     PARAMS = ("outer", "inner", "slab_half", "min_depth", "min_iou", "max_offset")
+    CLAY_X = (-0.05, 0.05)  # the slab's centre: x uniform in this range (`ClayTask.reset_clay`)
+    CLAY_Y = (0.0, 0.06)  # and y
+    CLAY_YAW = (0.0, np.pi / 2)  # its yaw
+    CLAY_SCALE = (1.0, 1.0)  # not scaled
+    STAMP_X_LOW, STAMP_X_SPAN = -0.1, 0.1  # the stamp's centre x: uniform in [low, low + span]
+    STAMP_Y_LOW, STAMP_Y_SPAN = -0.2, 0.04  # and its y
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
         self.load_clay(clay.clay_block(self.slab_half, self.clay_config.spacing))
         self.stamp_shape = StarStampShape(self.outer, self.inner)
-        self.stamp = build_star_stamp(self.scene, "stamp", self.stamp_shape, STAMP_DENSITY, color=(0.55, 0.35, 0.18, 1))
+        self.stamp = build_star_stamp(self.scene, "stamp", self.stamp_shape, STAMP_DENSITY, color=STAMP_COLOR)
         self.memory.flag("held_press")  # the held stamp touched the clay
         self.memory.value("press", 4, NO_PRESS)  # x, y, yaw, height of the stamp at the lowest held press
 
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
-            self.reset_clay(env_idx, x=(-0.05, 0.05), y=(0.0, 0.06), yaw=(0.0, np.pi / 2), scale=(1.0, 1.0))
+            self.reset_clay(env_idx, x=self.CLAY_X, y=self.CLAY_Y, yaw=self.CLAY_YAW, scale=self.CLAY_SCALE)
             b = len(env_idx)
-            p = torch.stack([-0.1 + 0.1 * torch.rand(b), -0.2 + 0.04 * torch.rand(b), torch.zeros(b)], dim=1)
+            p = torch.stack([self.STAMP_X_LOW + self.STAMP_X_SPAN * torch.rand(b),
+                             self.STAMP_Y_LOW + self.STAMP_Y_SPAN * torch.rand(b), torch.zeros(b)], dim=1)
             yaw = torch.rand(b) * 2 * np.pi / self.stamp_shape.arms
             place_at_rest(self.stamp, Pose.create_from_pq(p, yaw_quat(yaw)))
 
@@ -97,8 +105,8 @@ class StampClayEnv(clay.ClayEnvMixin, ManiLadderEnv):
 
     def _update_memory(self):
         z = self.stamp.pose.p[:, 2]
-        # contact queries only where the plate is within a centimetre of the clay's top and lower than before
-        lower = (z < self.memory["press"][:, 3]) & (z < self.slab_top() + 0.01)
+        # contact queries only where the plate is near the clay's top and lower than before
+        lower = (z < self.memory["press"][:, 3]) & (z < self.slab_top() + PRESS_QUERY_ABOVE)
         if bool(lower.any()):
             pressing = lower & self.ee.holds(self.stamp) & self.stamp_touches_clay()
             if bool(pressing.any()):
@@ -141,67 +149,3 @@ class StampClayEnv(clay.ClayEnvMixin, ManiLadderEnv):
         reward += 2 * (info["imprint_iou"] / self.min_iou).clamp(0, 1)
         reward[info["success"]] = self.max_dense_reward
         return reward
-
-
-GRASP_ABOVE_PLATE = 0.016  # TCP height above the plate's top for the grasp: the fingertips (9 mm below the
-# TCP) stop 7 mm above the plate, and come down onto it if the post slips up the fingers in the press
-CARRY_CLEARANCE = 0.03  # the plate's bottom this far above the slab's top while carrying
-ALIGN_TOL = 0.0015  # the stamp's centre this close (m) to the slab's centre before the press
-PRESS_DEPTH = 0.0075  # the plate's bottom pressed this far below the slab's top (it overshoots by ~1 mm): the star's
-# cells sink 5-8 mm; deeper (9.5-11 mm) the links drag the cells along the outline down past 5 mm too (IoU 0.51-0.65
-# on seeds 100-102, against 0.67-0.77 here)
-PRESS_AIM = 0.025  # the TCP aimed as if the plate's bottom went this far below the slab's top
-PRESS_STEP = 0.002  # m per control step of that target on its way down
-MAX_PRESS_STEPS = 60
-SETTLE_STEPS = 8  # control steps at the full depth
-LIFT = 0.05
-
-
-@register_solver("StampClay", control_modes=TCP_DELTA_MODES)
-def solve_stamp_clay(env, seed: int) -> dict:
-    """Grasp the handle top-down, carry the stamp over the slab's centre (closed loop on the stamp's own
-    position: it sits in the fingers a little off the TCP), lower it straight down until its plate is
-    `PRESS_DEPTH` in the clay, hold, and lift it straight up."""
-    with DrivenSolver.episode(env, seed) as s:
-        task: StampClayEnv = env.unwrapped
-        n, device = task.num_envs, task.device
-        shape = task.stamp_shape
-        grasp = task.stamp.pose.p.clone()
-        grasp[:, 2] = shape.plate + GRASP_ABOVE_PLATE
-        yaw = DrivenSolver.neutral_yaw(yaw_of(task.stamp.pose.q), np.pi / 2)  # the square post: any quarter turn
-        s.pick("arm", "gripper", grasp, yaw, lift=0.0)
-        q = top_down_quat(yaw, n, device)
-        top = task.slab_top()
-        goal = torch.nn.functional.pad(task.slab_centre(), (0, 1))
-        goal[:, 2] = top + CARRY_CLEARANCE
-
-        def stamp_to(target: torch.Tensor, max_steps: int, tol: float):
-            """Servo the stamp's origin to `target` [B, 3] by moving the TCP by the stamp's error every step."""
-            for _ in range(max_steps):
-                error = target - task.stamp.pose.p
-                if bool((torch.linalg.norm(error, dim=1) < tol).all()):
-                    return
-                s.step({"arm": (s.tcp("arm").p + error, q)})
-
-        up = task.stamp.pose.p.clone()
-        up[:, 2] = goal[:, 2]
-        stamp_to(up, 30, 0.01)
-        stamp_to(goal, 80, ALIGN_TOL)
-        # straight down: the TCP keeps its xy and is aimed `PRESS_AIM` below the slab's top (the arm pushes
-        # as hard as its target is far), until the plate is `PRESS_DEPTH` in the clay; then it stays there
-        xy = s.tcp("arm").p[:, :2].clone()
-        grip_z = s.tcp("arm").p[:, 2] - task.stamp.pose.p[:, 2]
-        z = s.tcp("arm").p[:, 2].clone()
-        pressed = torch.zeros(n, dtype=torch.bool, device=device)
-        for _ in range(MAX_PRESS_STEPS):
-            pressed |= task.stamp.pose.p[:, 2] <= top - PRESS_DEPTH
-            z = torch.where(pressed, z, torch.maximum(z - PRESS_STEP, top - PRESS_AIM + grip_z))
-            s.step({"arm": (torch.cat([xy, z[:, None]], dim=1), q)})
-            if bool(pressed.all()):
-                break
-        for _ in range(SETTLE_STEPS):
-            s.step({"arm": (torch.cat([xy, s.tcp("arm").p[:, 2:3]], dim=1), q)})
-        lift = torch.cat([xy, (s.tcp("arm").p[:, 2] + LIFT)[:, None]], dim=1)
-        s.move({"arm": (lift, q)}, max_steps=30, pos_tol=0.01)
-        s.hold_until_success()
-        return s.info

@@ -9,12 +9,11 @@ import torch
 
 from maniladder_ms.deformables import rope
 from maniladder_ms.envs import ManiLadderEnv, register_task
-from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
-from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver, SCISSOR_RAMP_STEPS
+from maniladder_ms.tasks.rope.base import RopeTask
 
 
 @register_task("LiftRopeHand")
-class LiftRopeHandEnv(rope.RopeTask, ManiLadderEnv):
+class LiftRopeHandEnv(RopeTask, ManiLadderEnv):
     """**Task:** a rope lies on the table; pick it up with the LEAP hand, so that at least half of it
     hangs well clear of the table.
 
@@ -35,14 +34,18 @@ class LiftRopeHandEnv(rope.RopeTask, ManiLadderEnv):
     max_dense_reward = 4
     TASK_REGION = (-0.35, 0.15, -0.3, 0.3)
     PARAMS = ("lift_height", "min_lifted")
+    ROPE_MAX_AMP = 0.15  # rad: largest amplitude of the rope's S (`rope.wavy_turns`)
+    ROPE_X_LOW, ROPE_X_SPAN = -0.15, 0.1  # the rope's centroid x: uniform in [low, low + span]
+    ROPE_Y_LOW, ROPE_Y_SPAN = -0.1, 0.2  # and its y
 
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            turns = rope.wavy_turns(b, self.rope_config.segments, 0.15)
+            turns = rope.wavy_turns(b, self.rope_config.segments, self.ROPE_MAX_AMP)
             heading = torch.rand(b) * 2 * np.pi
-            middle = torch.stack([torch.rand(b) * 0.1 - 0.15, torch.rand(b) * 0.2 - 0.1], dim=1)
+            middle = torch.stack([torch.rand(b) * self.ROPE_X_SPAN + self.ROPE_X_LOW,
+                                  torch.rand(b) * self.ROPE_Y_SPAN + self.ROPE_Y_LOW], dim=1)
             self.rope.lay_flat(middle, heading, turns)
 
     def _segments(self) -> torch.Tensor:
@@ -75,31 +78,3 @@ class LiftRopeHandEnv(rope.RopeTask, ManiLadderEnv):
         reward = reach + info["is_grasped"].float() + 2 * lift
         reward[info["success"]] = self.max_dense_reward
         return reward
-
-
-LIFT = 0.28  # the grasped capsule ends 29 cm up, the rope hanging straight down both sides: 19 of 20 capsule centres above 10 cm
-LIFT_STEPS = 45  # 6 mm a control step: faster lifts (25 steps for 25 cm) swing the rope out of the pinch
-
-
-def pinch_and_lift(s: DrivenSolver, task: LiftRopeHandEnv):
-    """Take the middle capsule top-down between the straight index and middle fingers (fingers along the
-    rope, tips spread), swing the two fingers together (the "scissor" pinch) and lift `LIFT` slowly."""
-    link = task.rope.links[task.grasp_segment]
-    centre = link.pose.p.clone()
-    centre[:, 2] = task.rope_config.radius
-    tcp, q = DrivenSolver.scissor_pose(centre, rope.segment_yaw(link.pose.q))
-    s.set_ee("hand", "scissor_open", steps=1)
-    s.move({"arm": (s.above(tcp, APPROACH_HEIGHT), q)}, max_steps=60)
-    s.move({"arm": (tcp, q)}, max_steps=40, pos_tol=0.003)
-    s.close_hand("hand", "scissor", ramp_steps=SCISSOR_RAMP_STEPS)
-    for k in range(1, LIFT_STEPS + 1):
-        s.step({"arm": (s.above(tcp, LIFT * k / LIFT_STEPS), q)})
-
-
-@register_solver("LiftRopeHand", control_modes=TCP_DELTA_MODES)
-def solve_lift_rope_hand(env, seed: int) -> dict:
-    """`pinch_and_lift` the middle capsule, then hold still until the rope is up."""
-    with DrivenSolver.episode(env, seed) as s:
-        pinch_and_lift(s, env.unwrapped)
-        s.hold_until_success()
-        return s.info

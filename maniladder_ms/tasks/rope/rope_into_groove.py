@@ -9,14 +9,10 @@ import torch
 
 from mani_skill.utils.structs.pose import Pose
 
-from maniladder_ms.agents.helpers import top_down_quat
-from maniladder_ms.deformables import rope
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.geometry import yaw_quat
 from maniladder_ms.objects.tabletop import Channel
-from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
-from maniladder_ms.solvers.bimanual import RELEASE_WAIT_STEPS, SET_DOWN_STEP, Grasp, glide, grasp_together, reach
-from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver
+from maniladder_ms.tasks.rope.base import RopeBetweenArmsTask
 
 GROOVE_LENGTH = 0.46  # the rope's 40 cm and 3 cm to spare at each end
 GROOVE_WALL = 0.015  # thickness of each wall
@@ -27,13 +23,13 @@ GROOVE_COLOR, GROOVE_FLOOR_COLOR = (0.55, 0.45, 0.35, 1), (0.3, 0.25, 0.2, 1)
 
 
 @register_task("RopeIntoGroove")
-class RopeIntoGrooveEnv(rope.RopeBetweenArmsTask, ManiLadderEnv):
+class RopeIntoGrooveEnv(RopeBetweenArmsTask, ManiLadderEnv):
     """**Task:** a rope lies across the table between the two arms, and beyond it (away from the robot) a
     straight U-shaped groove is fixed to the table, running the same way; each gripper takes one end of the rope,
     together they lift it, carry it over the groove, lower it in and let go: the rope lies in the groove.
 
     **Randomisation:**
-    - the rope as in LiftRopeBimanual (`rope.RopeBetweenArmsTask`; `rope.RopeConfig()`: 40 cm, 20 capsules of
+    - the rope as in LiftRopeBimanual (`RopeBetweenArmsTask`; `rope.RopeConfig()`: 40 cm, 20 capsules of
       1.6 cm diameter): flat across the table (along y) in a gentle S (the in-plane turn between capsules k and
       k + 1 is amp * sin(2 pi (k + 1) / 20 + phase), amp uniform in [0, 0.15] rad, phase uniform), the mean of its
       capsule centres at x uniform in [-0.15, -0.05], y uniform in [-0.03, 0.03], its first capsule heading within
@@ -70,18 +66,19 @@ class RopeIntoGrooveEnv(rope.RopeBetweenArmsTask, ManiLadderEnv):
     # x up to 0.31: the groove's far corner reaches x = 0.305 at the extremes of its draw (numpy, 200k draws)
     TASK_REGION = (-0.3, 0.31, -0.32, 0.32)
     PARAMS = ("min_fraction", "groove_width", "groove_depth", "end_capsules")
+    GROOVE_Y_LOW, GROOVE_Y_SPAN = -0.03, 0.06  # the groove centre's y: uniform in [low, low + span]
 
     def _load_scene(self, options: dict):
-        super()._load_scene(options)  # the rope (rope.RopeTask)
+        super()._load_scene(options)  # the rope (RopeBetweenArmsTask)
         self.groove = Channel(self.scene, "groove", self.groove_width, self.groove_depth, GROOVE_LENGTH, GROOVE_WALL,
                               GROOVE_FLOOR, GROOVE_COLOR, GROOVE_FLOOR_COLOR)
         self.memory.flag("both_held")  # both grippers held the rope's ends at the same time
 
     def place_by_rope(self, centres: torch.Tensor):
-        """The groove beyond the rope just laid (`rope.RopeBetweenArmsTask`), its `centres` [b, segments, 3]."""
+        """The groove beyond the rope just laid (`RopeBetweenArmsTask`), its `centres` [b, segments, 3]."""
         b = len(centres)
         axis = np.pi / 2 + (torch.rand(b) * 2 - 1) * np.deg2rad(GROOVE_TURN)
-        y = torch.rand(b) * 0.06 - 0.03
+        y = torch.rand(b) * self.GROOVE_Y_SPAN + self.GROOVE_Y_LOW
         # the groove's centre line (x at each capsule's y) lies beyond every capsule by the capsule's radius, the
         # groove's half width (inner half width and a wall) and the gap, all measured along x
         gap = GROOVE_GAP[0] + torch.rand(b) * (GROOVE_GAP[1] - GROOVE_GAP[0])
@@ -133,66 +130,3 @@ class RopeIntoGrooveEnv(rope.RopeBetweenArmsTask, ManiLadderEnv):
         reward = torch.where(info["both_held"], torch.maximum(before, after), before)
         reward[info["success"]] = self.max_dense_reward
         return reward
-
-
-GRASP_CLEARANCE = 0.004  # TCP this far above the capsule centre: finger tips off the table, free to close
-GRASP_OPENING = 0.0  # normalised gripper command for the approach: 3 cm between the finger pads
-CARRY_HEIGHT = 0.1  # the grasped capsules' height while the rope is carried over the groove
-SPREAD = 0.33  # metres between the grasped capsule centres (0.34 between them along the rope): nearly straight
-RELEASE_ABOVE_TOP = 0.012  # the grasped capsules' centres this far above the walls' top when let go
-RETREAT_FRACTION = 0.5  # the open grippers rise this share of APPROACH_HEIGHT off the laid rope
-RETREAT_SETTLE_STEPS = 5  # control steps held at the top of the retreat, the rope settling in the groove
-
-
-@register_solver("RopeIntoGroove", control_modes=TCP_DELTA_MODES)
-def solve_rope_into_groove(env, seed: int) -> dict:
-    """Each arm takes the second capsule from the end on its side top-down, fingers across the capsule; both
-    close, rise together while moving apart to hold the rope nearly straight, carry it over the groove's axis
-    (turning the grippers onto it), lower it until the held capsules are just above the walls' top (the
-    sagging middle already in the groove), open both and rise."""
-    with DrivenSolver.episode(env, seed) as s:
-        task: RopeIntoGrooveEnv = env.unwrapped
-        n, device = task.num_envs, task.device
-        above = torch.tensor([0.0, 0.0, APPROACH_HEIGHT], device=device)
-        radius = task.rope_config.radius
-        ends = task.end_points()
-        grasps = []
-        first_left = bool(task.first_is_left()[0])  # one env: the solver's
-        links = {"left": task.rope.links[1 if first_left else -2], "right": task.rope.links[-2 if first_left else 1]}
-        yaws = {side: DrivenSolver.neutral_yaw(rope.segment_yaw(links[side].pose.q), np.pi) for side in task.SIDES}
-        for side in task.SIDES:
-            p = ends[side].clone()
-            p[:, 2] = radius + GRASP_CLEARANCE
-            grasps.append(Grasp(f"{side}_arm", f"{side}_gripper", p, top_down_quat(yaws[side], n, device), above))
-        for g in grasps:  # half open: the fingers stay clear of the groove's wall when the rope lies near it
-            s.set_ee(g.ee, [GRASP_OPENING], steps=0)
-        reach(s, grasps)
-        grasp_together(s, [g.ee for g in grasps])
-        left, right = grasps
-        flat = torch.tensor([1.0, 1.0, 0.0], device=device)
-        up = torch.tensor([0.0, 0.0, CARRY_HEIGHT + GRASP_CLEARANCE], device=device)
-        middle = (left.p + right.p) / 2 * flat
-        across = torch.nn.functional.normalize((left.p - right.p) * flat, dim=1)
-        lifted = {"left": middle + up + across * SPREAD / 2, "right": middle + up - across * SPREAD / 2}
-        glide(s, {g.arm: (g.p, lifted[side], g.q) for side, g in zip(task.SIDES, grasps)})
-        # over the groove: its axis points to +y (the left arm's side) within 20 degrees
-        axis = task.groove.axis()
-        along = torch.stack([torch.cos(axis), torch.sin(axis), torch.zeros_like(axis)], dim=1)
-        # each gripper turns the short way onto the axis (the fingers are symmetric: a half turn is no turn)
-        qs = {side: top_down_quat(yaws[side] + DrivenSolver.neutral_yaw(axis - yaws[side], np.pi), n, device)
-              for side in task.SIDES}
-        centre = task.groove.pose.p * flat
-        over = {"left": centre + up + along * SPREAD / 2, "right": centre + up - along * SPREAD / 2}
-        glide(s, {g.arm: (lifted[side], over[side], qs[side]) for side, g in zip(task.SIDES, grasps)})
-        down = torch.tensor([0.0, 0.0, task.groove.top + RELEASE_ABOVE_TOP + GRASP_CLEARANCE], device=device)
-        low = {side: centre + down + along * (SPREAD / 2 if side == "left" else -SPREAD / 2) for side in task.SIDES}
-        glide(s, {g.arm: (over[side], low[side], qs[side]) for side, g in zip(task.SIDES, grasps)},
-              step_length=SET_DOWN_STEP)
-        for g in grasps:
-            s.release(g.ee, steps=0)
-        for _ in range(RELEASE_WAIT_STEPS):
-            s.step()
-        glide(s, {g.arm: (low[side], low[side] + above * RETREAT_FRACTION, qs[side]) for side, g in zip(task.SIDES, grasps)},
-              settle_steps=RETREAT_SETTLE_STEPS)
-        s.hold_until_success()
-        return s.info

@@ -1,5 +1,4 @@
-"""ThreadRopeThroughRingHands (L2 deformable DX): one LEAP hand feeds a rope end through a standing ring, the other
-takes it on the far side and pulls it through."""
+"""ThreadRopeThroughRingHands (L2 deformable DX): two LEAP hands thread a rope's end through a standing ring."""
 
 from __future__ import annotations
 
@@ -13,18 +12,17 @@ from mani_skill.utils.structs.pose import Pose
 from maniladder_ms.deformables import rope
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.objects.tabletop import build_standing_ring
-from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
-from maniladder_ms.solvers.bimanual import glide
-from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver, SCISSOR_RAMP_STEPS
+from maniladder_ms.tasks.rope.base import RopeTask
 
 RING_COLOR = (0.3, 0.32, 0.38, 1)
 RING_TUBE = 0.006  # radius of the ring's tube (m)
 RING_HEIGHT = 0.06  # the ring's centre above the table: its inner bottom 2.5 cm up, under the rope's feed height
 FEED_SIDE = -1.0  # the rope lies on this side (sign of y) of the ring: the right hand feeds, the left pulls
+FEED_CAPSULE = 5  # the feeding hand pinches this capsule (0: the end one): 5 capsules (10 cm) stick out beyond it
 
 
 @register_task("ThreadRopeThroughRingHands")
-class ThreadRopeThroughRingHandsEnv(rope.RopeTask, ManiLadderEnv):
+class ThreadRopeThroughRingHandsEnv(RopeTask, ManiLadderEnv):
     """**Task:** a ring stands upright on a post fixed to the table, its axis across the table (along y); a rope
     lies on the table on the right arm's side of it, its end pointing at the ring. Thread the rope's end through
     the ring and pull it out on the other side, then let go: one hand feeds the end through, the other takes
@@ -61,11 +59,17 @@ class ThreadRopeThroughRingHandsEnv(rope.RopeTask, ManiLadderEnv):
     PARAMS = ("ring_radius", "min_side")
     # a cord 40 times stiffer in bending than the default rope: the end the feeding hand holds out (5 capsules
     # beyond the pinch) must stay roughly straight to enter the ring (the default rope's end hangs straight down;
-    # at 10x it drooped 4.5 cm over 8 cm and poked only 1.5 cm through, seed 100)
+    # at 10x it drooped 4.5 cm over 8 cm and poked only 1.5 cm through)
     rope_config = rope.RopeConfig(bend_stiffness=0.08, bend_damping=0.016)
+    RING_X_LOW, RING_X_SPAN = -0.12, 0.06  # the ring's x: uniform in [low, low + span]
+    RING_Y_LOW, RING_Y_SPAN = -0.03, 0.06  # and its y
+    HEADING_SPREAD = np.deg2rad(10)  # the rope's first capsule heads within this of the feed direction
+    TIP_GAP_LOW, TIP_GAP_SPAN = 0.04, 0.03  # the rope's end tip from the ring's centre plane, along y
+    TIP_X_SPREAD = 0.015  # the end tip's x: within this of the ring's
+    ROPE_MAX_AMP = 0.05  # rad: largest amplitude of the rope's S (`rope.wavy_turns`)
 
     def _load_scene(self, options: dict):
-        super()._load_scene(options)  # the rope (rope.RopeTask)
+        super()._load_scene(options)  # the rope (RopeTask)
         self.ring = build_standing_ring(self.scene, "ring", self.ring_radius, RING_TUBE, RING_HEIGHT, RING_COLOR)
         self.memory.flag("pulled_through")
         self.memory.value("start_side", 1)
@@ -74,12 +78,14 @@ class ThreadRopeThroughRingHandsEnv(rope.RopeTask, ManiLadderEnv):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            ring = torch.stack([torch.rand(b) * 0.06 - 0.12, torch.rand(b) * 0.06 - 0.03, torch.zeros(b)], dim=1)
+            ring = torch.stack([torch.rand(b) * self.RING_X_SPAN + self.RING_X_LOW,
+                                torch.rand(b) * self.RING_Y_SPAN + self.RING_Y_LOW, torch.zeros(b)], dim=1)
             self.ring.set_pose(Pose.create_from_pq(ring))
-            heading = FEED_SIDE * np.pi / 2 + (torch.rand(b) * 2 - 1) * np.deg2rad(10)
-            gap = 0.04 + torch.rand(b) * 0.03
-            tip = torch.stack([ring[:, 0] + (torch.rand(b) * 2 - 1) * 0.015, ring[:, 1] + FEED_SIDE * gap], dim=1)
-            turns = rope.wavy_turns(b, self.rope_config.segments, 0.05)
+            heading = FEED_SIDE * np.pi / 2 + (torch.rand(b) * 2 - 1) * self.HEADING_SPREAD
+            gap = self.TIP_GAP_LOW + torch.rand(b) * self.TIP_GAP_SPAN
+            tip = torch.stack([ring[:, 0] + (torch.rand(b) * 2 - 1) * self.TIP_X_SPREAD, ring[:, 1] + FEED_SIDE * gap],
+                              dim=1)
+            turns = rope.wavy_turns(b, self.rope_config.segments, self.ROPE_MAX_AMP)
             self.rope.lay_flat(tip, heading, turns, from_tip=True)
             self.memory.store("start_side", torch.full((b, 1), FEED_SIDE), env_idx)
 
@@ -136,83 +142,3 @@ class ThreadRopeThroughRingHandsEnv(rope.RopeTask, ManiLadderEnv):
         reward = reward + (info["threaded"] & info["pulled_through"] & ~info["touching_rope"]).float()
         reward[info["success"]] = self.max_dense_reward
         return reward
-
-
-FEED_CAPSULE = 5  # the feeding hand pinches this capsule (0: the end one): 5 capsules (10 cm) stick out beyond it
-TAKE_CAPSULE = 1  # the pulling hand pinches this one beyond the ring
-FEED_LIFT = 0.02  # the pinched capsule is fed this far above the ring's centre (the end droops a little)
-FEED_STOP = 0.027  # the feeding pinch stops this far short of the ring's plane (fingertips ~1.5 cm from the tube)
-REST_Z = 0.045  # the feeding hand lays the rope on the ring's bottom tube from this height, then lets go
-PULL = 0.12  # the pulling hand draws the rope this far away from the ring
-STEP = 0.006  # metres a control step while the rope is held (faster swings it out of the pinch)
-
-
-@register_solver("ThreadRopeThroughRingHands", control_modes=TCP_DELTA_MODES)
-def solve_thread_rope_through_ring_hands(env, seed: int) -> dict:
-    """The right hand takes the rope `FEED_CAPSULE` capsules from its end in the "scissor" pinch (fingers along
-    the rope, facing the ring), lifts it above the ring's centre and feeds the end through, lays the rope on the
-    ring's bottom and lets go (the two big hands cannot both reach the rope within a few cm of the ring); the
-    left hand, waiting above the far side, pinches the protruding end and pulls the rope `PULL` away from the
-    ring, lowers it to the table, lets go and rises."""
-    with DrivenSolver.episode(env, seed) as s:
-        task: ThreadRopeThroughRingHandsEnv = env.unwrapped
-        device = task.device
-        centre, axis = task.ring_frame()
-        toward = -FEED_SIDE  # the feed moves along +y * toward
-        feed_yaw = torch.full((centre.shape[0],), toward * np.pi / 2, device=device)
-        link = task.rope.links[FEED_CAPSULE]
-        grip = link.pose.p.clone()
-        grip[:, 2] = task.rope_config.radius
-        p, q = DrivenSolver.scissor_pose(grip, rope.segment_yaw(link.pose.q), around=toward * np.pi / 2)
-        s.set_ee("right_hand", "scissor_open", steps=0)
-        s.set_ee("left_hand", "scissor_open", steps=0)
-        # the left hand waits high above the far side, facing the ring
-        wait = centre.clone()
-        wait[:, 1] += toward * 0.1  # clear of the feeding hand's fingers
-        wait[:, 2] = 0.16
-        lp, lq = DrivenSolver.scissor_pose(wait, -feed_yaw, mirror=True, around=-toward * np.pi / 2)
-        s.arm_targets["left_arm"] = (lp, lq)
-        s.move({"right_arm": (s.above(p, APPROACH_HEIGHT), q)}, max_steps=60)
-        s.move({"right_arm": (p, q)}, max_steps=40, pos_tol=0.003)
-        s.close_hand("right_hand", "scissor", ramp_steps=SCISSOR_RAMP_STEPS)
-        # lift the pinched capsule to the feed height, line it up with the ring's axis, turn along it
-        start = centre.clone()
-        start[:, 1] += -toward * (FEED_STOP + 0.04)
-        start[:, 2] += FEED_LIFT
-        fp, fq = DrivenSolver.scissor_pose(start, feed_yaw, around=toward * np.pi / 2)
-        up = p.clone()
-        up[:, 2] = fp[:, 2]
-        glide(s, {"right_arm": (p, up, q)}, step_length=STEP, settle_steps=3)
-        glide(s, {"right_arm": (up, fp, fq)}, step_length=STEP, settle_steps=8)
-        stop = start.clone()
-        stop[:, 1] = centre[:, 1] - toward * FEED_STOP
-        sp, _ = DrivenSolver.scissor_pose(stop, feed_yaw, around=toward * np.pi / 2)
-        glide(s, {"right_arm": (fp, sp, fq)}, step_length=STEP, settle_steps=8)
-        # lay the rope on the ring's bottom and let go; the right hand backs off upwards
-        rest = stop.clone()
-        rest[:, 2] = REST_Z
-        rp, _ = DrivenSolver.scissor_pose(rest, feed_yaw, around=toward * np.pi / 2)
-        glide(s, {"right_arm": (sp, rp, fq)}, step_length=STEP, settle_steps=3)
-        s.set_ee("right_hand", "scissor_open", steps=6)
-        back = rp.clone()
-        back[:, 1] -= toward * 0.04
-        back[:, 2] += 0.12
-        s.arm_targets["right_arm"] = (back, fq)
-        # the left hand pinches the protruding end where it lies
-        end = task.rope.links[TAKE_CAPSULE]
-        tp, tq = DrivenSolver.scissor_pose(end.pose.p.clone(), rope.segment_yaw(end.pose.q), mirror=True,
-                                           around=-toward * np.pi / 2)
-        s.move({"left_arm": (s.above(tp, 0.05), tq)}, max_steps=30, pos_tol=0.01)
-        s.move({"left_arm": (tp, tq)}, max_steps=30, pos_tol=0.003)
-        s.close_hand("left_hand", "scissor", ramp_steps=SCISSOR_RAMP_STEPS)
-        pull = tp.clone()
-        pull[:, 1] += toward * PULL
-        pull[:, 2] = torch.maximum(tp[:, 2], centre[:, 2] + 0.036 - 0.01)
-        glide(s, {"left_arm": (tp, pull, tq)}, step_length=STEP, settle_steps=3)
-        down = pull.clone()
-        down[:, 2] = task.rope_config.radius + 0.036 + 0.004
-        glide(s, {"left_arm": (pull, down, tq)}, step_length=STEP, settle_steps=3)
-        s.set_ee("left_hand", "scissor_open", steps=6)
-        s.move({"left_arm": (s.above(down, 0.08), tq)}, max_steps=15, pos_tol=0.02)
-        s.hold_until_success()
-        return s.info

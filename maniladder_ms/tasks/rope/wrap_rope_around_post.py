@@ -12,17 +12,15 @@ from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.deformables import rope
 from maniladder_ms.envs import ManiLadderEnv, register_task
-from maniladder_ms.geometry import yaw_quat
 from maniladder_ms.objects.tabletop import build_upright_cylinder
-from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
-from maniladder_ms.solvers.driven import DrivenSolver
+from maniladder_ms.tasks.rope.base import RopeTask
 
 POST_COLOR = (0.35, 0.35, 0.4, 1)
 ANCHOR_HALF = (0.012, 0.012, 0.004)  # the visual clamp over the anchored capsule
 
 
 @register_task("WrapRopeAroundPost")
-class WrapRopeAroundPostEnv(rope.RopeTask, ManiLadderEnv):
+class WrapRopeAroundPostEnv(RopeTask, ManiLadderEnv):
     """**Task:** a rope lies on the table, one end tied down (its first capsule fixed, under a dark clamp)
     beside a short vertical post; grasp the rope's free end, carry it once around the post low over the
     table, lay it down and let go: the rope stays wrapped around the post.
@@ -59,11 +57,17 @@ class WrapRopeAroundPostEnv(rope.RopeTask, ManiLadderEnv):
     rope_anchored = True
     # 48 cm (the default 40 cm in 2 cm capsules, 4 capsules longer): the standing part, one turn round the
     # post and the carried end need ~40 cm, and friction round the post (capstan) stops the rope sliding
-    # on once wound; at 40 cm the carried end was pulled out of the fingers short of the turn (seed 101)
+    # on once wound; at 40 cm the carried end was pulled out of the fingers short of the turn
     rope_config = rope.RopeConfig(length=0.48, segments=24)
+    POST_X_SPAN = 0.06  # the post's x: uniform in [0, span]
+    POST_Y_LOW, POST_Y_SPAN = -0.04, 0.08  # its y: uniform in [low, low + span]
+    TIP_DISTANCE_LOW, TIP_DISTANCE_SPAN = 0.08, 0.03  # the anchored tip's distance from the post axis
+    TIP_BEARING_SPREAD = np.deg2rad(20)  # the tip's bearing from the post: within this of +y or -y
+    HEADING_LOW, HEADING_SPAN = np.deg2rad(35), np.deg2rad(20)  # the first capsule's heading, from that side towards -x
+    ROPE_MAX_AMP = 0.15  # rad: largest amplitude of the rope's S (`rope.wavy_turns`)
 
     def _load_scene(self, options: dict):
-        super()._load_scene(options)  # the anchored rope (rope.RopeTask)
+        super()._load_scene(options)  # the anchored rope (RopeTask)
         self.post = build_upright_cylinder(self.scene, "post", self.post_radius, self.post_height / 2, 800,
                                            POST_COLOR, kinematic=True)
         builder = self.scene.create_actor_builder()
@@ -77,15 +81,15 @@ class WrapRopeAroundPostEnv(rope.RopeTask, ManiLadderEnv):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            post = torch.stack([torch.rand(b) * 0.06, torch.rand(b) * 0.08 - 0.04,
+            post = torch.stack([torch.rand(b) * self.POST_X_SPAN, torch.rand(b) * self.POST_Y_SPAN + self.POST_Y_LOW,
                                 torch.full((b,), self.post_height / 2)], dim=1)
             self.post.set_pose(Pose.create_from_pq(post))
             side = torch.where(torch.rand(b) < 0.5, -1.0, 1.0)
-            bearing = side * (np.pi / 2 + (torch.rand(b) * 2 - 1) * np.deg2rad(20))
-            distance = 0.08 + torch.rand(b) * 0.03
+            bearing = side * (np.pi / 2 + (torch.rand(b) * 2 - 1) * self.TIP_BEARING_SPREAD)
+            distance = self.TIP_DISTANCE_LOW + torch.rand(b) * self.TIP_DISTANCE_SPAN
             tip = post[:, :2] + distance[:, None] * torch.stack([torch.cos(bearing), torch.sin(bearing)], dim=1)
-            heading = side * (np.pi / 2 + np.deg2rad(35) + torch.rand(b) * np.deg2rad(20))
-            turns = rope.wavy_turns(b, self.rope_config.segments, 0.15)
+            heading = side * (np.pi / 2 + self.HEADING_LOW + torch.rand(b) * self.HEADING_SPAN)
+            turns = rope.wavy_turns(b, self.rope_config.segments, self.ROPE_MAX_AMP)
             self.rope.lay_flat(tip, heading, turns, from_tip=True)
             first = self.rope.links[0].pose
             clamp_at = first.p.clone()
@@ -122,54 +126,3 @@ class WrapRopeAroundPostEnv(rope.RopeTask, ManiLadderEnv):
         reward = reward + 2 * progress + (info["wound"] & ~info["touching_rope"]).float() * 0.5
         reward[info["success"]] = self.max_dense_reward
         return reward
-
-
-GRASP_FROM_END = 1  # the solver grasps this capsule counted from the free end (0: the last)
-GRASP_CLEARANCE = 0.004  # TCP this far above the capsule centre: finger tips off the table, free to close
-CARRY_Z = 0.03  # TCP height while carrying: the fingertips 2 cm up, over the rope on the table
-CIRCLE_RADIUS = 0.065  # the TCP's path about the post axis
-ARC_STEP = 0.006  # metres of arc per control step
-MARGIN_TURNS = 0.2  # carry the end this far past one full turn (the free tail settles back a little)
-
-
-@register_solver("WrapRopeAroundPost", control_modes=TCP_DELTA_MODES)
-def solve_wrap_rope_around_post(env, seed: int) -> dict:
-    """Grasp the capsule next to the free end top-down, lift it to the carry height, go to the circle about
-    the post on the end's bearing and carry it round in the sense the rope already winds (anchor to end)
-    until the winding reaches one turn plus a margin; lower it, open, lift away."""
-    with DrivenSolver.episode(env, seed) as s:
-        task: WrapRopeAroundPostEnv = env.unwrapped
-        device = task.device
-        cfg = task.rope_config
-        g = cfg.segments - 1 - GRASP_FROM_END
-        link = task.rope.links[g]
-        yaw = DrivenSolver.neutral_yaw(rope.segment_yaw(link.pose.q), np.pi)  # fingers across the capsule
-        grasp = link.pose.p.clone()
-        grasp[:, 2] = cfg.radius + GRASP_CLEARANCE
-        s.pick("arm", "gripper", grasp, yaw, lift=CARRY_Z - cfg.radius)
-        q = s.tcp("arm").q  # top-down, fingers across the capsule: kept all the way round
-        post = task.post.pose.p[:, :2]
-        # the winding so far, anchor to the grasped capsule, and the sense to continue it
-        wound = rope.winding_number(task.rope.points()[:, :g + 2], post)
-        sense = torch.where(wound >= 0, 1.0, -1.0)
-        rel = s.tcp("arm").p[:, :2] - post
-        start = torch.atan2(rel[:, 1], rel[:, 0])
-        sweep = (sense * (1 + MARGIN_TURNS) - wound) * 2 * np.pi
-
-        def on_circle(angle: torch.Tensor) -> torch.Tensor:
-            xy = post + CIRCLE_RADIUS * torch.stack([torch.cos(angle), torch.sin(angle)], dim=1)
-            return torch.cat([xy, torch.full((xy.shape[0], 1), CARRY_Z, device=device)], dim=1)
-
-        s.move({"arm": (on_circle(start), q)}, max_steps=60, pos_tol=0.01)
-        steps = int(np.ceil(float(sweep.abs().max()) * CIRCLE_RADIUS / ARC_STEP))
-        for k in range(1, steps + 1):
-            s.step({"arm": (on_circle(start + sweep * k / steps), q)})
-        end = on_circle(start + sweep)
-        s.move({"arm": (end, q)}, max_steps=15, pos_tol=0.005)
-        lowered = end.clone()
-        lowered[:, 2] = cfg.radius + GRASP_CLEARANCE  # back down to the height it was grasped at
-        s.move({"arm": (lowered, q)}, max_steps=15, pos_tol=0.004)
-        s.release("gripper")
-        s.move({"arm": (s.above(lowered, 0.1), q)}, max_steps=20)
-        s.hold_until_success()
-        return s.info
