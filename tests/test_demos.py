@@ -204,6 +204,26 @@ def test_cli_demos_commands(recorded, demo_root, capsys):
     assert "not implemented yet" in capsys.readouterr().err
 
 
+def test_cli_generate_records_the_solver_s_own_mode_unless_told(tmp_path, monkeypatch, capsys):
+    """FoldTowelInHalf's solver drives three modes: `generate` records its first one, or each `--control-mode`."""
+    from maniladder_ms.cli import main
+
+    assert len(solver_for("FoldTowelInHalf").control_modes) > 1
+    runs = []
+
+    def fake_generate(task_id, num, out_dir, control_mode=None, **kwargs):
+        runs.append((task_id, control_mode))
+        return generate_module.GenerateReport(task_id, control_mode, Path(out_dir) / "x.h5", [], num)
+
+    monkeypatch.setattr(generate_module, "generate", fake_generate)
+    assert main(["demos", "generate", "FoldTowelInHalf", "--num", "1", "--out", str(tmp_path)]) == 0
+    assert runs == [("FoldTowelInHalf", solver_for("FoldTowelInHalf").control_mode)]
+    runs.clear()
+    assert main(["demos", "generate", "FoldTowelInHalf", "--num", "1", "--out", str(tmp_path),
+                 "--control-mode", "pd_ee_delta_pose", "--control-mode", "pd_joint_delta_pos"]) == 0
+    assert runs == [("FoldTowelInHalf", "pd_ee_delta_pose"), ("FoldTowelInHalf", "pd_joint_delta_pos")]
+
+
 COMMITTED_DEMOS = Path(__file__).resolve().parents[1] / "demos"
 
 

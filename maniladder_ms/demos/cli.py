@@ -11,7 +11,6 @@ from maniladder_ms.catalog import INSTRUCTION_MODES
 from maniladder_ms.solvers import JOINT_TARGET_MODES
 
 from .lerobot import DEFAULT_FPS
-from .recording import DEFAULT_CONTROL_MODES
 
 
 def _selected_tasks(args):
@@ -136,7 +135,8 @@ def add_parser(sub):
     gen.add_argument("--seed", type=int, default=0, help="first seed tried")
     gen.add_argument("--obs-mode", default="none", help="obs recorded with the demo (default none: convert later)")
     gen.add_argument("--control-mode", action="append", choices=JOINT_TARGET_MODES,
-                     help=f"repeatable; default those of {' and '.join(DEFAULT_CONTROL_MODES)} the task's solver drives")
+                     help="repeatable, one dataset file per mode; default the task's solver's own (first) mode "
+                          "(`maniladder show TASK` names it)")
     gen.add_argument("--workers", type=int, default=1, help="processes")
     gen.add_argument("--overwrite", action="store_true", help="replace an existing dataset file")
     gen.add_argument("--instructions", choices=INSTRUCTION_MODES, default="canonical",
