@@ -204,6 +204,20 @@ def test_cli_demos_commands(recorded, demo_root, capsys):
     assert "not implemented yet" in capsys.readouterr().err
 
 
+def test_verify_names_the_missing_h5(tmp_path, capsys):
+    from maniladder_ms.cli import main
+
+    missing = tmp_path / "missing.h5"
+    with pytest.raises(DemoFileError, match="missing.h5: no such file"):
+        verify(missing, progress=False)
+    assert main(["demos", "verify", str(missing)]) == 2
+    err = capsys.readouterr().err
+    assert "missing.h5: no such file" in err and "missing.json" not in err
+    missing.with_suffix(".json").write_text("{}")  # the json alone, named instead of the h5
+    with pytest.raises(DemoFileError, match=r"missing.json: name the demo's \.h5 file"):
+        verify(missing.with_suffix(".json"), progress=False)
+
+
 def test_cli_generate_records_the_solver_s_own_mode_unless_told(tmp_path, monkeypatch, capsys):
     """FoldTowelInHalf's solver drives three modes: `generate` records its first one, or each `--control-mode`."""
     from maniladder_ms.cli import main

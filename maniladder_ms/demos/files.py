@@ -30,6 +30,10 @@ def json_path(h5_path: Path) -> Path:
 def load_demo_json(h5_path: Path) -> dict:
     """The json beside `h5_path`, checked to describe a ManiLadder task, with its `task_spec`. Every episode
     has an `instruction`: files recorded before instructions were written get the task's canonical one."""
+    if Path(h5_path).suffix == ".json":
+        raise DemoFileError(f"{h5_path}: name the demo's .h5 file (its .json is read from beside it)")
+    if not Path(h5_path).exists():
+        raise DemoFileError(f"{h5_path}: no such file")
     path = json_path(h5_path)
     if not path.exists():
         raise DemoFileError(f"{path}: missing (every demo .h5 needs its .json beside it)")
