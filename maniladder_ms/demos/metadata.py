@@ -17,7 +17,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from .files import ENV_ID_PREFIX, DemoFileError, json_path, load_demo_json
+from .files import ENV_ID_PREFIX, DemoFileError, json_path, load_demo_json, read_trajectory_json
 
 EPISODE_FIELDS = ("instruction",)
 TOP_FIELDS = ("instructions", "solver", "source_type", "source_desc")
@@ -38,20 +38,7 @@ def copy_metadata(source_h5: Path, converted_h5: Path) -> int:
     source = load_demo_json(source_h5)
     source.pop("task_spec")
     source.setdefault("instructions", "canonical")  # as load_demo_json reads files older than instructions
-    if converted_h5.suffix != ".h5":
-        raise DemoFileError(f"{converted_h5}: name the converted demo's .h5 file (its .json is read from beside it)")
-    if not converted_h5.exists():
-        raise DemoFileError(f"{converted_h5}: no such file")
-    path = json_path(converted_h5)
-    if not path.exists():
-        raise DemoFileError(f"{path}: missing (the json `replay_trajectory` wrote beside {converted_h5.name})")
-    try:
-        converted = json.loads(path.read_text())
-    except json.JSONDecodeError as e:
-        raise DemoFileError(f"{path}: not valid JSON ({e})") from e
-    if not isinstance(converted, dict) or not isinstance(converted.get("env_info"), dict) \
-            or not isinstance(converted.get("episodes"), list):
-        raise DemoFileError(f"{path}: no 'env_info' / 'episodes' (not a ManiSkill trajectory json)")
+    path, converted = read_trajectory_json(converted_h5)
     task, converted_task = _task_of(source["env_info"]["env_id"]), _task_of(converted["env_info"].get("env_id", ""))
     if converted_task != task:
         raise DemoFileError(f"{path}: a demo of {converted_task or 'no env id'}, not of {task} as {source_h5} is")
