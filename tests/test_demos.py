@@ -403,7 +403,8 @@ def _converted_json(source_meta: dict) -> dict:
     info = source_meta["env_info"]
     return dict(
         env_info=dict(env_id=info["env_id"].removeprefix("maniladder_ms:"),
-                      env_kwargs=dict(info["env_kwargs"], obs_mode="rgbd"), max_episode_steps=info["max_episode_steps"]),
+                      env_kwargs=dict(info["env_kwargs"], obs_mode="rgbd"),
+                      max_episode_steps=info["max_episode_steps"]),
         commit_info={},
         episodes=[dict(episode_id=i, episode_seed=ep["episode_seed"], control_mode=ep["control_mode"],
                        elapsed_steps=ep["elapsed_steps"], reset_kwargs=ep["reset_kwargs"], success=True)

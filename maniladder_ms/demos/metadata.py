@@ -59,8 +59,8 @@ def copy_metadata(source_h5: Path, converted_h5: Path) -> int:
     for ep in converted["episodes"]:
         seed = ep.get("episode_seed")
         if seed not in by_seed:
-            raise DemoFileError(f"{path}: episode {ep.get('episode_id')} (seed {seed}) is not in {json_path(source_h5)}; "
-                                "nothing changed")
+            raise DemoFileError(f"{path}: episode {ep.get('episode_id')} (seed {seed}) is not in "
+                                f"{json_path(source_h5)}; nothing changed")
         for key in EPISODE_FIELDS:
             if key in by_seed[seed]:
                 put(ep, key, by_seed[seed][key], f"episode {ep.get('episode_id')} (seed {seed})")
