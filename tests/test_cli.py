@@ -1,5 +1,6 @@
 """The `maniladder` command line: list, render, bench, and clear errors."""
 
+import argparse
 import json
 import os
 import subprocess
@@ -76,6 +77,23 @@ def test_unknown_task_exits_2_with_message(capsys):
     assert main(["render", "PickPlacePencil"]) == 2
     assert "unknown ManiLadder task 'PickPlacePencil'" in capsys.readouterr().err
     assert main(["list", "--suite", "L9-rigid-SG"]) == 2
+
+
+def _all_parsers(parser, prog="maniladder"):
+    yield prog, parser
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for name, sub in action.choices.items():
+                yield from _all_parsers(sub, f"{prog} {name}")
+
+
+def test_every_help_text_renders_its_percent_signs_once():
+    """argparse %-formats help strings but not descriptions: '%%' belongs in the first, '%' in the second."""
+    from maniladder_ms.cli import build_parser
+
+    for prog, parser in _all_parsers(build_parser()):
+        text = parser.format_help()  # a lone '%' in a help string raises here
+        assert "%%" not in text, f"`{prog} --help` prints a doubled percent sign"
 
 
 def test_render_writes_all_cameras(tmp_path, capsys):

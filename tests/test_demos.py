@@ -204,6 +204,40 @@ def test_cli_demos_commands(recorded, demo_root, capsys, fixture_catalog):
     assert "not implemented yet" in capsys.readouterr().err
 
 
+def test_verify_names_the_missing_h5(tmp_path, capsys):
+    from maniladder_ms.cli import main
+
+    missing = tmp_path / "missing.h5"
+    with pytest.raises(DemoFileError, match="missing.h5: no such file"):
+        verify(missing, progress=False)
+    assert main(["demos", "verify", str(missing)]) == 2
+    err = capsys.readouterr().err
+    assert "missing.h5: no such file" in err and "missing.json" not in err
+    missing.with_suffix(".json").write_text("{}")  # the json alone, named instead of the h5
+    with pytest.raises(DemoFileError, match=r"missing.json: name the demo's \.h5 file"):
+        verify(missing.with_suffix(".json"), progress=False)
+
+
+def test_cli_generate_records_the_solver_s_own_mode_unless_told(tmp_path, monkeypatch, capsys):
+    """FoldTowelInHalf's solver drives three modes: `generate` records its first one, or each `--control-mode`."""
+    from maniladder_ms.cli import main
+
+    assert len(solver_for("FoldTowelInHalf").control_modes) > 1
+    runs = []
+
+    def fake_generate(task_id, num, out_dir, control_mode=None, **kwargs):
+        runs.append((task_id, control_mode))
+        return generate_module.GenerateReport(task_id, control_mode, Path(out_dir) / "x.h5", [], num)
+
+    monkeypatch.setattr(generate_module, "generate", fake_generate)
+    assert main(["demos", "generate", "FoldTowelInHalf", "--num", "1", "--out", str(tmp_path)]) == 0
+    assert runs == [("FoldTowelInHalf", solver_for("FoldTowelInHalf").control_mode)]
+    runs.clear()
+    assert main(["demos", "generate", "FoldTowelInHalf", "--num", "1", "--out", str(tmp_path),
+                 "--control-mode", "pd_ee_delta_pose", "--control-mode", "pd_joint_delta_pos"]) == 0
+    assert runs == [("FoldTowelInHalf", "pd_ee_delta_pose"), ("FoldTowelInHalf", "pd_joint_delta_pos")]
+
+
 COMMITTED_DEMOS = Path(__file__).resolve().parents[1] / "demos"
 
 
@@ -362,3 +396,69 @@ def test_resample_asks_before_replacing(tmp_path, capsys, monkeypatch, fixture_c
 def test_demos_only_in_a_mode_the_solver_drives(tmp_path):
     with pytest.raises(ValueError, match="recorded in one of pd_ee_delta_pose"):
         generate("HandoverCube", 1, tmp_path, control_mode="pd_joint_pos", progress=False)
+
+
+def _converted_json(source_meta: dict) -> dict:
+    """The json ManiSkill's replay_trajectory writes for a conversion of `source_meta`'s file (RecordEpisode's
+    fields only; the bare env id), with the episodes renumbered in another order, as a replay that skipped some."""
+    info = source_meta["env_info"]
+    return dict(
+        env_info=dict(env_id=info["env_id"].removeprefix("maniladder_ms:"),
+                      env_kwargs=dict(info["env_kwargs"], obs_mode="rgbd"),
+                      max_episode_steps=info["max_episode_steps"]),
+        commit_info={},
+        episodes=[dict(episode_id=i, episode_seed=ep["episode_seed"], control_mode=ep["control_mode"],
+                       elapsed_steps=ep["elapsed_steps"], reset_kwargs=ep["reset_kwargs"], success=True)
+                  for i, ep in enumerate(reversed(source_meta["episodes"]))],
+    )
+
+
+def test_copy_meta_restores_what_replay_trajectory_drops(tmp_path, capsys):
+    from maniladder_ms.cli import main
+    from maniladder_ms.demos import copy_metadata
+
+    sample = COMMITTED_DEMOS / "PickPlacePen" / "trajectory.none.pd_joint_pos.physx_cpu.h5"
+    source = tmp_path / sample.name
+    shutil.copy(sample, source)
+    meta = json.loads(sample.with_suffix(".json").read_text())
+    pen = maniladder_ms.default_catalog().get("PickPlacePen")
+    for ep, text in zip(meta["episodes"], pen.paraphrases):  # a different instruction per episode
+        ep["instruction"] = text
+    meta["instructions"] = "paraphrase"
+    source.with_suffix(".json").write_text(json.dumps(meta))
+    converted = tmp_path / "trajectory.rgbd.pd_joint_pos.physx_cpu.h5"
+    shutil.copy(sample, converted)  # stands in for the converted h5 (only the json is read and written)
+    converted.with_suffix(".json").write_text(json.dumps(_converted_json(meta)))
+
+    assert copy_metadata(source, converted) == len(meta["episodes"])
+    out = json.loads(converted.with_suffix(".json").read_text())
+    assert out["env_info"]["env_id"] == "maniladder_ms:ManiLadder-PickPlacePen-v1"
+    assert out["env_info"]["env_kwargs"]["obs_mode"] == "rgbd"  # the conversion's own fields kept
+    by_seed = {ep["episode_seed"]: ep["instruction"] for ep in meta["episodes"]}
+    assert all(ep["instruction"] == by_seed[ep["episode_seed"]] for ep in out["episodes"])
+    assert [ep["episode_id"] for ep in out["episodes"]] == list(range(len(meta["episodes"])))
+    assert {k: out[k] for k in ("instructions", "solver", "source_type", "source_desc")} == \
+        {k: meta[k] for k in ("instructions", "solver", "source_type", "source_desc")}
+    assert load_demo_json(converted)["task_spec"].id == "PickPlacePen"
+    assert main(["demos", "copy-meta", str(source), str(converted)]) == 0  # again: nothing new, nothing lost
+    assert json.loads(converted.with_suffix(".json").read_text()) == out
+    assert f"{len(out['episodes'])} episodes" in capsys.readouterr().out
+
+    # refused, the converted json left as it was: another task's file, a seed the source lacks, a conflicting label
+    other = json.loads((COMMITTED_DEMOS / "Stack6Blocks" / "trajectory.none.pd_joint_pos.physx_cpu.json").read_text())
+    bad = tmp_path / "bad.h5"
+    shutil.copy(sample, bad)
+    for broken, message in (
+        (_converted_json(other), "a demo of ManiLadder-Stack6Blocks-v1, not of ManiLadder-PickPlacePen-v1"),
+        (dict(out, episodes=[dict(out["episodes"][0], episode_seed=123456)]), r"\(seed 123456\) is not in"),
+        (dict(out, episodes=[dict(out["episodes"][0], instruction="juggle")]), "already has instruction 'juggle'"),
+    ):
+        bad.with_suffix(".json").write_text(json.dumps(broken))
+        with pytest.raises(DemoFileError, match=message):
+            copy_metadata(source, bad)
+        assert json.loads(bad.with_suffix(".json").read_text()) == broken
+    assert main(["demos", "copy-meta", str(source), str(tmp_path / "none.h5")]) == 2
+    assert "none.h5: no such file" in capsys.readouterr().err
+    bad.with_suffix(".json").unlink()
+    assert main(["demos", "copy-meta", str(source), str(bad)]) == 2
+    assert "bad.json: missing" in capsys.readouterr().err

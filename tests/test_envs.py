@@ -177,6 +177,18 @@ def test_other_obs_modes(obs_mode):
     env.close()
 
 
+def test_object_poses_are_in_extra_only_under_state_obs_modes():
+    """What the README says of `extra`: under `rgb` PickPlacePen's holds the TCP pose and `is_grasped` only."""
+    keys = {}
+    for obs_mode in ("rgb", "state_dict"):
+        env = make("PickPlacePen", obs_mode=obs_mode)
+        obs, _ = env.reset(seed=0)
+        keys[obs_mode] = set(obs["extra"])
+        env.close()
+    assert keys["rgb"] == {"tcp_pose", "is_grasped"}
+    assert {"pen_pose", "tray_pose"} <= keys["state_dict"]
+
+
 def test_domain_randomization_changes_scene_and_keeps_distractors_clear():
     env = make("PickPlacePen", obs_mode="rgb", domain_randomization=True)
     base = env.unwrapped

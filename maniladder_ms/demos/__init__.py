@@ -11,6 +11,7 @@ beside it.
 """
 
 from .files import DemoFileError, load_demo_json, open_demo_h5
+from .metadata import copy_metadata
 from .recording import generate
 from .stats import dataset_stats
 from .verify import verify

@@ -1,4 +1,4 @@
-"""`maniladder demos generate | verify | resample | stats | export`."""
+"""`maniladder demos generate | verify | resample | stats | export | copy-meta`."""
 
 from __future__ import annotations
 
@@ -11,7 +11,6 @@ from maniladder_ms.catalog import INSTRUCTION_MODES
 from maniladder_ms.solvers import JOINT_TARGET_MODES
 
 from .lerobot import DEFAULT_FPS
-from .recording import DEFAULT_CONTROL_MODES
 
 
 def _selected_tasks(args):
@@ -123,8 +122,18 @@ def cmd_export(args) -> int:
     return 0
 
 
+def cmd_copy_meta(args) -> int:
+    from .metadata import copy_metadata
+
+    n = copy_metadata(args.source, args.converted)
+    print(f"{args.converted}: {n} episodes given their instruction from {args.source}; env id, instructions, "
+          "solver and source fields restored")
+    return 0
+
+
 def add_parser(sub):
-    demos = sub.add_parser("demos", help="scripted demonstrations: generate, verify, resample, stats, export")
+    demos = sub.add_parser("demos", help="scripted demonstrations: generate, verify, resample, stats, export, "
+                                         "copy-meta")
     dsub = demos.add_subparsers(dest="demos_command", required=True)
 
     gen = dsub.add_parser("generate", help="record successful solver episodes as ManiSkill h5 + json")
@@ -136,7 +145,8 @@ def add_parser(sub):
     gen.add_argument("--seed", type=int, default=0, help="first seed tried")
     gen.add_argument("--obs-mode", default="none", help="obs recorded with the demo (default none: convert later)")
     gen.add_argument("--control-mode", action="append", choices=JOINT_TARGET_MODES,
-                     help=f"repeatable; default those of {' and '.join(DEFAULT_CONTROL_MODES)} the task's solver drives")
+                     help="repeatable, one dataset file per mode; default the task's solver's own (first) mode "
+                          "(`maniladder show TASK` names it)")
     gen.add_argument("--workers", type=int, default=1, help="processes")
     gen.add_argument("--overwrite", action="store_true", help="replace an existing dataset file")
     gen.add_argument("--instructions", choices=INSTRUCTION_MODES, default="canonical",
@@ -178,3 +188,11 @@ def add_parser(sub):
                     help="video encoder (default libsvtav1: AV1 as LeRobot writes; libx264: H.264)")
     ex.add_argument("--overwrite", action="store_true", help="replace an existing LeRobot dataset in --out")
     ex.set_defaults(func=cmd_export)
+
+    cm = dsub.add_parser("copy-meta", help="after ManiSkill's replay_trajectory converted a demo: copy each episode's "
+                                           "instruction (matched by episode seed), the env id's maniladder_ms: prefix "
+                                           "and the other fields the conversion drops from the source's json onto "
+                                           "the converted file's json")
+    cm.add_argument("source", type=Path, help="the demo .h5 the conversion read")
+    cm.add_argument("converted", type=Path, help="the .h5 replay_trajectory wrote (its .json is updated in place)")
+    cm.set_defaults(func=cmd_copy_meta)

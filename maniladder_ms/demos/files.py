@@ -27,9 +27,13 @@ def json_path(h5_path: Path) -> Path:
     return Path(h5_path).with_suffix(".json")
 
 
-def load_demo_json(h5_path: Path) -> dict:
-    """The json beside `h5_path`, checked to describe a ManiLadder task, with its `task_spec`. Every episode
-    has an `instruction`: files recorded before instructions were written get the task's canonical one."""
+def read_trajectory_json(h5_path: Path) -> tuple[Path, dict]:
+    """(path, contents) of the json beside the existing trajectory `h5_path`, checked to be a ManiSkill trajectory
+    json (`env_info`, `episodes`), whatever its task."""
+    if Path(h5_path).suffix == ".json":
+        raise DemoFileError(f"{h5_path}: name the demo's .h5 file (its .json is read from beside it)")
+    if not Path(h5_path).exists():
+        raise DemoFileError(f"{h5_path}: no such file")
     path = json_path(h5_path)
     if not path.exists():
         raise DemoFileError(f"{path}: missing (every demo .h5 needs its .json beside it)")
@@ -37,8 +41,15 @@ def load_demo_json(h5_path: Path) -> dict:
         data = json.loads(path.read_text())
     except json.JSONDecodeError as e:
         raise DemoFileError(f"{path}: not valid JSON ({e})") from e
-    if not isinstance(data, dict) or "env_info" not in data or "episodes" not in data:
+    if not isinstance(data, dict) or not isinstance(data.get("env_info"), dict) or "episodes" not in data:
         raise DemoFileError(f"{path}: no 'env_info' / 'episodes' (not a ManiSkill trajectory json)")
+    return path, data
+
+
+def load_demo_json(h5_path: Path) -> dict:
+    """The json beside `h5_path`, checked to describe a ManiLadder task, with its `task_spec`. Every episode
+    has an `instruction`: files recorded before instructions were written get the task's canonical one."""
+    path, data = read_trajectory_json(h5_path)
     env_id = data["env_info"].get("env_id", "")
     try:
         data["task_spec"] = default_catalog().get(env_id.removeprefix(ENV_ID_PREFIX))

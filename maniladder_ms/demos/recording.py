@@ -25,12 +25,12 @@ from maniladder_ms.solvers import solver_for
 from .files import ENV_ID_PREFIX, DemoFileError, demo_path, json_path
 
 CHUNK_SIZE = 5
-DEFAULT_CONTROL_MODES = ("pd_joint_pos", "pd_ee_delta_pose")
 
 
 def default_control_modes(task_id: str) -> tuple[str, ...]:
-    """The modes `demos generate` records when none is named: those of DEFAULT_CONTROL_MODES the solver drives."""
-    return tuple(m for m in DEFAULT_CONTROL_MODES if m in solver_for(task_id).control_modes)
+    """The modes `demos generate` records when none is named: the solver's own (first) one. The other modes
+    a solver drives are recorded only when asked for (`--control-mode`, repeatable): each is a full run."""
+    return (solver_for(task_id).control_mode,)
 
 
 @dataclass
@@ -93,12 +93,13 @@ def _finished_chunks(parts_dir: Path) -> dict[int, list[dict]]:
 
 
 def generate(
-    task_id: str, num: int, out_dir: Path, seed: int = 0, control_mode: str = "pd_joint_pos",
+    task_id: str, num: int, out_dir: Path, seed: int = 0, control_mode: str | None = None,
     obs_mode: str = "none", workers: int = 1, overwrite: bool = False, progress: bool = True,
     max_attempts: int | None = None, instructions: str = "canonical",
 ) -> GenerateReport:
-    """Record `num` successful solver episodes of `task_id` (seeds from `seed` on) into one h5/json pair;
-    `instructions` ("canonical" or "paraphrase") picks the instruction each episode records."""
+    """Record `num` successful solver episodes of `task_id` (seeds from `seed` on) into one h5/json pair, in
+    `control_mode` (default the solver's own, first, mode); `instructions` ("canonical" or "paraphrase") picks the
+    instruction each episode records."""
     from maniladder_ms.catalog import check_instruction_mode, default_catalog
 
     spec = default_catalog().get(task_id)
@@ -106,6 +107,7 @@ def generate(
     if not (0 <= seed and seed + max_attempts_for(num, max_attempts) <= MAX_DEMO_SEED):
         raise ValueError(f"demo seeds must stay in [0, {MAX_DEMO_SEED}): evaluation seeds start there")
     modes = solver_for(spec.id).control_modes
+    control_mode = control_mode or modes[0]
     if control_mode not in modes:
         raise ValueError(f"control mode {control_mode!r}: {spec.id} demos are recorded in one of {', '.join(modes)}")
     out = demo_path(out_dir, spec.id, obs_mode, control_mode)

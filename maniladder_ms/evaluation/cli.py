@@ -81,7 +81,7 @@ def add_parsers(subparsers) -> None:
     """Add `eval` and `report` to the subparsers of the `maniladder` command (its `build_parser`)."""
     ev = subparsers.add_parser(
         "eval", help="evaluate a policy on the ladder under the fixed protocol",
-        description="Evaluate a policy: per-task success with 95%% Wilson intervals, Table 3 suite means, the ladder level.",
+        description="Evaluate a policy: per-task success with 95% Wilson intervals, Table 3 suite means, the ladder level.",
     )
     ev.add_argument("--policy", required=True,
                     help="random | solver | replay:<demo.h5 or folder> | module:attr | path/to/file.py:attr")
