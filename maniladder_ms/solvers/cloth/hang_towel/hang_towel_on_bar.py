@@ -22,7 +22,8 @@ from maniladder_ms.agents.helpers import top_down_quat
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.bimanual import Grasp, glide, grasp_together, reach
 from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver
-from maniladder_ms.tasks.cloth.hang_towel.hang_towel_on_bar import CORNER, SIDES, HangTowelOnBarEnv
+from maniladder_ms.tasks.cloth.base import SIDE_Y_SIGN, SIDES
+from maniladder_ms.tasks.cloth.hang_towel.hang_towel_on_bar import CORNER, HangTowelOnBarEnv
 
 FINGER_GAP_CMD = 0.2  # normalised gripper command: fingers 4 cm apart, around the corner particle only
 # the pinch's TCP lies this far outwards of the corner particle along the towel's diagonal: the inner finger,
@@ -64,7 +65,7 @@ def corner_grasp(task: HangTowelOnBarEnv, side: str, approach: float) -> Grasp:
     corners = task.towel.layout.named["corners"]
     towel_axis = points[:, corners[2]] - points[:, corners[0]]
     towel_yaw = torch.atan2(towel_axis[:, 1], towel_axis[:, 0])
-    diagonal = float(np.arctan2(SIDES[side], 1.0))  # the corner's outward diagonal, local
+    diagonal = float(np.arctan2(SIDE_Y_SIGN[side], 1.0))  # the corner's outward diagonal, local
     yaw = DrivenSolver.neutral_yaw(towel_yaw + diagonal + np.pi / 2, np.pi)
     corner = task.corner_particles()[side].pose.p
     outwards = corner - points.mean(dim=1)

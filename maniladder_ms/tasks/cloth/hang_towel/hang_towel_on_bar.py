@@ -12,9 +12,9 @@ from mani_skill.utils.structs.pose import Pose
 from maniladder_ms.envs import register_task
 from maniladder_ms.envs.memory import latch_held_by_both
 from maniladder_ms.geometry import yaw_quat
+from maniladder_ms.tasks.cloth.base import SIDES
 from .base import ROWS, HangTowelTask
 
-SIDES = {"left": 1.0, "right": -1.0}  # sign of y on each arm's side of the table
 # the towel corner each arm takes (towel's named corners: 2 (+x, -y), 3 (+x, +y)): the two nearest the bar
 CORNER = {"left": 3, "right": 2}
 
@@ -57,7 +57,8 @@ class HangTowelOnBarEnv(HangTowelTask):
     TASK_REGION = (-0.45, 0.08, -0.26, 0.26)  # towel start (centre plus its half diagonal) and the bar with its feet
     # (its feet reach 9.5 cm past the axis in x: 0.075 with the axis at its largest x, -0.02)
     BAR_X_LOW, BAR_X_SPAN = -0.06, 0.04  # the bar's axis x: uniform in [low, low + span]
-    TOWEL_GAP, TOWEL_GAP_SPAN = 0.10, 0.03  # the towel's edge nearest the bar this far short of its axis, + uniform span
+    # the towel's edge nearest the bar short of the bar's axis: uniform in [gap, gap + span]
+    TOWEL_GAP, TOWEL_GAP_SPAN = 0.10, 0.03
     TOWEL_Y_LOW, TOWEL_Y_SPAN = -0.03, 0.06  # the towel's centre y: uniform in [low, low + span]
     TOWEL_YAW = np.deg2rad(15)  # the towel's yaw: uniform in +-this
 
