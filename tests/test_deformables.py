@@ -764,7 +764,8 @@ def test_towel_draped_over_the_bar_stays_put(top_row):
     the sheet slides 13 mm and its long side comes down onto the table."""
     from mani_skill.utils.structs.pose import Pose
 
-    from maniladder_ms.tasks.cloth.hang_towel.hang_towel_on_bar import COLS, ROWS, HangTowelOnBarEnv
+    from maniladder_ms.tasks.cloth.hang_towel.base import COLS, ROWS
+    from maniladder_ms.tasks.cloth.hang_towel.hang_towel_on_bar import HangTowelOnBarEnv
 
     env = HangTowelOnBarEnv(task_id="HangTowelOnBar", obs_mode="state", control_mode="pd_ee_delta_pose", num_envs=1)
     try:

@@ -13,8 +13,6 @@ from maniladder_ms.deformables import cloth
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.geometry import yaw_quat
 from maniladder_ms.objects.markers import MARKER_THICKNESS, build_zone_marker
-from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
-from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver, SCISSOR_RAMP_STEPS
 
 ROWS = COLS = 8
 
@@ -26,11 +24,12 @@ class DragTowelHandEnv(ManiLadderEnv):
 
     **Randomisation:**
     - the towel (`cloth.towel(8, 8)`: 2.5 cm particle spacing, particles of 1 cm radius, 17.5 cm between
-      corner centres) lies flat, its centre at x uniform in [-0.12, -0.04], y uniform in [-0.08, 0.08],
-      its edges turned by a yaw uniform in [-pi/4, pi/4);
-    - the target's centre lies `drag` uniform in [0.12, 0.18] m from the towel's centre, in a direction
-      uniform in [-3 pi / 4, 3 pi / 4) from +x (never towards the robot's base, where a top-down hand
-      runs out of reach).
+      corner centres) lies flat, its centre at x uniform in [-0.12, -0.04] (`TOWEL_X_LOW`, `TOWEL_X_SPAN`),
+      y uniform in [-0.08, 0.08] (`TOWEL_Y_LOW`, `TOWEL_Y_SPAN`), its edges turned by a yaw uniform in
+      [-pi/4, pi/4) (`TOWEL_YAW_SPAN`);
+    - the target's centre lies `drag` uniform in [0.12, 0.18] m (`DRAG_LOW`, `DRAG_SPAN`) from the towel's
+      centre, in a direction uniform in [-3 pi / 4, 3 pi / 4) from +x (`HEADING`: never towards the robot's
+      base, where a top-down hand runs out of reach).
 
     **Success:** the towel's centroid (mean of its particle centres) is within `goal_radius` of the
     target's centre in the table plane; and the towel was dragged there by a corner: at some step the hand
@@ -46,6 +45,11 @@ class DragTowelHandEnv(ManiLadderEnv):
     TASK_REGION = (-0.34, 0.2, -0.3, 0.3)  # towel and target centres plus the towel's half diagonal
     cloth_config = cloth.ClothConfig(radius=0.010)
     PARAMS = ("goal_radius", "drag_share")
+    TOWEL_X_LOW, TOWEL_X_SPAN = -0.12, 0.08  # the towel's centre x: uniform in [low, low + span]
+    TOWEL_Y_LOW, TOWEL_Y_SPAN = -0.08, 0.16  # the towel's centre y: uniform in [low, low + span]
+    TOWEL_YAW_SPAN = np.pi / 2  # the towel's yaw: uniform in [-span / 2, span / 2)
+    HEADING = 3 * np.pi / 4  # the target's direction from the towel's centre: uniform in +-this from +x
+    DRAG_LOW, DRAG_SPAN = 0.12, 0.06  # the target's distance from the towel's centre: uniform in [low, low + span]
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -61,12 +65,13 @@ class DragTowelHandEnv(ManiLadderEnv):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            centre = torch.stack([torch.rand(b) * 0.08 - 0.12, torch.rand(b) * 0.16 - 0.08,
+            centre = torch.stack([torch.rand(b) * self.TOWEL_X_SPAN + self.TOWEL_X_LOW,
+                                  torch.rand(b) * self.TOWEL_Y_SPAN + self.TOWEL_Y_LOW,
                                   torch.full((b,), self.cloth_config.radius)], dim=1)
-            yaw = (torch.rand(b) - 0.5) * (np.pi / 2)
+            yaw = (torch.rand(b) - 0.5) * self.TOWEL_YAW_SPAN
             self.towel.set_rest_shape(Pose.create_from_pq(centre, yaw_quat(yaw)))
-            heading = (torch.rand(b) * 2 - 1) * (3 * np.pi / 4)
-            drag = 0.12 + torch.rand(b) * 0.06
+            heading = (torch.rand(b) * 2 - 1) * self.HEADING
+            drag = self.DRAG_LOW + torch.rand(b) * self.DRAG_SPAN
             target = centre + torch.stack([drag * torch.cos(heading), drag * torch.sin(heading), torch.zeros(b)], dim=1)
             target[:, 2] = MARKER_THICKNESS / 2
             self.target.set_pose(Pose.create_from_pq(target))
@@ -103,44 +108,3 @@ class DragTowelHandEnv(ManiLadderEnv):
         reward += 3 * (1 - torch.tanh(5 * info["distance"]))
         reward[info["success"]] = self.max_dense_reward
         return reward
-
-
-DRAG_SPEED = 0.006  # m a control step
-
-
-def leading_corner(task: DragTowelHandEnv) -> torch.Tensor:
-    """Per env, the corner particle furthest along the way from the towel's centroid to the target, [B]."""
-    points = task.towel.positions()
-    corners = torch.tensor(task.corner_ids, device=points.device)
-    way = (task.target.pose.p - task.centroid())[:, :2]
-    along = (points[:, corners, :2] * way[:, None]).sum(dim=-1)
-    return corners[along.argmax(dim=1)]
-
-
-@register_solver("DragTowelHand", control_modes=TCP_DELTA_MODES)
-def solve_drag_towel_hand(env, seed: int) -> dict:
-    """Scissor-pinch the leading corner particle (index and middle straight down on either side of it,
-    fingers along the towel's diagonal, swung together), drag it closed loop (every step the TCP target
-    moves `DRAG_SPEED` along the centroid's remaining way to the target) until the centroid is within half
-    the goal radius, open the fingers and lift the hand away."""
-    with DrivenSolver.episode(env, seed) as s:
-        task: DragTowelHandEnv = env.unwrapped
-        points = task.towel.positions()
-        corner = points[torch.arange(len(points), device=points.device), leading_corner(task)]
-        tcp, q = DrivenSolver.corner_scissor_pose(corner, task.centroid(), task.cloth_config.radius)
-        s.set_ee("hand", "scissor_open", steps=1)
-        s.move({"arm": (s.above(tcp, APPROACH_HEIGHT), q)}, max_steps=60)
-        s.move({"arm": (tcp, q)}, max_steps=40, pos_tol=0.003)
-        s.close_hand("hand", "scissor", ramp_steps=SCISSOR_RAMP_STEPS)
-        for _ in range(60):
-            way = task.target.pose.p - task.centroid()
-            way[:, 2] = 0
-            length = torch.linalg.norm(way, dim=1, keepdim=True)
-            if bool((length < task.goal_radius / 2).all()):
-                break
-            tcp = tcp + way * (DRAG_SPEED / length.clamp(min=DRAG_SPEED))
-            s.step({"arm": (tcp, q)})
-        s.set_ee("hand", "scissor_open", steps=5)
-        s.move({"arm": (s.above(tcp, 0.06), q)}, max_steps=15, pos_tol=0.01)
-        s.hold_until_success()
-        return s.info

@@ -5,7 +5,6 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-import sapien
 import torch
 
 from mani_skill.utils.structs.pose import Pose
@@ -13,8 +12,6 @@ from mani_skill.utils.structs.pose import Pose
 from maniladder_ms.deformables import cloth
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.geometry import yaw_quat
-from maniladder_ms.solvers import register_solver
-from maniladder_ms.solvers.panda import APPROACH_HEIGHT, PRECISE_SETTLE_STEPS, PandaSolver
 
 ROWS = COLS = 10
 
@@ -31,8 +28,9 @@ class FlattenTowelCornerEnv(ManiLadderEnv):
       diagonal line a number of grid steps from it drawn uniformly from `fold_cells` ({6, 7}: 21 or 28 of
       the 100 particles turned over, the towel covering 86% or 80% of its flat area once the layer has
       settled);
-    - the towel's centre is at x uniform in [-0.1, 0.0], y uniform in [-0.08, 0.08], its edges turned
-      by a yaw uniform in [-pi/4, pi/4) (with the corner choice, the fold points any way).
+    - the towel's centre is at x uniform in [-0.1, 0.0] (`TOWEL_X_LOW`, `TOWEL_X_SPAN`), y uniform in
+      [-0.08, 0.08] (`TOWEL_Y`), its edges turned by a yaw uniform in [-pi/4, pi/4) (`TOWEL_YAW_SPAN`; with the
+      corner choice, the fold points any way).
 
     **Success:** the towel's covered area seen from above (`cloth.coverage`: particle tiles of the
     spacing's size in the towel's own grid axes) is at least `min_coverage` of its flat area; the corner
@@ -45,6 +43,9 @@ class FlattenTowelCornerEnv(ManiLadderEnv):
     TASK_REGION = (-0.28, 0.18, -0.26, 0.26)  # towel centres plus the towel's half diagonal
     cloth_config = cloth.ClothConfig(radius=0.010)
     PARAMS = ("fold_cells", "min_coverage", "carry_share")
+    TOWEL_X_LOW, TOWEL_X_SPAN = -0.1, 0.1  # the towel's centre x: uniform in [low, low + span]
+    TOWEL_Y = 0.08  # the towel's centre y: uniform in +-this
+    TOWEL_YAW_SPAN = np.pi / 2  # the towel's yaw: uniform in [-span / 2, span / 2)
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -70,8 +71,9 @@ class FlattenTowelCornerEnv(ManiLadderEnv):
             b = len(env_idx)
             corner = torch.randint(0, 4, (b,))
             shape = torch.randint(0, len(self.fold_cells), (b,)) * 4 + corner
-            yaw = (torch.rand(b) - 0.5) * (np.pi / 2)
-            xyz = torch.stack([torch.rand(b) * 0.1 - 0.1, (torch.rand(b) * 2 - 1) * 0.08,
+            yaw = (torch.rand(b) - 0.5) * self.TOWEL_YAW_SPAN
+            xyz = torch.stack([torch.rand(b) * self.TOWEL_X_SPAN + self.TOWEL_X_LOW,
+                               (torch.rand(b) * 2 - 1) * self.TOWEL_Y,
                                torch.full((b,), self.cloth_config.radius)], dim=1)
             self.towel.set_shape(self.fold_positions[shape], self.fold_quats[shape], Pose.create_from_pq(xyz, yaw_quat(yaw)))
             self.folded_corner[env_idx] = corner
@@ -127,30 +129,3 @@ class FlattenTowelCornerEnv(ManiLadderEnv):
         reward += 2 * ((info["coverage"] - 0.75) / (self.min_coverage - 0.75)).clamp(0, 1)
         reward[info["success"]] = self.max_dense_reward
         return reward
-
-
-GRASP_ABOVE = 0.006  # the TCP this far above the corner particle's centre: the pads pinch its sides, clear of the sheet
-LIFT = 0.04  # the corner is carried this high, the fold peeling off the sheet behind it
-RELEASE_HEIGHT = 0.005  # above the corner's flat place, where the fingers open
-
-
-@register_solver("FlattenTowelCorner")
-def solve_flatten_towel_corner(env, seed: int) -> dict:
-    """Pinch the folded corner particle from above, fingers closing across the way it will travel (the
-    corner is read again once the hand is above it: the folded layer settles into the sheet's hollows
-    in the first steps); lift it 4 cm, carry it to its flat place, lower it to 5 mm above, release, retreat."""
-    with PandaSolver.episode(env, seed) as robot:
-        task: FlattenTowelCornerEnv = env.unwrapped
-        corner = task.corner_point()[0].cpu().numpy()
-        goal = task.corner_goal()[0].cpu().numpy()
-        way = goal[:2] - corner[:2]
-        yaw = robot.closest_grasp_yaw(float(np.arctan2(way[1], way[0])) + np.pi / 2)
-        robot.move(sapien.Pose([0, 0, APPROACH_HEIGHT]) * robot.top_down_pose(corner, yaw))
-        grasp = robot.top_down_pose(task.corner_point()[0].cpu().numpy() + [0, 0, GRASP_ABOVE], yaw)
-        robot.move(grasp, settle_steps=PRECISE_SETTLE_STEPS)
-        robot.grip(closed=True)
-        robot.move(sapien.Pose([0, 0, LIFT]) * grasp)
-        release = robot.top_down_pose(task.corner_goal()[0].cpu().numpy() + [0, 0, RELEASE_HEIGHT], yaw)
-        robot.place(release, approach_height=LIFT)
-        robot.hold_until_success()
-        return robot.info

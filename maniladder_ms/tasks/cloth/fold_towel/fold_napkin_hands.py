@@ -10,17 +10,12 @@ import torch
 from maniladder_ms.deformables import cloth
 from maniladder_ms.envs import register_task
 from maniladder_ms.envs.memory import latch_held_by_both
-from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
-from maniladder_ms.solvers.bimanual import follow_paths, glide
-from maniladder_ms.solvers.driven import DrivenSolver
-from .fold_towel_in_half import FoldTowelInHalfEnv
-from maniladder_ms.tasks.cloth.lift_towel_hands import SIDES, lay_between_hands, pinch_side_corners, side_corners
-
-SIZE = 8  # particles along each edge of the napkin
+from maniladder_ms.tasks.cloth.base import SIDES, lay_between_hands, side_corners
+from .base import FoldTowelTask
 
 
 @register_task("FoldNapkinHands")
-class FoldNapkinHandsEnv(FoldTowelInHalfEnv):
+class FoldNapkinHandsEnv(FoldTowelTask):
     """**Task:** a square napkin lies flat on the table between the two arms, one corner towards each arm;
     fold it diagonally into a triangle with both hands: one hand holds the corner on its side down while the
     other takes the opposite corner, lifts it over the napkin and lays it onto the held corner, then both let go.
@@ -28,7 +23,8 @@ class FoldNapkinHandsEnv(FoldTowelInHalfEnv):
     **Randomisation:** the napkin (`cloth.towel(8, 8)`: 2.5 cm particle spacing, particles of 1 cm radius,
     17.5 cm between corner centres, 24.7 cm across the diagonal) lies flat, its centre at x uniform in
     [-0.14, -0.06], y uniform in [-0.03, 0.03], its edges turned by a yaw uniform in
-    [pi/4 - pi/36, pi/4 + pi/12] (its hand-to-hand diagonal 85-105 degrees from the x axis), as LiftTowelHands.
+    [pi/4 - pi/36, pi/4 + pi/12] (its hand-to-hand diagonal 85-105 degrees from the x axis), as LiftTowelHands
+    (`tasks/cloth/base.py`'s `lay_between_hands`).
 
     **Success:** folded along a diagonal: for one of the napkin's two diagonal folds, the particles it pairs
     (`cloth.diagonal_fold_pairs`: each particle with its mirror image across the diagonal, opposite corners
@@ -38,7 +34,7 @@ class FoldNapkinHandsEnv(FoldTowelInHalfEnv):
     `ee.touches`); and both hands worked on it (`corners_held`, episode memory: at one control step the left
     hand and the right hand each held a napkin corner, `ee.holds`; one hand alone cannot hold two corners).
 
-    **Why Level 2:** its Level-1 suite-mate LiftTowelHands takes the same napkin by the same two corners and
+    **Level 2:** its Level-1 suite-mate LiftTowelHands takes the same napkin by the same two corners and
     lifts it straight up (2 stages, no placement tolerance, demos of ~110 steps in a 150-step horizon). Here the two hands
     do different things in sequence: one holds its corner on the table while the other lifts the opposite
     corner; the holding hand lets go and clears the way while the other carries its corner 24.7 cm in an arc
@@ -55,24 +51,22 @@ class FoldNapkinHandsEnv(FoldTowelInHalfEnv):
     SUPPORTED_ROBOTS = ["ml_dual_panda_leap"]
     max_dense_reward = 6
     TASK_REGION = (-0.28, 0.08, -0.2, 0.2)  # napkin centres plus its half diagonal (as LiftTowelHands)
-    GRID = (SIZE, SIZE)
+    GRID = (8, 8)  # particles along each edge of the napkin
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
-        self.diagonal_pairs = [cloth.diagonal_fold_pairs(SIZE), cloth.diagonal_fold_pairs(SIZE, anti=True)]
         self.hand_corners = side_corners(self.towel.layout)
         self.memory.flag("corners_held")
 
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
-        super(FoldTowelInHalfEnv, self)._initialize_episode(env_idx, options)
+        super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             lay_between_hands(self.towel, len(env_idx))
 
-    def fold_error(self, points: torch.Tensor | None = None) -> torch.Tensor:
-        """Mean top-down distance between the particles a diagonal fold pairs, of the better of the two
-        diagonals, [B]."""
-        points = self.towel.positions() if points is None else points
-        return torch.stack([cloth.fold_distance(points, pairs, top_down=True) for pairs in self.diagonal_pairs]).amin(0)
+    def fold_pair_sets(self) -> list:
+        """The two diagonal folds, each particle with its mirror image across the diagonal."""
+        size = self.GRID[0]
+        return [cloth.diagonal_fold_pairs(size), cloth.diagonal_fold_pairs(size, anti=True)]
 
     def _update_memory(self):
         latch_held_by_both(self, "corners_held", self.towel.corner_spheres())
@@ -99,64 +93,7 @@ class FoldNapkinHandsEnv(FoldTowelInHalfEnv):
         reward = sum(1 - torch.tanh(5 * torch.linalg.norm(points[:, i] - self.ee.tcp(side).p, dim=1))
                      for side, i in self.hand_corners.items()) / 2
         reward += info["corners_held"].float()
-        start = 2 * (SIZE // 2) * self.cloth_config.spacing  # about the flat napkin's mean pair distance
-        reward += 3 * info["corners_held"] * ((start - info["fold_error"]) / (start - self.fold_tol)).clamp(0, 1)
+        reward += 3 * info["corners_held"] * self.fold_progress(info)
         reward += (info["corners_held"] & info["folded"] & info["on_table"] & ~info["is_touching"]).float()
         reward[info["success"]] = self.max_dense_reward
         return reward
-
-
-LIFT = 0.04  # the carried corner first rises this high (the other hand pins its corner meanwhile)
-ARC_HEIGHT = 0.12  # then passes over the napkin's middle this high
-CARRY_STEPS = 50  # control steps of the arc, from the lift to above the partner corner
-HOVER = 0.04  # the arc ends this high above the partner corner
-RELEASE_ABOVE = 0.02  # the carried corner is let go this high above its partner: one layer's thickness
-LAY_STEP = 0.004  # metres a control step while laying the corner down
-LAY_CORRECTIONS = 2  # times the lay target is read again from where the corner hangs
-# the pinning hand lets go as the carry starts and clears the carrying hand's way: forwards, out and up by this
-# (left in place, or lifted 22 cm back towards the robot, the right forearm (Panda link 5) ran into the left palm
-# and stopped the carry 6-9 cm short on seed 100)
-CLEAR = (0.15, 0.15, 0.08)
-CLEAR_SHARE = 0.5  # of the carry's steps
-
-
-@register_solver("FoldNapkinHands", control_modes=TCP_DELTA_MODES)
-def solve_fold_napkin_hands(env, seed: int) -> dict:
-    """Each hand scissor-pinches the corner on its side (as LiftTowelHands); the left hand holds its corner on
-    the table while the right lifts its corner; the left lets go and clears the way (out, back and up) while the
-    right carries its corner in an arc over the napkin to above the left's corner; the right lays it onto the
-    left's corner (read again now), opens and rises."""
-    with DrivenSolver.episode(env, seed) as s:
-        task: FoldNapkinHandsEnv = env.unwrapped
-        device = task.device
-        grasps = pinch_side_corners(s, task.towel, task.hand_corners)
-        pin, carry = grasps["left"], grasps["right"]
-        carried, partner = task.hand_corners["right"], task.hand_corners["left"]
-        up = lambda h: torch.tensor([0.0, 0.0, h], device=device)  # noqa: E731
-        lifted = carry.p + up(LIFT)
-        glide(s, {carry.arm: (carry.p, lifted, carry.q)}, settle_steps=0)
-        s.set_ee(pin.ee, "scissor_open", steps=3)
-        # the TCP keeps its offset to the pinched particle: it goes where the particle should go
-        start = task.towel.positions()[:, carried]
-        hover = carry.p + (task.towel.positions()[:, partner] + up(HOVER) - start)
-        pin_from = s.tcp(pin.arm).p.clone()
-        pin_to = pin_from + torch.tensor(CLEAR, device=device)
-
-        def arc(t: float) -> torch.Tensor:
-            return lifted + (hover - lifted) * t + up(ARC_HEIGHT - LIFT) * 4 * t * (1 - t)
-
-        def clear(t: float) -> torch.Tensor:
-            return pin_from + (pin_to - pin_from) * min(1.0, t / CLEAR_SHARE)
-
-        follow_paths(s, {carry.arm: (arc, carry.q), pin.arm: (clear, pin.q)}, CARRY_STEPS)
-        # lay the corner onto its partner, the TCP aimed by where the corner hangs in the pinch now (the sheet
-        # hanging from it drags it a few cm back through the fingers during the carry)
-        for _ in range(LAY_CORRECTIONS):
-            points = task.towel.positions()
-            lay = s.tcp(carry.arm).p + (points[:, partner] + up(RELEASE_ABOVE) - points[:, carried])
-            glide(s, {carry.arm: (s.tcp(carry.arm).p.clone(), lay, carry.q)}, step_length=LAY_STEP, settle_steps=5)
-        s.set_ee(carry.ee, "scissor_open", steps=10)
-        tcp = s.tcp(carry.arm).p.clone()
-        glide(s, {carry.arm: (tcp, tcp + up(0.08), carry.q)}, settle_steps=0)
-        s.hold_until_success()
-        return s.info
