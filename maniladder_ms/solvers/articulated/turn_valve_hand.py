@@ -81,6 +81,7 @@ def solve_turn_valve_hand(env, seed: int) -> dict:
             turn = direction * i * TURN_STEP
             cos, sin = torch.cos(turn), torch.sin(turn)
             orbit = torch.stack([cos * rel[:, 0] - sin * rel[:, 1], sin * rel[:, 0] + cos * rel[:, 1], rel[:, 2]], dim=1)
-            s.move({"arm": (axis + orbit, top_down_quat(yaw0 + turn, task.num_envs, dev))}, max_steps=TURN_STEP_MAX_STEPS)
+            s.move({"arm": (axis + orbit, top_down_quat(yaw0 + turn, task.num_envs, dev))},
+                   max_steps=TURN_STEP_MAX_STEPS)
         s.hold_until_success()
         return s.info

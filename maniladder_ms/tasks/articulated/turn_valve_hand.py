@@ -63,7 +63,8 @@ class TurnValveHandEnv(ManiLadderEnv):
             # the arrow points counter-clockwise face up; upside down (pi about its x axis) clockwise
             clockwise = torch.rand(b) < 0.5
             flip = torch.where(clockwise[:, None], torch.tensor([0.0, 1.0, 0.0, 0.0]), torch.tensor([1.0, 0.0, 0.0, 0.0]))
-            place = Pose.create_from_pq(xyz + torch.tensor([0, 0, self.ARROW_LIFT]), yaw_quat(torch.rand(b) * 2 * np.pi))
+            place = Pose.create_from_pq(xyz + torch.tensor([0, 0, self.ARROW_LIFT]),
+                                        yaw_quat(torch.rand(b) * 2 * np.pi))
             self.arrow.set_pose(place * Pose.create_from_pq(q=flip))
             self.memory.store("last_angle", torch.zeros(b, 1), env_idx)
 

@@ -8,7 +8,7 @@ import torch
 from maniladder_ms.solvers.driven import DrivenSolver
 from maniladder_ms.solvers.twist import rise_first, wind_up_target
 
-CLEARANCE = 0.1  # m above the lid top where the twisting hand winds its wrist up (its approach passes high over the lid)
+CLEARANCE = 0.1  # m above the lid top where the twisting hand winds its wrist up (its approach passes high over it)
 WIND_UP_STEPS = 80  # the LEAP hands: at most this many control steps to get above the lid with the wrist wound up
 # the LEAP power grasp turns the lid by ~0.8 of the wrist's turn (the fingers slip; 4.4 rad for 5.5 rad of joint 7
 # on UnscrewCapHand's seed 104): the open hand turns back for the rest of the turn over this, a margin below it
