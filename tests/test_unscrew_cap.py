@@ -1,4 +1,4 @@
-"""The UnscrewCap family (`tasks.unscrew_cap`, `objects.jar`): the thread joint and the rule's held turn."""
+"""The UnscrewCap family (`tasks.articulated.unscrew_cap`, `objects.jar`): the thread joint and the rule's held turn."""
 
 import numpy as np
 import torch

@@ -12,11 +12,8 @@ from mani_skill.utils.geometry.rotation_conversions import quaternion_apply
 from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.envs import ManiLadderEnv, register_task
-from maniladder_ms.geometry import yaw_of, yaw_quat
+from maniladder_ms.geometry import yaw_quat
 from maniladder_ms.objects import LiddedBoxShape, build_lidded_box, lid_angle
-from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
-from maniladder_ms.solvers.driven import DrivenSolver
-from maniladder_ms.solvers.lids import open_lid
 
 
 @register_task("OpenBoxRetrieval")
@@ -24,12 +21,14 @@ class OpenBoxRetrievalEnv(ManiLadderEnv):
     """**Task:** lift the hinged lid of a box and take out the cube (2 x `cube_half_size`) lying inside.
 
     **Randomisation:**
-    - the box (inner 16 x 16 cm, walls 6 cm high, 1.5 kg) has its centre uniform in x in [-0.24, -0.16],
-      y in [-0.1, 0.1]; the lid is hinged on the side facing the robot and overhangs the far wall by a
-      3 cm lip, the box turned by pi plus a yaw uniform in [-pi/8, pi/8];
-    - the cube lies on the box floor, offset from the box centre by up to 1 cm along each box axis,
-      turned by a yaw uniform in [-pi/9, pi/9] from the box's axes (room for the open gripper's fingers
-      between the cube and the walls).
+    - the box (inner 16 x 16 cm, walls 6 cm high, 1.5 kg) has its centre uniform in `BOX_X` x `BOX_Y`
+      (x in [-0.24, -0.16], y in [-0.1, 0.1]); the lid is hinged on the side facing the robot and
+      overhangs the far wall by a 3 cm lip, the box turned by pi plus a yaw uniform in
+      [-`BOX_YAW_SPAN` / 2, `BOX_YAW_SPAN` / 2] = [-pi/8, pi/8];
+    - the cube lies on the box floor, offset from the box centre by up to `CUBE_OFFSET_SPAN` / 2 = 1 cm
+      along each box axis, turned from the box's axes by a yaw uniform in [-pi / `CUBE_YAW_DIVISOR`,
+      pi / `CUBE_YAW_DIVISOR`] = [-pi/9, pi/9] (room for the open gripper's fingers between the cube and
+      the walls).
 
     **Success:** the lid is open by at least `open_angle`, the cube centre is either at least
     `lift_clearance` above the box rim or outside the box's outer footprint (in the box frame, |x| or
@@ -46,6 +45,12 @@ class OpenBoxRetrievalEnv(ManiLadderEnv):
     box_shape = LiddedBoxShape(inner_half_size=(0.08, 0.08))
     box_density = 2200.0  # ~1.5 kg: the box stays put while the lid is pulled open
     PARAMS = ("cube_half_size", "open_angle", "lift_clearance", "max_box_tilt")  # angles in degrees
+    BOX_X, BOX_Y = (-0.24, -0.16), (-0.1, 0.1)  # m, the box's centre at reset, uniform
+    BOX_YAW_SPAN = np.pi / 4  # rad, the box's yaw at reset: pi plus a yaw uniform over this span round 0
+    CUBE_OFFSET_SPAN = 0.02  # m, the cube's offset from the box centre: uniform over this span round 0 per box axis
+    # the cube's yaw in the box: uniform in [-pi / CUBE_YAW_DIVISOR, pi / CUBE_YAW_DIVISOR], drawn as
+    # (r - 0.5) * 2 * pi / CUBE_YAW_DIVISOR (a premultiplied pi / 9 rounds differently from the demos' draw)
+    CUBE_YAW_DIVISOR = 9
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -59,19 +64,23 @@ class OpenBoxRetrievalEnv(ManiLadderEnv):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            box_xyz = torch.stack([torch.rand(b) * 0.08 - 0.24, torch.rand(b) * 0.2 - 0.1, torch.zeros(b)], dim=1)
+            (x0, x1), (y0, y1) = self.BOX_X, self.BOX_Y
+            box_xyz = torch.stack([x0 + torch.rand(b) * (x1 - x0), y0 + torch.rand(b) * (y1 - y0), torch.zeros(b)],
+                                  dim=1)
             # hinge towards the robot: the hand lifts the far lip tilted back towards the robot, and the
             # opened lid leans over the robot's side, under the forearm that reaches into the box
-            box_pose = Pose.create_from_pq(box_xyz, yaw_quat(np.pi + (torch.rand(b) - 0.5) * np.pi / 4))
+            box_pose = Pose.create_from_pq(box_xyz, yaw_quat(np.pi + (torch.rand(b) - 0.5) * self.BOX_YAW_SPAN))
             self.box.set_pose(box_pose)
             self.box.set_qpos(torch.zeros(b, 1))
             self.box.set_qvel(torch.zeros(b, 1))
-            offset = torch.cat([(torch.rand(b, 2) - 0.5) * 0.02,
+            offset = torch.cat([(torch.rand(b, 2) - 0.5) * self.CUBE_OFFSET_SPAN,
                                 torch.full((b, 1), self.box_shape.base_thickness + self.cube_half_size)], dim=1)
-            cube_in_box = Pose.create_from_pq(offset, yaw_quat((torch.rand(b) - 0.5) * 2 * np.pi / 9))
+            cube_yaw = (torch.rand(b) - 0.5) * 2 * np.pi / self.CUBE_YAW_DIVISOR
+            cube_in_box = Pose.create_from_pq(offset, yaw_quat(cube_yaw))
             self.cube.set_pose(box_pose * cube_in_box)
 
     def _cube_in_box_frame(self) -> torch.Tensor:
+        """(num_envs, 3) the cube's centre in the box's frame."""
         return (self.box.pose.inv() * self.cube.pose).p
 
     def _box_upright(self) -> torch.Tensor:
@@ -129,15 +138,3 @@ class OpenBoxRetrievalEnv(ManiLadderEnv):
         reward[info["success"]] = self.max_dense_reward
         return reward
 
-
-
-@register_solver("OpenBoxRetrieval", control_modes=TCP_DELTA_MODES)
-def solve_open_box_retrieval(env, seed: int) -> dict:
-    """Lift the lid by its lip past vertical (it falls open), then pick the cube out of the box."""
-    with DrivenSolver.episode(env, seed) as robot:
-        task: OpenBoxRetrievalEnv = env.unwrapped
-        open_lid(robot, "arm", "gripper", task.box, task.box_shape)
-        cube_yaw = robot.neutral_yaw(yaw_of(task.cube.pose.q), np.pi / 2)
-        robot.pick("arm", "gripper", task.cube.pose.p, cube_yaw, lift=0.15)
-        robot.hold_until_success()
-        return robot.info

@@ -9,13 +9,9 @@ import torch
 
 from mani_skill.utils.structs.pose import Pose
 
-from maniladder_ms.agents.helpers import top_down_quat
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.geometry import yaw_quat
-from maniladder_ms.objects.cabinet import DOOR_SIDE, DOORS, CabinetShape, build_cabinet, door_angles, door_frame
-from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
-from maniladder_ms.solvers.bimanual import Grasp, grasp_together, reach
-from maniladder_ms.solvers.driven import DrivenSolver
+from maniladder_ms.objects.cabinet import DOORS, CabinetShape, build_cabinet, door_angles, door_frame
 
 
 @register_task("OpenDoubleDoorsHands")
@@ -24,8 +20,9 @@ class OpenDoubleDoorsHandsEnv(ManiLadderEnv):
 
     **Randomisation:** the cabinet (40 cm wide, 22 cm deep, 32 cm tall, fixed to the table, front facing
     the robot; two 20 cm doors hinged on their outer edges, each with a knob 8 cm from its hinge: a 10 cm
-    stem out of the door ending in an upright post 5 cm across) starts with both doors closed, its centre uniform in x in [0.27, 0.31], y in [-0.02, 0.02] and its
-    yaw uniform in [-5, 5] degrees.
+    stem out of the door ending in an upright post 5 cm across) starts with both doors closed, its centre
+    uniform in `CABINET_X` x `CABINET_Y` (x in [0.27, 0.31], y in [-0.02, 0.02]) and its yaw uniform in
+    [-`MAX_YAW`, `MAX_YAW`] = [-5, 5] degrees.
 
     **Success:** both door angles are at least `open_angle` at the same time, each hand holds its own
     door (`ee.holds` on the door with its knob: the left hand the left door, the right hand the right one),
@@ -38,6 +35,8 @@ class OpenDoubleDoorsHandsEnv(ManiLadderEnv):
     PARAMS = ("open_angle",)
     cabinet_shape = CabinetShape()
     grasp_depth = 0.035  # below the knob's top, where a hand closes round it (as round a can)
+    CABINET_X, CABINET_Y = (0.27, 0.31), (-0.02, 0.02)  # m, the cabinet's centre at reset, uniform
+    MAX_YAW = np.deg2rad(5)  # rad, the cabinet's yaw at reset: uniform in [-MAX_YAW, MAX_YAW]
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -53,8 +52,9 @@ class OpenDoubleDoorsHandsEnv(ManiLadderEnv):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            xyz = torch.stack([0.27 + torch.rand(b) * 0.04, torch.rand(b) * 0.04 - 0.02, torch.zeros(b)], dim=1)
-            yaw = (torch.rand(b) * 2 - 1) * np.deg2rad(5)
+            (x0, x1), (y0, y1) = self.CABINET_X, self.CABINET_Y
+            xyz = torch.stack([x0 + torch.rand(b) * (x1 - x0), y0 + torch.rand(b) * (y1 - y0), torch.zeros(b)], dim=1)
+            yaw = (torch.rand(b) * 2 - 1) * self.MAX_YAW
             self.cabinet.set_pose(Pose.create_from_pq(xyz, yaw_quat(yaw)))
             self.cabinet.set_qpos(torch.zeros(b, 2))
             self.cabinet.set_qvel(torch.zeros(b, 2))
@@ -71,6 +71,10 @@ class OpenDoubleDoorsHandsEnv(ManiLadderEnv):
         angles = door_angles(self.cabinet)
         return {door: self.grasp_frame(door, angles[:, i]).p for i, door in enumerate(DOORS)}
 
+    def _update_memory(self):
+        for door, other in (("left", "right"), ("right", "left")):
+            self.memory.latch(f"{door}_crossed", self.ee.holds(self.doors[door], other))
+
     def _get_obs_extra(self, info: dict):
         obs = dict(left_tcp_pose=self.ee.tcp("left").raw_pose, right_tcp_pose=self.ee.tcp("right").raw_pose)
         if "state" in self.obs_mode:
@@ -79,10 +83,6 @@ class OpenDoubleDoorsHandsEnv(ManiLadderEnv):
                        left_tcp_to_handle=handles["left"] - self.ee.tcp("left").p,
                        right_tcp_to_handle=handles["right"] - self.ee.tcp("right").p)
         return obs
-
-    def _update_memory(self):
-        for door, other in (("left", "right"), ("right", "left")):
-            self.memory.latch(f"{door}_crossed", self.ee.holds(self.doors[door], other))
 
     def evaluate(self):
         angles = door_angles(self.cabinet)
@@ -105,43 +105,3 @@ class OpenDoubleDoorsHandsEnv(ManiLadderEnv):
         reward[info["success"]] = self.max_dense_reward
         return reward
 
-
-
-OPEN_TO = np.deg2rad(90)  # past the 60-degree goal: the doors lag the hands by ~25 degrees
-ARC_STEPS = 12
-
-
-@register_solver("OpenDoubleDoorsHands", control_modes=TCP_DELTA_MODES)
-def solve_open_double_doors_hands(env, seed: int) -> dict:
-    """Both hands close round their doors' knob posts from above, then carry their grasps round the
-    hinges together, each hand turning with its door."""
-    with DrivenSolver.episode(env, seed) as s:
-        task: OpenDoubleDoorsHandsEnv = env.unwrapped
-        n, device = task.num_envs, task.device
-        # in a door's frame: TCP on the knob's axis, fingers pointing along the door towards its hinge: the
-        # wrists then turn with the doors within their joint ranges, and the fingers stay clear of the doors
-        grasp_local = {door: Pose.create_from_pq(torch.zeros(1, 3, device=device),
-                                                 top_down_quat(DOOR_SIDE[door] * np.pi / 2, 1, device=device))
-                       for door in DOORS}
-
-        def grasp_pose(door: str, angle: float) -> Pose:
-            return task.grasp_frame(door, torch.full((n,), angle, device=device)) * grasp_local[door]
-
-        up = torch.tensor([0.0, 0.0, 0.08], device=device)
-        grasps = []
-        for door in DOORS:
-            pose = grasp_pose(door, 0.0)
-            grasps.append(Grasp(f"{door}_arm", f"{door}_hand", pose.p, pose.q, up))
-        # turn the hands to their grasp yaws where they are, lifted clear of the doors, before reaching out:
-        # turning while reaching can fold an arm into a tilted-hand posture it does not leave
-        s.move({g.arm: (s.above(s.tcp(g.arm).p, 0.1), g.q) for g in grasps}, max_steps=40)
-        reach(s, grasps)
-        grasp_together(s, [g.ee for g in grasps])
-        for angle in np.linspace(0.0, OPEN_TO, ARC_STEPS + 1)[1:]:
-            targets = {}
-            for door in DOORS:
-                pose = grasp_pose(door, float(angle))
-                targets[f"{door}_arm"] = (pose.p, pose.q)
-            s.move(targets, max_steps=4, pos_tol=0.01)
-        s.hold_until_success()
-        return s.info

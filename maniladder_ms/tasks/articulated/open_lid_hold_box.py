@@ -12,16 +12,7 @@ from mani_skill.utils.structs.pose import Pose
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.geometry import yaw_quat
 from maniladder_ms.objects.boxes import LiddedBoxShape, build_lidded_box, lid_angle
-from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
-from maniladder_ms.solvers.bimanual import Grasp, reach, tcp_quat
-from maniladder_ms.solvers.driven import DrivenSolver
-from maniladder_ms.solvers.lids import open_lid
-
-
-# TCP height of the holding grasp, 2.5 cm below the lid: the fingers (+-1 cm about the TCP) grip the side
-# walls clear of the lid, and the sideways hand, which reaches ~6 cm below its TCP on the wrist camera's
-# side, clears the table
-HOLD_HEIGHT = 0.065
+from maniladder_ms.solvers.bimanual import tcp_quat
 
 
 @register_task("OpenLidHoldBox")
@@ -32,8 +23,8 @@ class OpenLidHoldBoxEnv(ManiLadderEnv):
     **Randomisation:** the box (inner 2 x `box_inner_half`, i.e. 16 cm long along y and 6 cm wide outside,
     walls `box_wall_height` high, `box_density`: about 0.25 kg with the lid; the lid is hinged across the
     top of the left (+y) end and overhangs the right end wall by a 3 cm lip) has its centre uniform in
-    x in [-0.12, -0.06], y in [-0.04, 0.04] and its long axis turned from y by a yaw uniform in
-    [-15, 15] degrees; the lid is closed.
+    `BOX_X` x `BOX_Y` (x in [-0.12, -0.06], y in [-0.04, 0.04]) and its long axis turned from y by a yaw
+    uniform in [-`MAX_YAW_OFF`, `MAX_YAW_OFF`] = [-15, 15] degrees; the lid is closed.
 
     **Success:** the lid is open by at least `open_angle`; the box body has moved less than
     `max_displacement` (horizontally) from where it stood at the start of the episode (episode memory
@@ -48,6 +39,13 @@ class OpenLidHoldBoxEnv(ManiLadderEnv):
     # the box at its hinge end below the lid; box_wall_height: 9 cm walls leave room for the fingers under the
     # lid; box_density: a 0.18 kg body, which opening the lid drags ~10 cm unless it is held
     PARAMS = ("open_angle", "max_displacement", "closed_angle", "box_inner_half", "box_wall_height", "box_density")
+    BOX_X, BOX_Y = (-0.12, -0.06), (-0.04, 0.04)  # m, the box's centre at reset, uniform
+    MAX_YAW_OFF = np.deg2rad(15)  # rad, the box's long axis from y at reset: uniform in [-MAX_YAW_OFF, MAX_YAW_OFF]
+    # TCP height of the holding grasp, 2.5 cm below the lid: the fingers (+-1 cm about the TCP) grip the side
+    # walls clear of the lid, and the sideways hand, which reaches ~6 cm below its TCP on the wrist camera's
+    # side, clears the table
+    HOLD_HEIGHT = 0.065
+    HOLD_IN_FROM_END = 0.02  # m the holding grasp lies in from the box's hinge end
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -62,31 +60,35 @@ class OpenLidHoldBoxEnv(ManiLadderEnv):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            xyz = torch.stack([torch.rand(b) * 0.06 - 0.12, torch.rand(b) * 0.08 - 0.04, torch.zeros(b)], dim=1)
-            yaw = np.pi / 2 + (torch.rand(b) * 2 - 1) * np.deg2rad(15)
+            (x0, x1), (y0, y1) = self.BOX_X, self.BOX_Y
+            xyz = torch.stack([x0 + torch.rand(b) * (x1 - x0), y0 + torch.rand(b) * (y1 - y0), torch.zeros(b)], dim=1)
+            yaw = np.pi / 2 + (torch.rand(b) * 2 - 1) * self.MAX_YAW_OFF
             self.box.set_pose(Pose.create_from_pq(xyz, yaw_quat(yaw)))
             self.box.set_qpos(torch.zeros(b, 1))
             self.box.set_qvel(torch.zeros(b, 1))
             self.memory.store("box_start", xyz, env_idx)
 
     def _box_held(self) -> torch.Tensor:
+        """(num_envs,) the left gripper holds the box's body."""
         return self.ee.holds(self.box_body, "left")
-
-    def _update_memory(self):
-        lid_open = lid_angle(self.box) > np.deg2rad(self.closed_angle)
-        self.memory.latch("opened_unheld", lid_open & ~self._box_held())
 
     def holding_grasp(self) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
         """World TCP pose (p, q) of the holding grasp and the box's +x axis (hinge side, the robot's left):
         a sideways hand pointing at the box's hinge end along the box's -x, fingers closing across the
-        box's width (its y axis) on the side walls below the lid, 2 cm in from the end, `HOLD_HEIGHT` up."""
+        box's width (its y axis) on the side walls below the lid, `HOLD_IN_FROM_END` in from the end,
+        `HOLD_HEIGHT` up."""
         rot = self.box.pose.to_transformation_matrix()[:, :3, :3]
         box_x, box_y = rot[:, :, 0], rot[:, :, 1]
-        local = torch.tensor([[self.box_shape.outer_half_size[0] - 0.02, 0.0, HOLD_HEIGHT]], device=self.device)
+        local = torch.tensor([[self.box_shape.outer_half_size[0] - self.HOLD_IN_FROM_END, 0.0, self.HOLD_HEIGHT]],
+                             device=self.device)
         return (self.box.pose * Pose.create_from_pq(local)).p, tcp_quat(-box_x, -box_y), box_x
 
     def _displacement(self) -> torch.Tensor:
         return torch.linalg.norm((self.box.pose.p - self.memory["box_start"])[:, :2], dim=1)
+
+    def _update_memory(self):
+        lid_open = lid_angle(self.box) > np.deg2rad(self.closed_angle)
+        self.memory.latch("opened_unheld", lid_open & ~self._box_held())
 
     def _get_obs_extra(self, info: dict):
         obs = dict(left_tcp_pose=self.ee.tcp("left").raw_pose, right_tcp_pose=self.ee.tcp("right").raw_pose,
@@ -124,18 +126,3 @@ class OpenLidHoldBoxEnv(ManiLadderEnv):
         reward[info["success"]] = self.max_dense_reward
         return reward
 
-
-
-@register_solver("OpenLidHoldBox", control_modes=TCP_DELTA_MODES)
-def solve_open_lid_hold_box(env, seed: int) -> dict:
-    """Left: sideways grasp across the box's hinge (left) end, below the lid; right: lift the lid by its
-    lip past vertical (solvers.lids.open_lid) while the left keeps holding."""
-    with DrivenSolver.episode(env, seed) as s:
-        task: OpenLidHoldBoxEnv = env.unwrapped
-        p, q, outward = task.holding_grasp()
-        # line up 10 cm beyond the box's hinge end, then move straight in
-        reach(s, [Grasp("left_arm", "left_gripper", p, q, 0.1 * outward)])
-        s.grasp("left_gripper")
-        open_lid(s, "right_arm", "right_gripper", task.box, task.box_shape)
-        s.hold_until_success()
-        return s.info

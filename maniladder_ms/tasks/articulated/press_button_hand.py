@@ -10,37 +10,36 @@ import torch
 from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.agents.effectors import TOUCH_FORCE, link_forces
-from maniladder_ms.agents.helpers import leap_fingertip, top_down_quat
+from maniladder_ms.agents.helpers import leap_fingertip
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.geometry import yaw_quat
 from maniladder_ms.objects.controls import ButtonShape, build_push_button, button_travel
-from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
-from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver
-
-
-# the index finger's links: the catalog asks for the press to be made with the index finger (not the
-# palm, another finger or the arm); the vocabulary's `ee.touches` has no per-finger form yet
-INDEX_LINKS = ("leap_index_pip", "leap_index_dip", "leap_index_tip")
 
 
 @register_task("PressButtonHand")
 class PressButtonHandEnv(ManiLadderEnv):
     """**Task:** press a large push button (5 cm cap on a 9 cm housing, 1.2 cm travel, spring-returned)
-    all the way down with the LEAP hand.
+    all the way down with the LEAP hand's index finger.
 
-    **Randomisation:** the button's centre uniform in x in [-0.2, -0.05], y in [-0.15, 0.15]; its
-    housing's yaw uniform in [0, pi/2).
+    **Randomisation:** the button's centre uniform in `BUTTON_X` x `BUTTON_Y` (x in [-0.2, -0.05], y in
+    [-0.15, 0.15]); its housing's yaw uniform in [0, `MAX_YAW`) = [0, pi/2) (the square housing looks the
+    same every quarter turn).
 
     **Success:** the cap is pressed down by at least `press_fraction` of its travel, and the index finger
-    presses on it (one of its links above the vocabulary's touch force): the spring pushes a cap back up
-    at once, so the finger touching it now is what holds it down.
+    presses on it (one of its links, `INDEX_LINKS`, above the vocabulary's touch force): the spring pushes
+    a cap back up at once, so the finger touching it now is what holds it down.
     """
 
     SUPPORTED_ROBOTS = ["ml_panda_leap"]
     max_dense_reward = 4
-    TASK_REGION = (-0.27, 0.02, -0.22, 0.22)  # button centres plus the housing's half diagonal
     PARAMS = ("press_fraction",)
     button_shape = ButtonShape()
+    BUTTON_X, BUTTON_Y = (-0.2, -0.05), (-0.15, 0.15)  # m, the button's centre at reset, uniform
+    MAX_YAW = np.pi / 2  # rad, the housing's yaw at reset, uniform in [0, MAX_YAW)
+    TASK_REGION = (-0.27, 0.02, -0.22, 0.22)  # button centres plus the housing's half diagonal
+    # the index finger's links: the catalog asks for the press to be made with the index finger (not the
+    # palm, another finger or the arm); the vocabulary's `ee.touches` has no per-finger form yet
+    INDEX_LINKS = ("leap_index_pip", "leap_index_dip", "leap_index_tip")
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -52,26 +51,27 @@ class PressButtonHandEnv(ManiLadderEnv):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            xyz = torch.stack([torch.rand(b) * 0.15 - 0.2, torch.rand(b) * 0.3 - 0.15, torch.zeros(b)], dim=1)
-            self.button.set_pose(Pose.create_from_pq(xyz, yaw_quat(torch.rand(b) * np.pi / 2)))
+            (x0, x1), (y0, y1) = self.BUTTON_X, self.BUTTON_Y
+            xyz = torch.stack([x0 + torch.rand(b) * (x1 - x0), y0 + torch.rand(b) * (y1 - y0), torch.zeros(b)], dim=1)
+            self.button.set_pose(Pose.create_from_pq(xyz, yaw_quat(torch.rand(b) * self.MAX_YAW)))
             self.button.set_qpos(torch.zeros(b, 1))
             self.button.set_qvel(torch.zeros(b, 1))
 
-    def _cap_top(self) -> torch.Tensor:
-        """World position of the released cap's top centre."""
+    def cap_top(self) -> torch.Tensor:
+        """(num_envs, 3) world position of the released cap's top centre."""
         return self.button.pose.p + torch.tensor([0, 0, self.button_shape.cap_top], device=self.device)
+
+    def index_touches_cap(self) -> torch.Tensor:
+        """(num_envs,) bool: a link of the index finger presses on the cap."""
+        links = [self.ee["main"].link(name) for name in self.INDEX_LINKS]
+        return (link_forces(self.scene, self.cap, links) >= TOUCH_FORCE).any(dim=0)
 
     def _get_obs_extra(self, info: dict):
         obs = dict(tcp_pose=self.ee.tcp().raw_pose)
         if "state" in self.obs_mode:
             obs.update(button_pose=self.button.pose.raw_pose, travel=info["travel"],
-                       fingertip_to_cap=self._cap_top() - leap_fingertip(self.agent))
+                       fingertip_to_cap=self.cap_top() - leap_fingertip(self.agent))
         return obs
-
-    def index_touches_cap(self) -> torch.Tensor:
-        """(num_envs,) bool: a link of the index finger presses on the cap."""
-        links = [self.ee["main"].link(name) for name in INDEX_LINKS]
-        return (link_forces(self.scene, self.cap, links) >= TOUCH_FORCE).any(dim=0)
 
     def evaluate(self):
         travel = button_travel(self.button)
@@ -81,31 +81,8 @@ class PressButtonHandEnv(ManiLadderEnv):
                 "is_index_on_cap": is_index_on_cap}
 
     def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
-        reach = 1 - torch.tanh(5 * torch.linalg.norm(self._cap_top() - leap_fingertip(self.agent), dim=1))
+        reach = 1 - torch.tanh(5 * torch.linalg.norm(self.cap_top() - leap_fingertip(self.agent), dim=1))
         press = (info["travel"] / (self.press_fraction * self.button_shape.travel)).clamp(0, 1)
         reward = reach + 2 * press
         reward[info["success"]] = self.max_dense_reward
         return reward
-
-
-
-@register_solver("PressButtonHand", control_modes=TCP_DELTA_MODES)
-def solve_press_button_hand(env, seed: int) -> dict:
-    """Point the index finger down, bring its tip above the cap's centre, press the cap down to its stop."""
-    with DrivenSolver.episode(env, seed) as s:
-        task: PressButtonHandEnv = env.unwrapped
-        q = top_down_quat(0.0, task.num_envs, device=task.device)
-        s.set_ee("hand", "point", steps=1)
-        above = task._cap_top() + torch.tensor([0, 0, APPROACH_HEIGHT], device=task.device)
-        s.move({"arm": (above, q)}, max_steps=40)
-        # the fingertip's offset from the tcp, the finger pointing (world frame; the hand keeps its orientation)
-        tip_offset = leap_fingertip(task.agent) - task.ee.tcp().p
-        s.move({"arm": (above - tip_offset, q)}, max_steps=30)
-        # aim past the bottom stop: the arm yields a few mm to the spring before the cap gets there
-        pressed = task._cap_top() - torch.tensor([0, 0, task.button_shape.travel + PRESS_PAST_STOP], device=task.device)
-        s.move({"arm": (pressed - tip_offset, q)}, max_steps=15)
-        s.hold_until_success()
-        return s.info
-
-
-PRESS_PAST_STOP = 0.004

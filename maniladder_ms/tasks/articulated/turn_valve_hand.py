@@ -7,17 +7,12 @@ from typing import Any
 import numpy as np
 import torch
 
-from mani_skill.utils.geometry.rotation_conversions import quaternion_apply, quaternion_invert
 from mani_skill.utils.structs.pose import Pose
 
-from maniladder_ms.agents.helpers import leap_fingertip, top_down_quat, wrap_angle
+from maniladder_ms.agents.helpers import leap_fingertip
 from maniladder_ms.envs import ManiLadderEnv, register_task
-from maniladder_ms.geometry import yaw_of, yaw_quat
+from maniladder_ms.geometry import yaw_quat
 from maniladder_ms.objects.controls import ValveShape, build_turn_arrow, build_wheel_valve, turn_direction, valve_angle
-from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
-from maniladder_ms.solvers.driven import DrivenSolver
-
-ARROW_RADIUS = 0.13  # m: the arrow lies on the table on an arc around the valve, outside the wheel
 
 
 @register_task("TurnValveHand")
@@ -25,9 +20,10 @@ class TurnValveHandEnv(ManiLadderEnv):
     """**Task:** turn a hand-wheel valve (17 cm wheel, 4 spokes, on a 10 cm stem; the wheel turns about
     the vertical) by a quarter turn in the direction a curved yellow arrow on the table shows.
 
-    **Randomisation:** the valve's centre uniform in x in [-0.2, -0.1], y in [-0.1, 0.1]; its yaw (where
-    the spokes point) uniform in [0, 2 pi); the direction (clockwise / counter-clockwise seen from above)
-    uniform, and the arrow's place around the valve uniform in [0, 2 pi). The wheel starts at joint angle 0.
+    **Randomisation:** the valve's centre uniform in `VALVE_X` x `VALVE_Y` (x in [-0.2, -0.1], y in
+    [-0.1, 0.1]); its yaw (where the spokes point) uniform in [0, 2 pi); the direction (clockwise /
+    counter-clockwise seen from above) uniform, and the arrow's place on its arc (`ARROW_RADIUS` round the
+    valve) uniform in [0, 2 pi). The wheel starts at joint angle 0.
 
     **Success:** the hand has turned the wheel by at least `turn_angle` in the arrow's direction: the
     episode memory sums the wheel's turn (in the arrow's direction, turning back counts against it) over
@@ -41,12 +37,15 @@ class TurnValveHandEnv(ManiLadderEnv):
     TASK_REGION = (-0.36, 0.06, -0.26, 0.26)  # valve region plus the arrow around it (16 cm)
     PARAMS = ("turn_angle",)  # degrees
     valve_shape = ValveShape()
+    VALVE_X, VALVE_Y = (-0.2, -0.1), (-0.1, 0.1)  # m, the valve's centre at reset, uniform
+    ARROW_RADIUS = 0.13  # m: the arrow lies on the table on an arc around the valve, outside the wheel
+    ARROW_LIFT = 0.001  # m above the table top (drawn over it)
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
         self.valve = build_wheel_valve(self.scene, "valve", self.valve_shape, stand_color=(0.45, 0.45, 0.48, 1),
                                        wheel_color=(0.75, 0.1, 0.1, 1), marker_color=(0.95, 0.95, 0.95, 1))
-        self.arrow = build_turn_arrow(self.scene, "turn_arrow", ARROW_RADIUS, color=(0.95, 0.8, 0.1, 1))
+        self.arrow = build_turn_arrow(self.scene, "turn_arrow", self.ARROW_RADIUS, color=(0.95, 0.8, 0.1, 1))
         self.wheel = self.valve.links_map["valve_wheel"]
         self.memory.value("last_angle")  # the wheel's angle after the last step
         self.memory.value("last_touch")  # 1 where the hand touched the wheel after the last step
@@ -56,16 +55,26 @@ class TurnValveHandEnv(ManiLadderEnv):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            xyz = torch.stack([torch.rand(b) * 0.1 - 0.2, torch.rand(b) * 0.2 - 0.1, torch.zeros(b)], dim=1)
+            (x0, x1), (y0, y1) = self.VALVE_X, self.VALVE_Y
+            xyz = torch.stack([x0 + torch.rand(b) * (x1 - x0), y0 + torch.rand(b) * (y1 - y0), torch.zeros(b)], dim=1)
             self.valve.set_pose(Pose.create_from_pq(xyz, yaw_quat(torch.rand(b) * 2 * np.pi)))
             self.valve.set_qpos(torch.zeros(b, 1))
             self.valve.set_qvel(torch.zeros(b, 1))
             # the arrow points counter-clockwise face up; upside down (pi about its x axis) clockwise
             clockwise = torch.rand(b) < 0.5
             flip = torch.where(clockwise[:, None], torch.tensor([0.0, 1.0, 0.0, 0.0]), torch.tensor([1.0, 0.0, 0.0, 0.0]))
-            place = Pose.create_from_pq(xyz + torch.tensor([0, 0, 0.001]), yaw_quat(torch.rand(b) * 2 * np.pi))
+            place = Pose.create_from_pq(xyz + torch.tensor([0, 0, self.ARROW_LIFT]),
+                                        yaw_quat(torch.rand(b) * 2 * np.pi))
             self.arrow.set_pose(place * Pose.create_from_pq(q=flip))
             self.memory.store("last_angle", torch.zeros(b, 1), env_idx)
+
+    def hub(self) -> torch.Tensor:
+        """(num_envs, 3) world centre of the wheel's hub (the valve's axis at the wheel)."""
+        return self.valve.pose.p + torch.tensor([0, 0, self.valve_shape.height], device=self.device)
+
+    def turned(self) -> torch.Tensor:
+        """(num_envs,) how far (rad) the wheel has turned from its start in the arrow's direction."""
+        return turn_direction(self.arrow) * valve_angle(self.valve)
 
     def _update_memory(self):
         super()._update_memory()
@@ -76,10 +85,6 @@ class TurnValveHandEnv(ManiLadderEnv):
         self.memory.store("hand_turn", self.memory["hand_turn"] + torch.where(by_hand, delta, 0.0)[:, None])
         self.memory.store("last_angle", angle[:, None])
         self.memory.store("last_touch", touch.float()[:, None])
-
-    def turned(self) -> torch.Tensor:
-        """(num_envs,) how far (rad) the wheel has turned from its start in the arrow's direction."""
-        return turn_direction(self.arrow) * valve_angle(self.valve)
 
     def _get_obs_extra(self, info: dict):
         obs = dict(tcp_pose=self.ee.tcp().raw_pose)
@@ -94,62 +99,9 @@ class TurnValveHandEnv(ManiLadderEnv):
                 "hand_turned": hand_turned}
 
     def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
-        hub = self.valve.pose.p + torch.tensor([0, 0, self.valve_shape.height], device=self.device)
-        reach = 1 - torch.tanh(5 * torch.linalg.norm(hub - leap_fingertip(self.agent), dim=1))
+        reach = 1 - torch.tanh(5 * torch.linalg.norm(self.hub() - leap_fingertip(self.agent), dim=1))
         progress = (info["hand_turned"] / np.deg2rad(self.turn_angle)).clamp(0, 1)
         reward = reach + 3 * progress
         reward[info["success"]] = self.max_dense_reward
         return reward
 
-
-
-# the solver: the pointing index finger goes down between two spokes, FINGER_BEHIND_SPOKE behind the
-# spoke it will push, FINGER_RADIUS from the axis; then the whole hand turns about the valve's axis by
-# HAND_TURN (the quarter turn, the way to the spoke and a margin), its wrist yaw sweeping symmetrically
-# about yaw 0 to stay well inside the Panda's wrist range
-FINGER_RADIUS = 0.06
-FINGER_BEHIND_SPOKE = np.radians(30)
-FINGER_BELOW_WHEEL = 0.02
-HAND_TURN = np.radians(135)
-TURN_STEP, TURN_STEP_MAX_STEPS = np.radians(10), 3
-
-
-@register_solver("TurnValveHand", control_modes=TCP_DELTA_MODES)
-def solve_turn_valve_hand(env, seed: int) -> dict:
-    """Point the index finger, put it down behind a spoke, turn the hand about the valve's axis."""
-    with DrivenSolver.episode(env, seed) as s:
-        task: TurnValveHandEnv = env.unwrapped
-        dev = task.device
-        direction = turn_direction(task.arrow)
-        axis = task.valve.pose.p + torch.tensor([0.0, 0.0, task.valve_shape.height], device=dev)
-        yaw0 = -direction * HAND_TURN / 2
-        s.set_ee("hand", "point", steps=1)
-        q0 = top_down_quat(yaw0, task.num_envs, dev)
-        s.move({"arm": (axis + torch.tensor([0.0, 0.0, 0.15], device=dev), q0)}, max_steps=25, pos_tol=0.01)
-        # the pointing fingertip's offset from the tcp in the tcp frame, then in the world at hand yaw yaw0
-        tcp_pose = task.ee.tcp()
-        tip_in_tcp = quaternion_apply(quaternion_invert(tcp_pose.q), leap_fingertip(task.agent) - tcp_pose.p)
-        tip_offset = quaternion_apply(q0, tip_in_tcp)
-        # of the spokes' gaps, the one that puts the tcp nearest the axis
-        spoke0 = yaw_of(task.valve.pose.q) + valve_angle(task.valve)
-        gap = 2 * np.pi / task.valve_shape.spokes
-        want = torch.atan2(tip_offset[:, 1], tip_offset[:, 0])  # the finger's angle with the tcp on the axis
-        behind_spoke0 = spoke0 - direction * FINGER_BEHIND_SPOKE
-        finger_angle = behind_spoke0 + torch.round(wrap_angle(want - behind_spoke0) / gap) * gap
-        finger = axis + FINGER_RADIUS * torch.stack(
-            [torch.cos(finger_angle), torch.sin(finger_angle), torch.zeros_like(finger_angle)], dim=1)
-        finger[:, 2] -= FINGER_BELOW_WHEEL
-        tcp = finger - tip_offset
-        above = torch.tensor([0.0, 0.0, 0.08], device=dev)
-        s.move({"arm": (tcp + above, q0)}, max_steps=30)
-        s.move({"arm": (tcp, q0)}, max_steps=30, pos_tol=0.003)
-        rel = tcp - axis
-        for i in range(1, int(round(HAND_TURN / TURN_STEP)) + 1):
-            if bool(s.info["success"].all()):
-                break
-            turn = direction * i * TURN_STEP
-            cos, sin = torch.cos(turn), torch.sin(turn)
-            orbit = torch.stack([cos * rel[:, 0] - sin * rel[:, 1], sin * rel[:, 0] + cos * rel[:, 1], rel[:, 2]], dim=1)
-            s.move({"arm": (axis + orbit, top_down_quat(yaw0 + turn, task.num_envs, dev))}, max_steps=TURN_STEP_MAX_STEPS)
-        s.hold_until_success()
-        return s.info

@@ -1,10 +1,11 @@
-"""The UnscrewCap family's rule (OpenJarBimanual, UnscrewCapHand; the catalog's OpenJarHands and
-TwistOpenBottleHands are not built yet):
+"""The UnscrewCap family's rule (OpenJarBimanual, UnscrewCapHand, OpenJarHands; the catalog's TwistOpenBottleHands
+is not built yet):
 turn a screw lid or cap (`objects.jar`, its thread a revolute joint with friction) off its thread, the
 container held by another end effector (or clamped to the table).
 
 The family base `UnscrewCapTask` holds the rule, `evaluate` and the reward once for every embodiment; the
-task classes set the container's shape, whether it is clamped, its placement and their solvers.
+task classes set the container's shape, whether it is clamped and its placement; their solvers are in
+`solvers/articulated/unscrew_cap/`.
 """
 
 from __future__ import annotations

@@ -2,13 +2,8 @@
 
 from __future__ import annotations
 
-import torch
-
 from maniladder_ms.envs import register_task
 from maniladder_ms.objects.jar import JarShape
-from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
-from maniladder_ms.solvers.driven import DrivenSolver
-from maniladder_ms.solvers.twist import is_wound_up, rise_first, unscrew, wind_up_target
 
 from .base import UnscrewCapTask
 
@@ -21,8 +16,8 @@ class UnscrewCapHandEnv(UnscrewCapTask):
     grip again, until the cap is off its thread.
 
     **Randomisation:** the bottle (an 8 cm wide, 11 cm tall body, a 4.4 cm wide, 3 cm tall neck and a
-    6 cm wide, 3 cm tall cap screwed home; `objects.jar`) has its centre uniform in x in [-0.18, -0.1],
-    y in [-0.08, 0.08] and its yaw (where the cap's stripes point) uniform in [0, 2 pi).
+    6 cm wide, 3 cm tall cap screwed home; `objects.jar`) has its centre uniform in `JAR_REGION`: x in
+    [-0.18, -0.1], y in [-0.08, 0.08]; its yaw (where the cap's stripes point) uniform in [0, 2 pi).
 
     **Success:** (the UnscrewCap family rule, `UnscrewCapTask`, for a clamped container) the cap's thread
     joint has turned by at least `release_angle` counter-clockwise, and so has the episode memory
@@ -48,35 +43,3 @@ class UnscrewCapHandEnv(UnscrewCapTask):
                          lid_radius=0.03, lid_height=0.03)
     body_color, lid_color = (0.3, 0.6, 0.4, 1), (0.95, 0.75, 0.1, 1)
 
-
-# the power grasp closes on the cap with the TCP on its axis this far (TCP frame, z down) from the cap's
-# mid-height: 1 cm lower, so the curled fingertips reach under the cap's rim onto the neck
-GRIP_OFFSET = (0.0, 0.0, -0.01)
-RAMP_STEPS = 20  # control steps the power grasp closes over (half the default: the clamped cap cannot be pushed away)
-# the cap turns by ~0.8 of the wrist's turn in the power grasp (the fingers slip; 4.4 rad for 5.5 rad of
-# joint 7 on seed 104): the open hand turns back for the rest of the turn over this, a margin below it
-FOLLOW = 0.7
-CLEARANCE = 0.1  # m above the cap top where the hand winds its wrist up (it rises from the rest pose first)
-WIND_UP_STEPS = 80  # at most this many control steps to get above the cap with the wrist wound up
-
-
-@register_solver("UnscrewCapHand", control_modes=TCP_DELTA_MODES)
-def solve_unscrew_cap_hand(env, seed: int) -> dict:
-    """Rise, go above the cap winding the wrist up, then twist strokes with the power grasp (`solvers.twist.unscrew`)
-    until the cap is off."""
-    with DrivenSolver.episode(env, seed) as s:
-        task: UnscrewCapHandEnv = env.unwrapped
-        device = task.device
-
-        def high():  # above the cap (`rise_first`: the rest pose's hand is below the cap top)
-            return rise_first(s, "arm", task.lid_top() + torch.tensor([0.0, 0.0, CLEARANCE], device=device))
-
-        for _ in range(WIND_UP_STEPS):
-            errs = s.step({"arm": wind_up_target(s, "arm", high(), GRIP_OFFSET)})
-            ep, _ = errs["arm"]
-            if bool((ep < 0.01).all()) and is_wound_up(s, "arm"):
-                break
-        unscrew(s, task, "arm", "hand", offset=GRIP_OFFSET, synergy="power", ramp_steps=RAMP_STEPS,
-                preshape="preshape", follow=FOLLOW)
-        s.hold_until_success()
-        return s.info
