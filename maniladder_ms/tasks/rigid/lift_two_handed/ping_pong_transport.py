@@ -63,10 +63,6 @@ class PingPongTransportEnv(LiftTwoHandedTask):
     BALL_X, BALL_Y = (-0.04, 0.08), (-0.06, 0.12)  # tray frame
     ZONE_X, ZONE_Y = (0.05, 0.05), (-0.05, 0.1)
 
-    @property
-    def tray_outer_half(self) -> tuple[float, float]:
-        return tuple(h + TRAY_WALL for h in TRAY_INNER_HALF)
-
     def _load_scene(self, options: dict):
         super()._load_scene(options)
         self.tray = build_serving_tray(self.scene, "tray", TRAY_INNER_HALF, self.rim_height, TRAY_END_HEIGHT,
@@ -97,6 +93,10 @@ class PingPongTransportEnv(LiftTwoHandedTask):
             zone[:, 2] = MARKER_THICKNESS / 2
             self.zone.set_pose(Pose.create_from_pq(zone))
 
+    @property
+    def tray_outer_half(self) -> tuple[float, float]:
+        return tuple(h + TRAY_WALL for h in TRAY_INNER_HALF)
+
     def ball_on_tray(self) -> torch.Tensor:
         """(num_envs,) bool: the ball's centre lies within the tray's inner rectangle and at most the rim's
         height plus the ball's radius above the tray floor (tray frame)."""
@@ -125,6 +125,18 @@ class PingPongTransportEnv(LiftTwoHandedTask):
             up = (self.tray.pose.p[:, 2] >= self.lift_height) & (tilt(self.tray) < np.deg2rad(self.max_tilt))
             self.memory.latch("carried", up & both)
 
+    def wall_points(self) -> dict[str, torch.Tensor]:
+        """World grasp points on the two end walls (mid-thickness, 2 cm below the top), keyed by the arm that
+        takes them."""
+        y = TRAY_INNER_HALF[1] + TRAY_WALL / 2
+        return {side: (self.tray.pose * Pose.create_from_pq(torch.tensor(
+            [[0.0, sign * y, TRAY_END_HEIGHT - 0.02]], device=self.device))).p for side, sign in SIDE_SIGNS.items()}
+
+    def _get_obs_extra(self, info: dict):
+        return self.two_hand_obs(info, self.wall_points(), "wall", dict(
+            tray_pose=self.tray.pose.raw_pose, ball_pos=self.ball.pose.p, ball_vel=self.ball.linear_velocity,
+            zone_pos=self.zone.pose.p, tray_to_zone=self.zone.pose.p - self.tray.pose.p))
+
     def evaluate(self):
         info = LiftTwoHandedTask.evaluate(self)  # the lift: height, tilt, each gripper's hold
         rel = self.tray_corners() - self.zone.pose.p[:, None]
@@ -138,18 +150,6 @@ class PingPongTransportEnv(LiftTwoHandedTask):
         info["success"] = (info["carried"] & ~info["one_handed"] & ~info["dropped"] & info["ball_on_tray"]
                            & info["in_zone"] & info["on_table"] & info["released"])
         return info
-
-    def wall_points(self) -> dict[str, torch.Tensor]:
-        """World grasp points on the two end walls (mid-thickness, 2 cm below the top), keyed by the arm that
-        takes them."""
-        y = TRAY_INNER_HALF[1] + TRAY_WALL / 2
-        return {side: (self.tray.pose * Pose.create_from_pq(torch.tensor(
-            [[0.0, sign * y, TRAY_END_HEIGHT - 0.02]], device=self.device))).p for side, sign in SIDE_SIGNS.items()}
-
-    def _get_obs_extra(self, info: dict):
-        return self.two_hand_obs(info, self.wall_points(), "wall", dict(
-            tray_pose=self.tray.pose.raw_pose, ball_pos=self.ball.pose.p, ball_vel=self.ball.linear_velocity,
-            zone_pos=self.zone.pose.p, tray_to_zone=self.zone.pose.p - self.tray.pose.p))
 
     def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
         # reach and hold both end walls; lift level with both (kept once carried); then over the zone, down and
