@@ -23,7 +23,12 @@ from maniladder_ms.tasks.rigid.handover.handover_cube import HandoverCubeEnv
 MEET_POINT = (-0.05, 0.0, 0.2)  # cube centre during the handover, between the arms
 GIVER_OFFSET = 0.013  # the left fingers hold the cube's left (+y) part, the right fingers its right part
 TAKER_OFFSET = 0.015
+TAKER_APPROACH = 0.1  # the right hand comes in this far along +y (from the robot's right) to its grasp
+GIVER_LIFT_OFF = 0.05  # the left rises this far off the table before it carries the cube to the meeting point
+GIVER_RETREAT = (0.0, 0.05, 0.08)  # the left backs off this way after letting go
+PLACE_HOVER = 0.05  # the right lines the cube up this far above its set-down point
 PLACE_DROP = 0.015
+TAKER_RETREAT = 0.08  # the right backs off this far along -y after letting go
 
 
 def _face_yaw(cube, near: float) -> torch.Tensor:
@@ -33,9 +38,7 @@ def _face_yaw(cube, near: float) -> torch.Tensor:
 
 @register_solver("HandoverCube", control_modes=TCP_DELTA_MODES)
 def solve_handover_cube(env, seed: int) -> dict:
-    """Left: top-down grasp of the cube's +y part (fingers across a face pair), carry to the meeting point
-    with the fingers closing along x. Right: horizontal grasp of the cube's -y part from the right, fingers
-    also across x; left lets go and backs off upwards. Right: set the cube down in the zone, let go, back off."""
+    """Phases 1-5 of the module docstring."""
     with DrivenSolver.episode(env, seed) as s:
         task: HandoverCubeEnv = env.unwrapped
         device, n = task.device, task.num_envs
@@ -43,24 +46,24 @@ def solve_handover_cube(env, seed: int) -> dict:
         meet = torch.tensor([MEET_POINT], device=device).expand(n, 3)
         take_q = tcp_quat(y.expand(n, 3), torch.tensor([[1.0, 0.0, 0.0]], device=device).expand(n, 3))
         # the right arm turns its hand sideways and waits beside the meeting point while the left one picks
-        line_up(s, Grasp("right_arm", "right_gripper", meet - TAKER_OFFSET * y, take_q, -0.1 * y))
+        line_up(s, Grasp("right_arm", "right_gripper", meet - TAKER_OFFSET * y, take_q, -TAKER_APPROACH * y))
         # the wrist turns by at most 45 degrees between the pick and the meeting point (yaw pi/2)
         pick_yaw = _face_yaw(task.cube, np.pi / 2)
         hand_x = torch.stack([torch.cos(pick_yaw), torch.sin(pick_yaw), torch.zeros_like(pick_yaw)], dim=1)
         grasp_p = task.cube.pose.p + GIVER_OFFSET * hand_x
         s.pick("left_arm", "left_gripper", grasp_p, pick_yaw, lift=0)
         # up off the table first, then straight to the meeting point
-        s.move({"left_arm": (s.above(grasp_p, 0.05), s.tcp("left_arm").q)}, max_steps=20, pos_tol=0.02)
+        s.move({"left_arm": (s.above(grasp_p, GIVER_LIFT_OFF), s.tcp("left_arm").q)}, max_steps=20, pos_tol=0.02)
         s.move({"left_arm": (meet + GIVER_OFFSET * y, top_down_quat(np.pi / 2, n, device))}, max_steps=60)
-        taker = Grasp("right_arm", "right_gripper", task.cube.pose.p - TAKER_OFFSET * y, take_q, -0.1 * y)
-        hand_over(s, "left_arm", "left_gripper", taker, giver_retreat=torch.tensor([0.0, 0.05, 0.08], device=device))
+        taker = Grasp("right_arm", "right_gripper", task.cube.pose.p - TAKER_OFFSET * y, take_q, -TAKER_APPROACH * y)
+        hand_over(s, "left_arm", "left_gripper", taker, giver_retreat=torch.tensor(GIVER_RETREAT, device=device))
         # put down over the zone centre; the sideways hand touches the table before the cube does, so the
         # cube is let go PLACE_DROP above it
         place = task.zone.pose.p - TAKER_OFFSET * y
         place[:, 2] = task.cube_half + PLACE_DROP
-        s.move({"right_arm": (s.above(place, 0.05), take_q)}, max_steps=60, pos_tol=0.01)
+        s.move({"right_arm": (s.above(place, PLACE_HOVER), take_q)}, max_steps=60, pos_tol=0.01)
         s.move({"right_arm": (place, take_q)}, max_steps=30)
         s.release("right_gripper", steps=5)
-        s.move({"right_arm": (place - 0.08 * y, take_q)}, max_steps=20, pos_tol=0.02)
+        s.move({"right_arm": (place - TAKER_RETREAT * y, take_q)}, max_steps=20, pos_tol=0.02)
         s.hold_until_success()
         return s.info

@@ -15,6 +15,10 @@ HOVER = 0.015  # the peg's lower end this high over the rim while it is lined up
 LINE_UP_TOL = 0.0005  # m: the lower end's lateral offset from the hole's axis before going down
 DESCENT_STEP = 0.002  # m per control step the target goes down
 FLOOR_GAP = 0.003  # the insertion stops with the lower end this high over the hole's floor
+CARRY_ABOVE = 0.05  # the peg is carried to this far above its HOVER pose before the closed-loop line-up
+HOVER_TOL = 0.002  # m: the line-up is done once the lower end is no lower than this below HOVER too
+FLOOR_TOL = 0.001  # m: the descent is done once the lower end is within this of FLOOR_GAP
+BACK_OFF = 0.06  # m the open gripper rises after letting go
 
 
 def _yaw_in(m: torch.Tensor) -> torch.Tensor:
@@ -35,7 +39,8 @@ def peg_goal_tcp(task: InsertPegTask, peg_in_tcp: Pose, tip_height: float):
     n = task.num_envs
     local_p = torch.zeros(n, 3, device=task.device)
     local_p[:, 2] = task.hole.rim_height + tip_height + task.peg_length / 2
-    local_q = torch.stack([torch.cos(turns / 2), torch.zeros_like(turns), torch.zeros_like(turns), torch.sin(turns / 2)], 1)
+    local_q = torch.stack([torch.cos(turns / 2), torch.zeros_like(turns), torch.zeros_like(turns),
+                           torch.sin(turns / 2)], 1)
     goal = task.block.pose * Pose.create_from_pq(local_p, local_q) * peg_in_tcp.inv()
     return goal.p, goal.q
 
@@ -47,20 +52,20 @@ def insert_held_peg(s, task: InsertPegTask, arm: str, ee_part: str, ee_side: str
     Where the peg sits in the hand is measured while it hangs free and then kept: once the hole's walls
     touch it, it turns in the fingers, and a goal that followed it would turn the hand after it."""
     grip = peg_in_hand(task, ee_side)
-    s.move({arm: peg_goal_tcp(task, grip, HOVER + 0.05)}, max_steps=60, pos_tol=0.005, rot_tol=0.05)
+    s.move({arm: peg_goal_tcp(task, grip, HOVER + CARRY_ABOVE)}, max_steps=60, pos_tol=0.005, rot_tol=0.05)
     grip = peg_in_hand(task, ee_side)
     for _ in range(line_up_steps):
         s.step({arm: peg_goal_tcp(task, grip, HOVER)})
         info = task.insertion_state()
-        if bool((info["offset"] < LINE_UP_TOL).all() & (info["depth"] > -HOVER - 0.002).all()):
+        if bool((info["offset"] < LINE_UP_TOL).all() & (info["depth"] > -HOVER - HOVER_TOL).all()):
             break
     height = HOVER
     bottom = -(task.hole_depth - FLOOR_GAP)
     for _ in range(max_descent_steps):
         height = max(height - DESCENT_STEP, bottom)
         s.step({arm: peg_goal_tcp(task, grip, height)})
-        if bool((task.insertion_state()["depth"] >= task.hole_depth - FLOOR_GAP - 0.001).all()):
+        if bool((task.insertion_state()["depth"] >= task.hole_depth - FLOOR_GAP - FLOOR_TOL).all()):
             break
     s.release(ee_part, steps=8)
     tcp = s.tcp(arm)
-    s.move({arm: (s.above(tcp.p, 0.06), tcp.q)}, max_steps=20, pos_tol=0.01)
+    s.move({arm: (s.above(tcp.p, BACK_OFF), tcp.q)}, max_steps=20, pos_tol=0.01)
