@@ -35,6 +35,7 @@ from maniladder_ms.tasks.rigid.handover.handover_mug_hands import UPSIDE_DOWN, H
 
 # 1. pick and roll
 GIVER_TCP_HEIGHT = 0.065  # the giver's top-down TCP above the table at the pick (the upside-down mug's base at 9 cm)
+GIVER_LIFT = 0.15  # metres the giver lifts the mug before it rolls
 GIVER_ROLL_SIGN = -1.0  # about the TCP y axis (the finger row, world x): the left Panda's joint 7 stays mid-range
 GIVER_ROLL_WAYPOINTS, GIVER_ROLL_STEPS = 12, 8
 MEET = (-0.08, 0.02, 0.3)  # the giver's TCP at the end of the roll
@@ -49,6 +50,7 @@ TAKER_YAW_TURNED = np.deg2rad(-15.0)
 HANDLE_TURNED = np.deg2rad(-20.0)
 TAKER_DEPTH = 0.045  # the taker's TCP this far below the rim
 TAKER_ASIDE = 0.025  # the taker lines up this far towards its thumb (against TAKER_YAW): the thumb clears the rim
+TAKER_APPROACH = 0.1  # ... and comes down the last this far onto its grasp
 TAKER_CLOSE_STEPS = 80  # the taker closes over this many steps (40, as DrivenSolver.grasp, tipped the mug 30-80 deg)
 # 3. swap
 TAKER_LIFT = 0.05  # the taker lifts the mug this far off the giver's fingers as the giver opens
@@ -69,6 +71,7 @@ KNUCKLE_JOINTS = [0, 1, 4, 5, 8, 9]  # the fingers' side and MCP joints (the thu
 SQUARE_STEPS = 30  # control steps the loosened hand takes to turn square over the standing mug (let_go)
 SQUARE_MAX_TILT = 5.0  # degrees: ... only while the mug stands within this of upright
 SQUARE_MAX_TURN = 35.0  # degrees: ... and the hand is no further than this from square
+RELEASE_RISE = 0.1  # metres the open hand rises off the mug
 # 6. regrasp
 REGRASP_FROM = 0.02  # m: a released mug standing further than this from the coaster's centre is taken again
 # 7. nudge
@@ -81,6 +84,7 @@ NUDGE_HANDLE_CLEAR = 40.0  # degrees: the tip comes down at least this far round
 NUDGE_TIP_BEARING = 0.42  # rad: the "point" index tip's bearing from the TCP of a top-down hand of yaw 0 (measured)
 NUDGE_SHORT = 0.003  # the push stops this short of the centre (the mug slides on a little)
 NUDGE_STEP = 0.0015  # metres a control step while pushing
+NUDGE_OVER = 0.04  # the tip comes and goes this far above the mug's height
 
 
 @register_solver("HandoverMugHands", control_modes=TCP_DELTA_MODES)
@@ -117,7 +121,7 @@ def pick_and_roll(s: HandoverSolver, task: HandoverMugHandsEnv):
     yaw = torch.atan2(handle[:, 1], handle[:, 0]) + np.pi / 2  # TCP y (the finger row) along the handle
     grasp = task.mug.pose.p.clone()
     grasp[:, 2] = GIVER_TCP_HEIGHT
-    s.pick("left_arm", "left_hand", grasp, yaw, lift=0.15)
+    s.pick("left_arm", "left_hand", grasp, yaw, lift=GIVER_LIFT)
     for target in roll_targets(s, "left_arm", yaw, GIVER_ROLL_SIGN, meet, GIVER_ROLL_WAYPOINTS, GIVER_ROLL_STEPS):
         s.step(target)
     s.move({"left_arm": target["left_arm"]}, max_steps=20)
@@ -135,10 +139,10 @@ def take(s: HandoverSolver, task: HandoverMugHandsEnv) -> torch.Tensor:
     take_yaw = torch.where(turned, float(TAKER_YAW_TURNED), float(TAKER_YAW)).to(dev)
     taker_q = top_down_quat(take_yaw, n, device=dev)
     aside = torch.stack([-TAKER_ASIDE * torch.cos(take_yaw), -TAKER_ASIDE * torch.sin(take_yaw),
-                         torch.full((n,), 0.1, device=dev)], dim=1)
+                         torch.full((n,), TAKER_APPROACH, device=dev)], dim=1)
     # (at TAKER_YAW the line-up computed in float64, float for float as measured: the swap is sensitive to it)
     aside[~turned] = torch.tensor([-TAKER_ASIDE * float(np.cos(TAKER_YAW)), -TAKER_ASIDE * float(np.sin(TAKER_YAW)),
-                                   0.1], device=dev)
+                                   TAKER_APPROACH], device=dev)
     reach(s, [Grasp("right_arm", "right_hand", take_p, taker_q, aside)])
     s.close_hand("right_hand", "power", ramp_steps=TAKER_CLOSE_STEPS)
     return taker_q
@@ -205,7 +209,7 @@ def let_go(s: HandoverSolver, task: HandoverMugHandsEnv, taker_q: torch.Tensor):
     hand[:, KNUCKLE_JOINTS] = 0
     s.close_hand("right_hand", hand, ramp_steps=RELEASE_STEPS, hold_steps=3)
     s.close_hand("right_hand", "open", ramp_steps=10, hold_steps=2)
-    s.move({"right_arm": (s.above(s.tcp("right_arm").p.clone(), 0.1), taker_q)}, max_steps=30, pos_tol=0.02)
+    s.move({"right_arm": (s.above(s.tcp("right_arm").p.clone(), RELEASE_RISE), taker_q)}, max_steps=30, pos_tol=0.02)
 
 
 def regrasp_needed(task: HandoverMugHandsEnv) -> bool:
@@ -249,7 +253,7 @@ def nudge(s: HandoverSolver, task: HandoverMugHandsEnv):
     radius = task.mug_shape.outer_radius
     start = mug[:, :2] + side * (radius + NUDGE_GAP)
     end = start + d * (NUDGE_GAP - NUDGE_TIP + dist - NUDGE_SHORT)[:, None]
-    above = task.mug_shape.body.height + 0.04
+    above = task.mug_shape.body.height + NUDGE_OVER
     s.move({"right_arm": (tcp_at(start, above), q)}, max_steps=40, pos_tol=0.005)
     s.move({"right_arm": (tcp_at(start, NUDGE_HEIGHT), q)}, max_steps=40, pos_tol=0.004)
     glide(s, {"right_arm": (tcp_at(start, NUDGE_HEIGHT), tcp_at(end, NUDGE_HEIGHT), q)}, step_length=NUDGE_STEP,
