@@ -1,10 +1,11 @@
-"""The Handover family's rule (HandoverCube, HandoverBallHands; later HandoverMugHands, HandoverPenHands):
-one end effector (the giver, the left) passes an object to the other (the taker, the right) in mid-air.
+"""The Handover family's base (HandoverCube, HandoverBallHands, HandoverMugHands; later HandoverPenHands): one end
+effector (the giver, the left) passes an object to the other (the taker, the right) in mid-air.
 
 The family base `HandoverTask` holds the rule, `evaluate`, once for every embodiment; the task classes build
-their object (`self.item`) and, where the taker puts it down, its target zone (`self.target`), and keep their
-solvers. A task whose handover must be hand to hand sets `HAND_TO_HAND`; one whose target is not a square
-zone on the table overrides `_placed`, and one whose pose origin is not the object's centre `item_centre`.
+their object (`self.item`) and, where the taker puts it down, its target zone (`self.target`); their solvers are in
+`maniladder_ms/solvers/rigid/handover/`. A task whose handover must be hand to hand sets `HAND_TO_HAND`; one whose
+target is not a square zone on the table overrides `_placed`, and one whose pose origin is not the object's centre
+`item_centre`.
 """
 
 from __future__ import annotations

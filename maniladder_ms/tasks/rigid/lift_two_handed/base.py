@@ -1,8 +1,9 @@
-"""The LiftTwoHanded family's rule (LiftWideBox, LiftBasketHands): both end effectors hold one object and lift
-it level.
+"""The LiftTwoHanded family's base (LiftWideBox, LiftBasketHands; PingPongTransport and LiftPotToStove build their
+rule on its lift): both end effectors hold one object and lift it level.
 
 The family base `LiftTwoHandedTask` holds the rule, `evaluate`, once for every embodiment; the task classes
-build their object (`self.item`, whose pose origin is its bottom centre) and keep their solvers.
+build their object (`self.item`, whose pose origin is its bottom centre); their solvers are in
+`maniladder_ms/solvers/rigid/lift_two_handed/`.
 """
 
 from __future__ import annotations
@@ -12,6 +13,8 @@ import torch
 
 from maniladder_ms.envs import ManiLadderEnv
 from maniladder_ms.geometry import tilt
+
+SIDE_SIGNS = {"left": 1, "right": -1}  # the left end effector takes the object's +y side (handle, end wall)
 
 
 class LiftTwoHandedTask(ManiLadderEnv):

@@ -9,17 +9,11 @@ import torch
 
 from mani_skill.utils.structs.pose import Pose
 
-from maniladder_ms.agents.helpers import top_down_quat
 from maniladder_ms.envs import register_task
 from maniladder_ms.geometry import yaw_quat
 from maniladder_ms.objects.basket import BasketShape, build_basket
-from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
-from maniladder_ms.solvers.bimanual import Grasp, lift_together
-from maniladder_ms.solvers.driven import DrivenSolver
 
-from .base import LiftTwoHandedTask
-
-SIDES = {"left": 1, "right": -1}  # the left hand takes the +y handle
+from .base import SIDE_SIGNS, LiftTwoHandedTask
 
 
 @register_task("LiftBasketHands")
@@ -28,7 +22,7 @@ class LiftBasketHandsEnv(LiftTwoHandedTask):
 
     **Randomisation:** the basket (inner 16 x 22 cm at the floor, 16 x 22 -> 18 x 24 cm tapered, 10 cm
     deep, `basket_mass`; bar handles on the +-y sides) stands with its centre uniform in x in [-0.13, -0.07],
-    y in [-0.03, 0.03] and its yaw uniform in [-15, 15] degrees.
+    y in [-0.03, 0.03] (`BASKET_X`, `BASKET_Y`) and its yaw uniform in [-15, 15] degrees (`BASKET_YAW`).
 
     **Success:** (the LiftTwoHanded family rule, `LiftTwoHandedTask`) the basket's bottom is at least
     `lift_height` above the table, it is tilted by less than `max_tilt`, and each hand holds it (`ee.holds`
@@ -40,25 +34,30 @@ class LiftBasketHandsEnv(LiftTwoHandedTask):
     TASK_REGION = (-0.25, 0.05, -0.3, 0.3)
     PARAMS = LiftTwoHandedTask.PARAMS + ("basket_mass",)
     basket_shape = BasketShape()
+    # layout ranges as (low, span)
+    BASKET_X, BASKET_Y = (-0.13, 0.06), (-0.03, 0.06)
+    BASKET_YAW = 15  # degrees either side of square
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
-        self.basket = build_basket(self.scene, "basket", self.basket_shape, self.basket_mass, color=(0.75, 0.5, 0.25, 1))
+        self.basket = build_basket(self.scene, "basket", self.basket_shape, self.basket_mass,
+                                   color=(0.75, 0.5, 0.25, 1))
         self.item = self.basket
 
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            xyz = torch.stack([torch.rand(b) * 0.06 - 0.13, torch.rand(b) * 0.06 - 0.03, torch.zeros(b)], dim=1)
-            yaw = (torch.rand(b) * 2 - 1) * np.deg2rad(15)
+            xyz = torch.stack([torch.rand(b) * self.BASKET_X[1] + self.BASKET_X[0],
+                               torch.rand(b) * self.BASKET_Y[1] + self.BASKET_Y[0], torch.zeros(b)], dim=1)
+            yaw = (torch.rand(b) * 2 - 1) * np.deg2rad(self.BASKET_YAW)
             self.basket.set_pose(Pose.create_from_pq(xyz, yaw_quat(yaw)))
 
     def handle_centres(self) -> dict[str, torch.Tensor]:
         """World centres of the left (+y) and right (-y) handle bars, (num_envs, 3) each."""
         return {side: (self.basket.pose * Pose.create_from_pq(
             torch.as_tensor(self.basket_shape.handle_centre(sign), dtype=torch.float32, device=self.device)[None])).p
-            for side, sign in SIDES.items()}
+            for side, sign in SIDE_SIGNS.items()}
 
     def _get_obs_extra(self, info: dict):
         obs = dict(left_tcp_pose=self.ee.tcp("left").raw_pose, right_tcp_pose=self.ee.tcp("right").raw_pose,
@@ -77,22 +76,3 @@ class LiftBasketHandsEnv(LiftTwoHandedTask):
         reward += 2 * both * height * info["is_level"]
         reward[info["success"]] = self.max_dense_reward
         return reward
-
-
-
-@register_solver("LiftBasketHands", control_modes=TCP_DELTA_MODES)
-def solve_lift_basket_hands(env, seed: int) -> dict:
-    """Each hand takes its handle from above (fingers over the outside of the bar, thumb in the gap
-    behind it), both close together and lift 15 cm in step."""
-    with DrivenSolver.episode(env, seed) as s:
-        task: LiftBasketHandsEnv = env.unwrapped
-        n = task.num_envs
-        basket_yaw = 2 * torch.atan2(task.basket.pose.q[:, 3], task.basket.pose.q[:, 0])
-        handles = task.handle_centres()
-        up = torch.tensor([0.0, 0.0, 0.06], device=task.device)
-        grasps = [Grasp(f"{side}_arm", f"{side}_hand", handles[side] + torch.tensor([0, 0, 0.006], device=task.device),
-                        top_down_quat(basket_yaw + sign * np.pi / 2, n, device=task.device), up)
-                  for side, sign in SIDES.items()]
-        lift_together(s, grasps, 0.15)
-        s.hold_until_success()
-        return s.info

@@ -1,4 +1,4 @@
-"""LiftPotToStove (L2 rigid DG): lift a pot by its two handles with both arms, carry it onto a stove plate, set it down."""
+"""LiftPotToStove (L2 rigid DG, family LiftTwoHanded): carry a pot by its two handles onto a stove plate."""
 
 from __future__ import annotations
 
@@ -10,15 +10,11 @@ import torch
 from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.envs import register_task
-from maniladder_ms.geometry import tilt, yaw_of, yaw_quat
+from maniladder_ms.geometry import tilt, yaw_quat
 from maniladder_ms.objects.pot import PotShape, build_pot, build_stove_plate
-from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
-from maniladder_ms.solvers.bimanual import top_down_carry
-from maniladder_ms.solvers.driven import DrivenSolver
 
-from .base import LiftTwoHandedTask
+from .base import SIDE_SIGNS, LiftTwoHandedTask
 
-SIDES = {"left": 1, "right": -1}  # the left gripper takes the +y handle
 POT_DENSITY = 1200.0  # kg/m^3: the pot weighs ~0.9 kg
 
 
@@ -30,8 +26,9 @@ class LiftPotToStoveEnv(LiftTwoHandedTask):
 
     **Randomisation:** the pot (19 cm across, 9 cm high, ~0.9 kg; flat tab handles 5 cm long and 3 cm wide
     at +-y, 1.5 cm below the rim) stands with its centre uniform in x in [-0.3, -0.22], y in [-0.04, 0.04]
-    and its yaw uniform in [-10, 10] degrees; the stove plate (11 cm radius, 1.2 cm high) stands 0.24-0.3 m
-    (uniform) farther in x, its y uniform in [-0.05, 0.05] (both arms carry it 24-31 cm).
+    (`POT_X`, `POT_Y`) and its yaw uniform in [-10, 10] degrees (`POT_YAW`); the stove plate (11 cm radius,
+    1.2 cm high) stands 0.24-0.3 m (uniform, `PLATE_DX`) farther in x, its y uniform in [-0.05, 0.05]
+    (`PLATE_Y`; both arms carry it 24-31 cm).
 
     **Success:** the pot was carried by both handles: at some control step each gripper held it (`ee.holds`
     for the left and the right) with its TCP within `handle_tol` of its own handle's centre while the pot's
@@ -53,6 +50,10 @@ class LiftPotToStoveEnv(LiftTwoHandedTask):
     PARAMS = LiftTwoHandedTask.PARAMS + ("centre_tol", "rest_tol", "handle_tol")
     pot_shape = PotShape()
     plate_radius, plate_height = 0.11, 0.012
+    # layout ranges as (low, span)
+    POT_X, POT_Y = (-0.3, 0.08), (-0.04, 0.08)
+    POT_YAW = 10  # degrees either side of square
+    PLATE_DX, PLATE_Y = (0.24, 0.06), (-0.05, 0.1)  # the plate's x from the pot's
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -67,23 +68,24 @@ class LiftPotToStoveEnv(LiftTwoHandedTask):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            pot = torch.stack([torch.rand(b) * 0.08 - 0.3, torch.rand(b) * 0.08 - 0.04, torch.zeros(b)], dim=1)
-            self.pot.set_pose(Pose.create_from_pq(pot, yaw_quat((torch.rand(b) * 2 - 1) * np.deg2rad(10))))
-            plate = torch.stack([pot[:, 0] + 0.24 + torch.rand(b) * 0.06, torch.rand(b) * 0.1 - 0.05, torch.zeros(b)],
-                                dim=1)
+            pot = torch.stack([torch.rand(b) * self.POT_X[1] + self.POT_X[0],
+                               torch.rand(b) * self.POT_Y[1] + self.POT_Y[0], torch.zeros(b)], dim=1)
+            self.pot.set_pose(Pose.create_from_pq(pot, yaw_quat((torch.rand(b) * 2 - 1) * np.deg2rad(self.POT_YAW))))
+            plate = torch.stack([pot[:, 0] + self.PLATE_DX[0] + torch.rand(b) * self.PLATE_DX[1],
+                                 torch.rand(b) * self.PLATE_Y[1] + self.PLATE_Y[0], torch.zeros(b)], dim=1)
             self.plate.set_pose(Pose.create_from_pq(plate))
 
     def handle_centres(self) -> dict[str, torch.Tensor]:
         """World centres of the left (+y) and right (-y) handle tabs, (num_envs, 3) each."""
         return {side: (self.pot.pose * Pose.create_from_pq(
             torch.as_tensor(self.pot_shape.handle_centre(sign), dtype=torch.float32, device=self.device)[None])).p
-            for side, sign in SIDES.items()}
+            for side, sign in SIDE_SIGNS.items()}
 
     def _on_handles(self, info: dict) -> torch.Tensor:
         """Adds `<side>_on_handle` to `info` (the family's lift info): the gripper holds the pot with its TCP
         within `handle_tol` of its own handle's centre; returns both."""
         handles = self.handle_centres()
-        for side in SIDES:
+        for side in SIDE_SIGNS:
             near = torch.linalg.norm(self.ee.tcp(side).p - handles[side], dim=1) <= self.handle_tol
             info[f"{side}_on_handle"] = info[f"{side}_grasped"] & near
         return info["left_on_handle"] & info["right_on_handle"]
@@ -97,7 +99,8 @@ class LiftPotToStoveEnv(LiftTwoHandedTask):
 
     def _get_obs_extra(self, info: dict):
         return self.two_hand_obs(info, self.handle_centres(), "handle", dict(
-            pot_pose=self.pot.pose.raw_pose, plate_pos=self.plate.pose.p, pot_to_plate=self.plate.pose.p - self.pot.pose.p))
+            pot_pose=self.pot.pose.raw_pose, plate_pos=self.plate.pose.p,
+            pot_to_plate=self.plate.pose.p - self.pot.pose.p))
 
     def evaluate(self):
         info = LiftTwoHandedTask.evaluate(self)  # the lift: height, tilt, each gripper's hold
@@ -113,7 +116,7 @@ class LiftPotToStoveEnv(LiftTwoHandedTask):
     def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
         handles = self.handle_centres()
         reward = torch.zeros(self.num_envs, device=self.device)
-        for side in SIDES:
+        for side in SIDE_SIGNS:
             reach = torch.linalg.norm(handles[side] - self.ee.tcp(side).p, dim=1)
             reward += (1 - torch.tanh(5 * reach)) + info[f"{side}_on_handle"]
         both = (info["left_on_handle"] & info["right_on_handle"]).float()
@@ -125,19 +128,3 @@ class LiftPotToStoveEnv(LiftTwoHandedTask):
         reward += info["carried"] * (2 * (1 - torch.tanh(5 * gap)) + 2 * placed + info["released"] * placed)
         reward[info["success"]] = self.max_dense_reward
         return reward
-
-
-LIFT = 0.08  # metres the handles rise: the pot's bottom clears the plate by ~7 cm
-SET_DOWN_GAP = 0.004  # the pot's bottom this far above the plate when the grippers open
-
-
-@register_solver("LiftPotToStove", control_modes=TCP_DELTA_MODES)
-def solve_lift_pot_to_stove(env, seed: int) -> dict:
-    """Each arm grasps its handle tab top-down, fingers across it; both lift together, carry the pot over the
-    plate in lock-step, lower it onto the plate, open and rise."""
-    with DrivenSolver.episode(env, seed) as s:
-        task: LiftPotToStoveEnv = env.unwrapped
-        top_down_carry(s, task.handle_centres(), yaw_of(task.pot.pose.q) - np.pi / 2, LIFT,
-                       task.plate.pose.p - task.pot.pose.p, task.plate_height + SET_DOWN_GAP)
-        s.hold_until_success()
-        return s.info

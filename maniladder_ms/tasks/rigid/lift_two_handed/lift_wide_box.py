@@ -9,13 +9,9 @@ import torch
 
 from mani_skill.utils.structs.pose import Pose
 
-from maniladder_ms.agents.helpers import top_down_quat
 from maniladder_ms.envs import register_task
-from maniladder_ms.geometry import yaw_of, yaw_quat
+from maniladder_ms.geometry import yaw_quat
 from maniladder_ms.objects import build_tray
-from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
-from maniladder_ms.solvers.bimanual import Grasp, lift_together
-from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver
 
 from .base import LiftTwoHandedTask
 
@@ -27,7 +23,8 @@ class LiftWideBoxEnv(LiftTwoHandedTask):
 
     **Randomisation:** the box (inner 2 x `inner_half`, walls `wall_height` high and `wall_thickness` thick,
     open top, about 1.1 kg) lies with its long side across the table (along y), its centre uniform in
-    x in [-0.15, -0.05], y in [-0.03, 0.03], its yaw uniform in [-15, 15] degrees about that.
+    x in [-0.15, -0.05], y in [-0.03, 0.03] (`BOX_X`, `BOX_Y`), its yaw uniform in [-15, 15] degrees about that
+    (`BOX_YAW`).
 
     **Success:** (the LiftTwoHanded family rule, `LiftTwoHandedTask`) the box bottom is at least
     `lift_height` above the table, the box is tilted by less than `max_tilt` (angle between its up axis and
@@ -39,6 +36,9 @@ class LiftWideBoxEnv(LiftTwoHandedTask):
     TASK_REGION = (-0.3, 0.1, -0.3, 0.3)
     PARAMS = LiftTwoHandedTask.PARAMS + ("inner_half", "wall_height", "wall_thickness")
     base_thickness = 0.008
+    # layout ranges as (low, span)
+    BOX_X, BOX_Y = (-0.15, 0.1), (-0.03, 0.06)
+    BOX_YAW = 15  # degrees either side of the long side along y
     # inner_half: long side along the box's local x
 
     def _load_scene(self, options: dict):
@@ -51,8 +51,9 @@ class LiftWideBoxEnv(LiftTwoHandedTask):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            xyz = torch.stack([torch.rand(b) * 0.1 - 0.15, torch.rand(b) * 0.06 - 0.03, torch.zeros(b)], dim=1)
-            yaw = np.pi / 2 + (torch.rand(b) * 2 - 1) * np.deg2rad(15)
+            xyz = torch.stack([torch.rand(b) * self.BOX_X[1] + self.BOX_X[0],
+                               torch.rand(b) * self.BOX_Y[1] + self.BOX_Y[0], torch.zeros(b)], dim=1)
+            yaw = np.pi / 2 + (torch.rand(b) * 2 - 1) * np.deg2rad(self.BOX_YAW)
             self.box.set_pose(Pose.create_from_pq(xyz, yaw_quat(yaw)))
 
     def lip_points(self) -> dict[str, torch.Tensor]:
@@ -86,22 +87,3 @@ class LiftWideBoxEnv(LiftTwoHandedTask):
         reward += 2 * lift * both
         reward[info["success"]] = self.max_dense_reward
         return reward
-
-
-
-LIFT = 0.15  # metres the grasp points rise: the box bottom ends 15 cm up, clear of the `lift_height` rule
-
-
-@register_solver("LiftWideBox", control_modes=TCP_DELTA_MODES)
-def solve_lift_wide_box(env, seed: int) -> dict:
-    """Each arm grasps its end wall top-down, fingers across the wall; both close, then rise together."""
-    with DrivenSolver.episode(env, seed) as s:
-        task: LiftWideBoxEnv = env.unwrapped
-        n, device = task.num_envs, task.device
-        # fingers close along the box's long axis (across the end walls)
-        q = top_down_quat(yaw_of(task.box.pose.q) - np.pi / 2, n, device)
-        above = torch.tensor([0.0, 0.0, APPROACH_HEIGHT], device=device)
-        grasps = [Grasp(f"{side}_arm", f"{side}_gripper", p, q, above) for side, p in task.lip_points().items()]
-        lift_together(s, grasps, LIFT)
-        s.hold_until_success()
-        return s.info

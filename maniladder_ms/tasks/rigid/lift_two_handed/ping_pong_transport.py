@@ -1,5 +1,4 @@
-"""PingPongTransport (L2 rigid DG): carry a serving tray with a ping-pong ball on it across the table with both
-arms, without losing the ball."""
+"""PingPongTransport (L2 rigid DG, family LiftTwoHanded): carry a tray with a ping-pong ball on it with both arms."""
 
 from __future__ import annotations
 
@@ -12,16 +11,11 @@ from mani_skill.utils.geometry.rotation_conversions import quaternion_apply, qua
 from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.envs import register_task
-from maniladder_ms.geometry import tilt, yaw_of, yaw_quat
+from maniladder_ms.geometry import tilt, yaw_quat
 from maniladder_ms.objects.markers import MARKER_THICKNESS, build_zone_marker
 from maniladder_ms.objects.tabletop import build_ping_pong_ball, build_serving_tray, place_at_rest
-from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
-from maniladder_ms.solvers.bimanual import top_down_carry
-from maniladder_ms.solvers.driven import DrivenSolver
 
-from .base import LiftTwoHandedTask
-
-SIDES = {"left": 1, "right": -1}  # the left gripper takes the +y end wall
+from .base import SIDE_SIGNS, LiftTwoHandedTask
 TRAY_INNER_HALF = (0.1, 0.15)  # the floor inside the rims, (x, y): 20 x 30 cm
 TRAY_WALL, TRAY_BASE, TRAY_END_HEIGHT = 0.01, 0.008, 0.06
 
@@ -34,10 +28,11 @@ class PingPongTransportEnv(LiftTwoHandedTask):
 
     **Randomisation:** the tray (floor 20 x 30 cm inside, low rims `rim_height` high along its front and back,
     6 cm end walls at +-y, ~0.45 kg) stands with its centre uniform in x in [-0.26, -0.2], y in [-0.03, 0.03]
-    and its yaw uniform in [-5, 5] degrees; the ball (`ball_radius`, `ball_mass`, a hollow shell) lies on the
-    tray floor, uniform in [-0.04, 0.04] x [-0.06, 0.06] about the tray's centre; the target zone (a visual
-    tile, the tray's outline grown by `zone_margin` on every side, axis-aligned) has its centre uniform in x
-    in [0.05, 0.1], y in [-0.05, 0.05] (a 25-36 cm carry).
+    (`TRAY_X`, `TRAY_Y`) and its yaw uniform in [-5, 5] degrees (`TRAY_YAW`); the ball (`ball_radius`,
+    `ball_mass`, a hollow shell) lies on the tray floor, uniform in [-0.04, 0.04] x [-0.06, 0.06] about the
+    tray's centre (`BALL_X`, `BALL_Y`, tray frame); the target zone (a visual tile, the tray's outline grown by
+    `zone_margin` on every side, axis-aligned) has its centre uniform in x in [0.05, 0.1], y in [-0.05, 0.05]
+    (`ZONE_X`, `ZONE_Y`: a 25-36 cm carry).
 
     **Success:** the tray was carried by both arms: at some control step each gripper held it (`ee.holds` for
     the left and the right) while its bottom was at least `lift_height` above the table and it was tilted by
@@ -62,10 +57,11 @@ class PingPongTransportEnv(LiftTwoHandedTask):
     max_dense_reward = 10
     TASK_REGION = (-0.4, 0.3, -0.3, 0.3)
     PARAMS = LiftTwoHandedTask.PARAMS + ("zone_margin", "rest_tol", "rim_height", "ball_radius", "ball_mass")
-
-    @property
-    def tray_outer_half(self) -> tuple[float, float]:
-        return tuple(h + TRAY_WALL for h in TRAY_INNER_HALF)
+    # layout ranges as (low, span)
+    TRAY_X, TRAY_Y = (-0.26, 0.06), (-0.03, 0.06)
+    TRAY_YAW = 5  # degrees either side of square
+    BALL_X, BALL_Y = (-0.04, 0.08), (-0.06, 0.12)  # tray frame
+    ZONE_X, ZONE_Y = (0.05, 0.05), (-0.05, 0.1)
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -84,15 +80,22 @@ class PingPongTransportEnv(LiftTwoHandedTask):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            tray = torch.stack([torch.rand(b) * 0.06 - 0.26, torch.rand(b) * 0.06 - 0.03, torch.zeros(b)], dim=1)
-            tray_q = yaw_quat((torch.rand(b) * 2 - 1) * np.deg2rad(5))
+            tray = torch.stack([torch.rand(b) * self.TRAY_X[1] + self.TRAY_X[0],
+                                torch.rand(b) * self.TRAY_Y[1] + self.TRAY_Y[0], torch.zeros(b)], dim=1)
+            tray_q = yaw_quat((torch.rand(b) * 2 - 1) * np.deg2rad(self.TRAY_YAW))
             self.tray.set_pose(Pose.create_from_pq(tray, tray_q))
-            local = torch.stack([torch.rand(b) * 0.08 - 0.04, torch.rand(b) * 0.12 - 0.06,
+            local = torch.stack([torch.rand(b) * self.BALL_X[1] + self.BALL_X[0],
+                                 torch.rand(b) * self.BALL_Y[1] + self.BALL_Y[0],
                                  torch.full((b,), TRAY_BASE + self.ball_radius)], dim=1)
             place_at_rest(self.ball, Pose.create_from_pq(tray + quaternion_apply(tray_q, local)))
-            zone = torch.stack([torch.rand(b) * 0.05 + 0.05, torch.rand(b) * 0.1 - 0.05, torch.zeros(b)], dim=1)
+            zone = torch.stack([torch.rand(b) * self.ZONE_X[1] + self.ZONE_X[0],
+                                torch.rand(b) * self.ZONE_Y[1] + self.ZONE_Y[0], torch.zeros(b)], dim=1)
             zone[:, 2] = MARKER_THICKNESS / 2
             self.zone.set_pose(Pose.create_from_pq(zone))
+
+    @property
+    def tray_outer_half(self) -> tuple[float, float]:
+        return tuple(h + TRAY_WALL for h in TRAY_INNER_HALF)
 
     def ball_on_tray(self) -> torch.Tensor:
         """(num_envs,) bool: the ball's centre lies within the tray's inner rectangle and at most the rim's
@@ -122,6 +125,18 @@ class PingPongTransportEnv(LiftTwoHandedTask):
             up = (self.tray.pose.p[:, 2] >= self.lift_height) & (tilt(self.tray) < np.deg2rad(self.max_tilt))
             self.memory.latch("carried", up & both)
 
+    def wall_points(self) -> dict[str, torch.Tensor]:
+        """World grasp points on the two end walls (mid-thickness, 2 cm below the top), keyed by the arm that
+        takes them."""
+        y = TRAY_INNER_HALF[1] + TRAY_WALL / 2
+        return {side: (self.tray.pose * Pose.create_from_pq(torch.tensor(
+            [[0.0, sign * y, TRAY_END_HEIGHT - 0.02]], device=self.device))).p for side, sign in SIDE_SIGNS.items()}
+
+    def _get_obs_extra(self, info: dict):
+        return self.two_hand_obs(info, self.wall_points(), "wall", dict(
+            tray_pose=self.tray.pose.raw_pose, ball_pos=self.ball.pose.p, ball_vel=self.ball.linear_velocity,
+            zone_pos=self.zone.pose.p, tray_to_zone=self.zone.pose.p - self.tray.pose.p))
+
     def evaluate(self):
         info = LiftTwoHandedTask.evaluate(self)  # the lift: height, tilt, each gripper's hold
         rel = self.tray_corners() - self.zone.pose.p[:, None]
@@ -136,18 +151,6 @@ class PingPongTransportEnv(LiftTwoHandedTask):
                            & info["in_zone"] & info["on_table"] & info["released"])
         return info
 
-    def wall_points(self) -> dict[str, torch.Tensor]:
-        """World grasp points on the two end walls (mid-thickness, 2 cm below the top), keyed by the arm that
-        takes them."""
-        y = TRAY_INNER_HALF[1] + TRAY_WALL / 2
-        return {side: (self.tray.pose * Pose.create_from_pq(torch.tensor(
-            [[0.0, sign * y, TRAY_END_HEIGHT - 0.02]], device=self.device))).p for side, sign in SIDES.items()}
-
-    def _get_obs_extra(self, info: dict):
-        return self.two_hand_obs(info, self.wall_points(), "wall", dict(
-            tray_pose=self.tray.pose.raw_pose, ball_pos=self.ball.pose.p, ball_vel=self.ball.linear_velocity,
-            zone_pos=self.zone.pose.p, tray_to_zone=self.zone.pose.p - self.tray.pose.p))
-
     def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
         # reach and hold both end walls; lift level with both (kept once carried); then over the zone, down and
         # let go, all of it only while the ball is on the tray and the tray has never been aloft in fewer hands
@@ -161,20 +164,3 @@ class PingPongTransportEnv(LiftTwoHandedTask):
         reward *= (info["ball_on_tray"] & ~info["dropped"] & ~info["one_handed"]).float()
         reward[info["success"]] = self.max_dense_reward
         return reward
-
-
-LIFT = 0.08  # metres the grasp points rise: the tray's bottom 8 cm up
-CARRY_STEP = 0.006  # metres per control step of the carry (LIFT_STEP is 0.01): the ball rolls less hard into a rim
-SET_DOWN_GAP = 0.003  # the tray's bottom this far above the table when the grippers open
-
-
-@register_solver("PingPongTransport", control_modes=TCP_DELTA_MODES)
-def solve_ping_pong_transport(env, seed: int) -> dict:
-    """Each arm grasps its end wall top-down, fingers across it; both lift together, carry the tray over the
-    zone in lock-step, lower it onto the table, open and rise."""
-    with DrivenSolver.episode(env, seed) as s:
-        task: PingPongTransportEnv = env.unwrapped
-        top_down_carry(s, task.wall_points(), yaw_of(task.tray.pose.q), LIFT, task.zone.pose.p - task.tray.pose.p,
-                       SET_DOWN_GAP, carry_step=CARRY_STEP)
-        s.hold_until_success()
-        return s.info

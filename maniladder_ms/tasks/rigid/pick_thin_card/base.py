@@ -1,9 +1,10 @@
-"""The PickThinCard family's rule (SlideCardToEdgeHand; later PickThinCardHand): a thin card lies flat, too
-thin for any hand to get under it where it lies, and must end up lifted in the hand.
+"""The PickThinCard family's base (SlideCardToEdgeHand; later PickThinCardHand, Level 3): a thin card lies flat,
+too thin for any hand to get under it where it lies, and must end up lifted in the hand.
 
 The family base `PickThinCardTask` builds the card from the catalog params and holds the rule, `evaluate`,
 once; the task classes build what the card lies on (`surface_height`: its top above the table), place the
-card, and add their own conditions (`task_conditions`: how the card was got off its surface).
+card, and add their own conditions (`task_conditions`: how the card was got off its surface). Their solvers are
+in `maniladder_ms/solvers/rigid/pick_thin_card/`.
 """
 
 from __future__ import annotations

@@ -1,16 +1,4 @@
-"""SlideCardToEdgeHand (L2 rigid SX): slide a thin card lying on a low stand over the stand's edge with a
-fingertip, then clamp the overhang between the palm (on the card) and the index and middle fingers curled
-round the card's end and back up under it, and lift it.
-
-How the grasp came about (the earlier tries, for whoever changes it): the fingers of a "power" grasp with the
-tcp just below the card, beyond its end, come back at the card's own level and push its end back (the curled
-fingertip boxes span 5.6 cm in z), and the thumb's swing brushes the card sideways; what works is the palm
-on the card (the card's end under the palm, 2 mm ahead of the tcp) and the fingers hooked first at
-PIP / DIP in front of the card's end (the hook's lowest point stays 5 cm above the tcp, which lies ~1 mm
-above the table) and then swung down and back at the MCP joints, so their tips rise under the overhang.
-The clamp tolerates the card's end from 1.2 cm behind to 3 cm ahead of the tcp (`CLAMP_AHEAD`, seeds 100-103
-all lifted; 4.5 cm ahead: 2 of 4).
-"""
+"""SlideCardToEdgeHand (L2 rigid SX, family PickThinCard): slide a thin card over a stand's edge, clamp it, lift."""
 
 from __future__ import annotations
 
@@ -21,12 +9,10 @@ import torch
 
 from mani_skill.utils.structs.pose import Pose
 
-from maniladder_ms.agents.helpers import leap_fingertip, top_down_quat
+from maniladder_ms.agents.helpers import leap_fingertip
 from maniladder_ms.envs import register_task
-from maniladder_ms.geometry import tilt, yaw_of, yaw_quat
+from maniladder_ms.geometry import tilt, yaw_quat
 from maniladder_ms.objects.tabletop import build_flat_box
-from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
-from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver
 
 from .base import PickThinCardTask
 
@@ -43,14 +29,15 @@ class SlideCardToEdgeHandEnv(PickThinCardTask):
     out, then take the overhang in the hand (fingers curled up under it, the palm on it), and lift.
 
     **Randomisation:** the stand (24 x 30 cm, `stand_height` tall) stands with its far edge (the one away
-    from the robot) uniform in x in [-0.2, -0.14], its centre's y in [-0.08, 0.08]; the card
-    (`card_length` x `card_width` x `card_thickness`, ~14 g) lies on it with its centre within +-4 cm (y) of
-    the stand's, its far end 3-7 cm (uniform) short of the far edge, yawed uniform in [-15, 15] degrees.
+    from the robot) uniform in x in [-0.2, -0.14] (`EDGE_X`), its centre's y in [-0.08, 0.08] (`STAND_Y`); the
+    card (`card_length` x `card_width` x `card_thickness`, ~14 g) lies on it with its centre within +-4 cm (y)
+    of the stand's (`CARD_Y`), its far end 3-7 cm (uniform, `CARD_GAP`) short of the far edge, yawed uniform in
+    [-15, 15] degrees (`CARD_YAW`).
 
     **Success:** the card was slid over the edge: at some control step it lay on the stand (tilted by less
-    than a fixed small angle, its lowest corner on the stand's top) with a corner at least `min_overhang`
-    beyond the far edge (episode memory `slid_over_edge`); and now (the family rule) its lowest point is at
-    least `lift_height` above the stand's top and the hand holds it.
+    than `FLAT_TILT`, its lowest corner within `LYING_TOL` of the stand's top) with a corner at least
+    `min_overhang` beyond the far edge (episode memory `slid_over_edge`); and now (the PickThinCard family rule,
+    `PickThinCardTask`) its lowest point is at least `lift_height` above the stand's top and the hand holds it.
 
     **Level 2:** against Level 1's SX tasks (one grasp of an object standing free, e.g. LiftBottleHand: 2
     stages, power grasp and lift, ~80 steps): a non-prehensile stage first (press a 2 mm card with one
@@ -64,6 +51,12 @@ class SlideCardToEdgeHandEnv(PickThinCardTask):
     max_dense_reward = 6
     TASK_REGION = (-0.45, -0.05, -0.25, 0.25)
     PARAMS = PickThinCardTask.PARAMS + ("stand_height", "min_overhang")
+    # layout ranges: (low, span), or the half width of a range centred on 0
+    EDGE_X = (-0.2, 0.06)
+    STAND_Y = 0.08
+    CARD_GAP = (0.03, 0.04)  # the card's far end short of the far edge
+    CARD_Y = 0.04  # the card's centre from the stand's
+    CARD_YAW = 15  # degrees
 
     @property
     def surface_height(self) -> float:
@@ -79,14 +72,14 @@ class SlideCardToEdgeHandEnv(PickThinCardTask):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            edge = -0.2 + torch.rand(b) * 0.06
-            stand_y = (torch.rand(b) * 2 - 1) * 0.08
+            edge = self.EDGE_X[0] + torch.rand(b) * self.EDGE_X[1]
+            stand_y = (torch.rand(b) * 2 - 1) * self.STAND_Y
             stand = torch.stack([edge - STAND_HALF[0], stand_y, torch.full((b,), self.stand_height / 2)], dim=1)
             self.stand.set_pose(Pose.create_from_pq(stand))
-            gap = 0.03 + torch.rand(b) * 0.04
-            card = torch.stack([edge - gap - self.card_length / 2, stand_y + (torch.rand(b) * 2 - 1) * 0.04,
+            gap = self.CARD_GAP[0] + torch.rand(b) * self.CARD_GAP[1]
+            card = torch.stack([edge - gap - self.card_length / 2, stand_y + (torch.rand(b) * 2 - 1) * self.CARD_Y,
                                 torch.full((b,), self.stand_height + self.card_thickness / 2)], dim=1)
-            self.card.set_pose(Pose.create_from_pq(card, yaw_quat((torch.rand(b) * 2 - 1) * np.deg2rad(15))))
+            self.card.set_pose(Pose.create_from_pq(card, yaw_quat((torch.rand(b) * 2 - 1) * np.deg2rad(self.CARD_YAW))))
 
     def far_edge(self) -> torch.Tensor:
         """(b,) x of the stand's far edge."""
@@ -126,86 +119,3 @@ class SlideCardToEdgeHandEnv(PickThinCardTask):
                           * info["is_grasped"])
         reward[info["success"]] = self.max_dense_reward
         return reward
-
-
-# the press posture: "point" with the index swung back past straight down (MCP 2.0 rad): its tip ends 4.1 cm
-# behind the tcp instead of 1.7 cm ahead, and it presses the card's centre (was 2 cm behind it): the tcp stays
-# 7.8 cm further from the robot's base (with "point" 2 cm behind the centre, the top-down hand could not get
-# low enough over cards starting nearest the robot, their centres ~30 cm ahead of the base: 5 of seeds 100-149
-# failed; with the press at the centre the slide ends with the tip 1.5 cm short of the edge); the tilted
-# tip's lowest corner lies `TIP_LOW` below the centre of its end face (the tip's collision box, measured)
-POINT_BACK = np.array([0.0, 2.0, 0.0, 0.0, 0.0, 0.0, 1.6, 1.6, 0.0, 0.0, 1.6, 1.6, 0.0, 0.0, 0.0, 0.0])
-TIP_LOW = 0.0042
-PRESS_DEPTH = 0.002  # the index tip's target this far below the card's top: it presses the card on the stand
-# (1 mm left the tilted tip barely touching where the arm stops 1 mm short of its target)
-TIP_HOVER = 0.02  # m above the card's top where the pointing tip stops before it presses
-SLIDE_STEP = 0.01  # m the press point's target leads the finger by at most
-SLIDE_STEPS = 60  # control steps the closed-loop slide may take (~0.5 cm a step: the slides measured take 20-40)
-FINGER_LIFT = 0.04  # m the hand rises after the slide, clear of the card, before it opens
-SLIDE_TOL = 0.002  # m: the slide stops once the card's far end is this near its goal
-OVERHANG = 0.045  # the card's far end this far beyond the edge when the slide stops
-# the clamp: the palm lies on the card's end, the index and middle fingers curl down past the card's end and
-# back up under the overhang (tcp frame: x along the fingers, z down; the hand's geometry, open: the palm's
-# underside 8.1 cm above the tcp, its front 1.7 cm ahead of it; the fingers' MCP housings, flexed down, reach
-# back to 0.7 cm ahead of the tcp)
-PALM_ABOVE = 0.081  # the palm's underside this far above the tcp
-CLAMP_AHEAD = 0.002  # the card's end this far ahead of the tcp (under the palm, behind the flexed MCP housings)
-CLAMP_SIDE = 0.007  # the card's centre line this far along the tcp's y axis: under the index and middle fingers
-CLAMP_PRESS = 0.002  # the palm's target this far into the card
-CLAMP_HOVER = 0.03  # m above the clamp pose where the open hand lines up before it lays its palm on the card
-LIFT_MARGIN = 0.03  # m lifted beyond `lift_height`, so the held card clears the rule's height with room
-# the thumb raised (j12 near its lower limit, -0.349): open, its links reach 4 mm below the palm's underside, over
-# the stand, and would hold the palm off the card; the ring finger (beside the card) stays straight
-THUMB_UP = [-0.34, 0.0, 0.0, 0.0]
-HOOK_CURL = np.array([0.0, 0.0, 1.57, 1.57, 0.0, 0.0, 1.57, 1.57, 0.0, 0.0, 0.0, 0.0, *THUMB_UP])  # hooks at the front
-CLAMP = np.array([0.0, 1.57, 1.57, 1.57, 0.0, 1.57, 1.57, 1.57, 0.0, 0.0, 0.0, 0.0, *THUMB_UP])  # swung under
-OPEN_THUMB_UP = np.array([0.0] * 12 + THUMB_UP)
-
-
-@register_solver("SlideCardToEdgeHand", control_modes=TCP_DELTA_MODES)
-def solve_slide_card_to_edge_hand(env, seed: int) -> dict:
-    """Point the index finger down (swung back under the palm), press it on the card's middle and slide the card out along +x until its
-    far end overhangs the edge; lift the finger; lay the open hand (thumb raised) with its palm on the card's
-    end, the index and middle fingers over the overhang; hook them at PIP / DIP in front of the card's end,
-    then swing them down and back at the MCP joints until their tips press the overhang against the palm;
-    lift."""
-    with DrivenSolver.episode(env, seed) as s:
-        task: SlideCardToEdgeHandEnv = env.unwrapped
-        n, device = task.num_envs, task.device
-        yaw = yaw_of(task.card.pose.q)
-        q = top_down_quat(yaw, n, device=device)
-        axis = torch.stack([torch.cos(yaw), torch.sin(yaw), torch.zeros_like(yaw)], dim=1)
-        up = torch.tensor([0.0, 0.0, 1.0], device=device)
-        s.set_ee("hand", POINT_BACK, steps=1)
-        card_top = task.card.pose.p + up * task.card_thickness / 2
-        s.move({"arm": (s.above(card_top, APPROACH_HEIGHT), q)}, max_steps=40)
-        tip_offset = leap_fingertip(task.agent) - task.ee.tcp().p - up * TIP_LOW
-        s.move({"arm": (s.above(card_top, TIP_HOVER) - tip_offset, q)}, max_steps=30, pos_tol=0.003)
-        press = card_top - up * PRESS_DEPTH - tip_offset
-        s.move({"arm": (press, q)}, max_steps=15, pos_tol=0.002)
-        # slide along +x, closed loop on the card: the press point's target leads the finger by what the card's
-        # far end still lacks of the overhang (at most SLIDE_STEP), until it is there
-        far_end = lambda: task.card.pose.p + axis * task.card_length / 2  # noqa: E731
-        goal = task.far_edge() + OVERHANG
-        for _ in range(SLIDE_STEPS):
-            lack = goal - far_end()[:, 0]
-            if bool((lack <= SLIDE_TOL).all()):
-                break
-            target = press.clone()
-            target[:, 0] = s.tcp("arm").p[:, 0] + lack.clamp(0, SLIDE_STEP)
-            s.step({"arm": (target, q)})
-        s.move({"arm": (s.above(s.tcp("arm").p, FINGER_LIFT), q)}, max_steps=15, pos_tol=0.005)
-        # the clamp: the open hand (thumb raised) comes down with its palm on the card's end; the index and
-        # middle fingers hook at their PIP / DIP joints in front of the card's end, then swing down and back at
-        # their MCP joints, their tips coming up under the overhang and pressing it against the palm
-        s.set_ee("hand", OPEN_THUMB_UP, steps=3)
-        side = torch.stack([torch.sin(yaw), -torch.cos(yaw), torch.zeros_like(yaw)], dim=1)  # the tcp's y axis
-        top = far_end() + up * task.card_thickness / 2
-        clamp = top - axis * CLAMP_AHEAD - side * CLAMP_SIDE - up * (PALM_ABOVE + CLAMP_PRESS)
-        s.move({"arm": (s.above(clamp, CLAMP_HOVER), q)}, max_steps=30, pos_tol=0.004)
-        s.move({"arm": (clamp, q)}, max_steps=30, pos_tol=0.002)
-        s.close_hand("hand", HOOK_CURL, ramp_steps=10, hold_steps=2)
-        s.close_hand("hand", CLAMP, ramp_steps=20, hold_steps=5)
-        s.move({"arm": (s.above(clamp, task.lift_height + LIFT_MARGIN), q)}, max_steps=40)
-        s.hold_until_success()
-        return s.info

@@ -1,0 +1,71 @@
+"""The InsertPeg family's shared solver phase (DrivenSolver, pd_ee_delta_pose): a held peg carried over the hole,
+lined up with its axis (closed loop on the measured peg and block), inserted, let go."""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+
+from mani_skill.utils.structs.pose import Pose
+
+from maniladder_ms.tasks.rigid.insert_peg.base import InsertPegTask
+
+GRASP_BELOW_TOP = 0.025  # the TCP this far below the peg's top face: the finger pads hold its upper end
+HOVER = 0.015  # the peg's lower end this high over the rim while it is lined up with the hole
+LINE_UP_TOL = 0.0005  # m: the lower end's lateral offset from the hole's axis before going down
+DESCENT_STEP = 0.002  # m per control step the target goes down
+FLOOR_GAP = 0.003  # the insertion stops with the lower end this high over the hole's floor
+CARRY_ABOVE = 0.05  # the peg is carried to this far above its HOVER pose before the closed-loop line-up
+HOVER_TOL = 0.002  # m: the line-up is done once the lower end is no lower than this below HOVER too
+FLOOR_TOL = 0.001  # m: the descent is done once the lower end is within this of FLOOR_GAP
+BACK_OFF = 0.06  # m the open gripper rises after letting go
+
+
+def _yaw_in(m: torch.Tensor) -> torch.Tensor:
+    return torch.atan2(m[:, 1, 0], m[:, 0, 0])
+
+
+def peg_in_hand(task: InsertPegTask, ee_side: str | None) -> Pose:
+    """The peg's pose in the TCP frame, measured now."""
+    return task.ee.tcp(ee_side).inv() * task.peg.pose
+
+
+def peg_goal_tcp(task: InsertPegTask, peg_in_tcp: Pose, tip_height: float):
+    """(p, q) of the TCP that puts the held peg (`peg_in_tcp`: where it sits in the hand) on the hole's axis,
+    its lower end `tip_height` above the rim (along the axis), its faces along the hole's walls (of the four
+    such yaws the nearest to the peg's now). The block's pose is read now: the goal follows a moving block."""
+    peg_in_block = (task.block.pose.inv() * task.peg.pose).to_transformation_matrix()
+    turns = torch.round(_yaw_in(peg_in_block) / (np.pi / 2)) * (np.pi / 2)
+    n = task.num_envs
+    local_p = torch.zeros(n, 3, device=task.device)
+    local_p[:, 2] = task.hole.rim_height + tip_height + task.peg_length / 2
+    local_q = torch.stack([torch.cos(turns / 2), torch.zeros_like(turns), torch.zeros_like(turns),
+                           torch.sin(turns / 2)], 1)
+    goal = task.block.pose * Pose.create_from_pq(local_p, local_q) * peg_in_tcp.inv()
+    return goal.p, goal.q
+
+
+def insert_held_peg(s, task: InsertPegTask, arm: str, ee_part: str, ee_side: str | None,
+                    line_up_steps: int = 40, max_descent_steps: int = 60):
+    """Carry the held peg over the hole, line its lower end up with the hole's axis (closed loop on the
+    measured peg and block), go down the hole to `FLOOR_GAP` above its floor, let go and back off upwards.
+    Where the peg sits in the hand is measured while it hangs free and then kept: once the hole's walls
+    touch it, it turns in the fingers, and a goal that followed it would turn the hand after it."""
+    grip = peg_in_hand(task, ee_side)
+    s.move({arm: peg_goal_tcp(task, grip, HOVER + CARRY_ABOVE)}, max_steps=60, pos_tol=0.005, rot_tol=0.05)
+    grip = peg_in_hand(task, ee_side)
+    for _ in range(line_up_steps):
+        s.step({arm: peg_goal_tcp(task, grip, HOVER)})
+        info = task.insertion_state()
+        if bool((info["offset"] < LINE_UP_TOL).all() & (info["depth"] > -HOVER - HOVER_TOL).all()):
+            break
+    height = HOVER
+    bottom = -(task.hole_depth - FLOOR_GAP)
+    for _ in range(max_descent_steps):
+        height = max(height - DESCENT_STEP, bottom)
+        s.step({arm: peg_goal_tcp(task, grip, height)})
+        if bool((task.insertion_state()["depth"] >= task.hole_depth - FLOOR_GAP - FLOOR_TOL).all()):
+            break
+    s.release(ee_part, steps=8)
+    tcp = s.tcp(arm)
+    s.move({arm: (s.above(tcp.p, BACK_OFF), tcp.q)}, max_steps=20, pos_tol=0.01)
