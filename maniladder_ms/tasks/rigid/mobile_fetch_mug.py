@@ -21,7 +21,7 @@ from maniladder_ms.objects.mug import MUG_DENSITY, MugShape, build_mug
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.driven import DrivenSolver
 
-from .hang_mug import RIM_DEPTH
+from maniladder_ms.objects.mug import RIM_DEPTH
 
 SIDE_TABLE_HALF = (0.25, 0.25)  # x, y half extents of the side table's top (its top is level with the main table's)
 SIDE_TABLE_X = -0.5  # its near edge in line with the main table's (x = -0.75), which the base drives along
