@@ -96,7 +96,8 @@ class HookCubeWithToolEnv(ManiLadderEnv):
             (x_lo, x_hi), (y_lo, y_hi) = self.TOOL_X, self.TOOL_Y
             tool = torch.stack([x_lo + torch.rand(b) * (x_hi - x_lo), y_lo + torch.rand(b) * (y_hi - y_lo),
                                 torch.full((b,), self.hook_shape.height / 2)], dim=1)
-            self.tool.set_pose(Pose.create_from_pq(tool, yaw_quat((torch.rand(b) * 2 - 1) * np.deg2rad(self.TOOL_MAX_YAW_DEG))))
+            tool_yaw = (torch.rand(b) * 2 - 1) * np.deg2rad(self.TOOL_MAX_YAW_DEG)
+            self.tool.set_pose(Pose.create_from_pq(tool, yaw_quat(tool_yaw)))
             self.memory.store("cube_last", cube[:, :2], env_idx)
             self.memory.store("start_gap", torch.linalg.norm(cube[:, :2] - zone[:, :2], dim=1, keepdim=True), env_idx)
 
