@@ -53,8 +53,8 @@ def shrink_layout_draws(task_id: str, scale: float) -> None:
 
 
 def pick_place_pen_one_side(scale: float) -> None:
-    """Replace PickPlacePen's layout draw in this process: the registered task's ranges (copied from
-    `PickPlacePenEnv._initialize_episode`, in its draw order, so a seed gives the layout the committed pilot result
+    """Replace PickPlacePen's layout draw in this process: the registered task's ranges (`PickPlacePenEnv.PEN_X`
+    and the rest, drawn in its `_initialize_episode`'s order, so a seed gives the layout the committed pilot result
     was measured on), each scaled by `scale` about its middle, the pen always on the robot's left (+y) and the tray
     on its right."""
     from mani_skill.utils.structs.pose import Pose
@@ -71,10 +71,10 @@ def pick_place_pen_one_side(scale: float) -> None:
             def uniform(lo, hi):
                 return (lo + hi) / 2 + (torch.rand(b) - 0.5) * (hi - lo) * scale
 
-            pen_xyz = torch.stack([uniform(-0.12, 0.08), uniform(0.06, 0.2), torch.full((b,), self.pen_radius)], 1)
+            pen_xyz = torch.stack([uniform(*self.PEN_X), uniform(*self.PEN_ABS_Y), torch.full((b,), self.pen_radius)], 1)
             self.pen.set_pose(Pose.create_from_pq(pen_xyz, yaw_quat(uniform(0, np.pi))))
-            tray_xyz = torch.stack([uniform(-0.1, 0.1), -uniform(0.1, 0.2), torch.zeros(b)], 1)
-            self.tray.set_pose(Pose.create_from_pq(tray_xyz, yaw_quat(uniform(-np.pi / 4, np.pi / 4))))
+            tray_xyz = torch.stack([uniform(*self.TRAY_X), -uniform(*self.TRAY_ABS_Y), torch.zeros(b)], 1)
+            self.tray.set_pose(Pose.create_from_pq(tray_xyz, yaw_quat(uniform(-self.TRAY_MAX_YAW, self.TRAY_MAX_YAW))))
 
     PickPlacePenEnv._initialize_episode = _initialize_episode
 

@@ -130,6 +130,17 @@ def test_results_of_another_protocol_are_not_summarised(tmp_path):
     assert load_results(tmp_path) == []
 
 
+def halved(low_high: tuple[float, float]) -> tuple[float, float]:
+    """The range about the same middle, half as wide (`randomisation_pilot --scale 0.5`), widened by 1e-6 for
+    float32 rounding."""
+    lo, hi = low_high
+    return (3 * lo + hi) / 4 - 1e-6, (lo + 3 * hi) / 4 + 1e-6
+
+
+def within(value: float, low_high: tuple[float, float]) -> bool:
+    return low_high[0] <= value <= low_high[1]
+
+
 def test_randomisation_pilot_draws_pick_place_pen_layouts_from_the_narrowed_ranges():
     # scripts/randomisation_pilot.py replaces PickPlacePen's layout draw in its own process; here the draw is
     # checked against the halved ranges on one side, and the registered task's draw is restored afterwards
@@ -148,9 +159,10 @@ def test_randomisation_pilot_draws_pick_place_pen_layouts_from_the_narrowed_rang
         for seed in range(8):
             env.reset(seed=seed)
             pen, tray = task.pen.pose.p[0].tolist(), task.tray.pose.p[0].tolist()
-            assert -0.07 <= pen[0] <= 0.03 and 0.095 <= pen[1] <= 0.165  # x in [-0.12, 0.08], |y| in [0.06, 0.2], halved
-            assert -0.05 <= tray[0] <= 0.05 and -0.175 <= tray[1] <= -0.125  # the tray on the other side
-            assert abs(actor_yaw(task.tray)) <= np.pi / 8 + 1e-4
+            assert within(pen[0], halved(PickPlacePenEnv.PEN_X)) and within(pen[1], halved(PickPlacePenEnv.PEN_ABS_Y))
+            # the tray on the other side
+            assert within(tray[0], halved(PickPlacePenEnv.TRAY_X)) and within(-tray[1], halved(PickPlacePenEnv.TRAY_ABS_Y))
+            assert abs(actor_yaw(task.tray)) <= PickPlacePenEnv.TRAY_MAX_YAW / 2 + 1e-4
         env.close()
     finally:
         PickPlacePenEnv._initialize_episode = registered
@@ -170,8 +182,8 @@ def test_randomisation_pilot_shrinks_every_uniform_layout_draw_about_its_middle(
         for seed in range(8):
             env.reset(seed=seed)
             mug, tree = env.unwrapped.mug.pose.p[0].tolist(), env.unwrapped.tree.pose.p[0].tolist()
-            assert -0.125 <= mug[0] <= -0.075 and 0.0875 <= mug[1] <= 0.1625  # x in [-0.15, -0.05], y in [0.05, 0.2]
-            assert -0.075 <= tree[0] <= -0.025 and -0.29 <= tree[1] <= -0.27  # x in [-0.1, 0], y in [-0.3, -0.26]
+            assert within(mug[0], halved(HangMugEnv.MUG_X)) and within(mug[1], halved(HangMugEnv.MUG_Y))
+            assert within(tree[0], halved(HangMugEnv.TREE_X)) and within(tree[1], halved(HangMugEnv.TREE_Y))
         env.close()
     finally:
         HangMugEnv._initialize_episode = registered

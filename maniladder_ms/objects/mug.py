@@ -25,6 +25,7 @@ COASTER_RADIUS, COASTER_HEIGHT = 0.055, 0.005  # an 11 cm cork coaster, 5 mm thi
 # ceramic-like mass without ceramic density: ~0.13 kg for the ManiLadder mug shapes, light enough that a rim
 # pinch or a LEAP grasp holds it without it tilting in the fingers
 MUG_DENSITY = 800.0
+RIM_DEPTH = 0.025  # a rim pinch closes this far below the rim, one finger inside the wall and one outside
 
 
 @dataclass(frozen=True)
@@ -93,6 +94,16 @@ def build_mug_tree(scene: ManiSkillScene, name: str, post_height: float, peg_hei
         builder.add_cylinder_visual(peg, radius=peg_radius, half_length=peg_length / 2, material=mat)
     builder.initial_pose = sapien.Pose()
     return builder.build_kinematic(name=name)
+
+
+def rim_point(mug, shape: MugShape, depth: float = RIM_DEPTH) -> torch.Tensor:
+    """World point in the middle of the wall on the side opposite the handle (the mug's +x), `depth` below the rim,
+    (num_envs, 3): where a rim pinch closes."""
+    from mani_skill.utils.structs.pose import Pose
+
+    local = torch.tensor([[shape.outer_radius - shape.body.wall / 2, 0.0, shape.body.height - depth]],
+                         device=mug.pose.p.device)
+    return (mug.pose * Pose.create_from_pq(local.expand(len(mug.pose.p), 3))).p
 
 
 def mug_body_centre(mug, shape: MugShape) -> torch.Tensor:

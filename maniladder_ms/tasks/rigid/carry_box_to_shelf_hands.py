@@ -1,5 +1,4 @@
-"""CarryBoxToShelfHands (L2 rigid DX): squeeze a carton between both LEAP palms, lift it, carry it onto a raised
-shelf and let go."""
+"""CarryBoxToShelfHands (L2 rigid DX): carry a carton squeezed between both LEAP palms onto a raised shelf."""
 
 from __future__ import annotations
 
@@ -15,19 +14,12 @@ from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.geometry import yaw_quat
 from maniladder_ms.objects.boxes import build_carton
 from maniladder_ms.objects.tabletop import build_shelf
-from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
-from maniladder_ms.solvers.bimanual import close_hands, glide, tcp_quat
-from maniladder_ms.solvers.driven import DrivenSolver
 
 SIDES = {"left": 1, "right": -1}  # the left palm presses the carton's +y side
 PALM_DEPTH = 0.081  # the LEAP palm's face lies this far behind the TCP, along the TCP's z axis (out of the palm)
 GRIP_HEIGHT = 0.13  # the TCPs this far above the carton's bottom: the wrists (Panda link 7) clear the table
 GRIP_BACK = 0.02  # the TCPs this far behind the carton's centre (along its x): the finger row lies along the side
-SQUEEZE = 0.01  # each TCP's target this far past the carton's side: the arms' stiffness presses the palms on
-CURL = np.array([0.0, 0.5, 0.0, 0.0] * 3 + [0.0, 0.0, 0.0, 0.0])  # fingers bent at their knuckles onto the side
-LINE_UP = 0.06  # the palms line up this far out from the sides before moving in
 CLEARANCE = 0.05  # the carton's bottom rises this far above the shelf's top for the carry
-SET_DOWN_GAP = 0.004  # the carton's bottom this far above the shelf's top when the hands let go
 
 
 @register_task("CarryBoxToShelfHands")
@@ -36,10 +28,10 @@ class CarryBoxToShelfHandsEnv(ManiLadderEnv):
     hands squeeze the carton between their palms from its two sides, lift it together, carry it over the
     shelf, set it down on the shelf board and let go.
 
-    **Randomisation:** the carton (2 x `box_half`, `box_mass`) stands with its centre uniform in x in
-    [-0.25, -0.19], y in [-0.03, 0.03] and its yaw uniform in [-10, 10] degrees; the shelf (a board 2 x
-    `shelf_half`, its top `shelf_height` above the table, on two side panels) stands with its centre uniform in
-    x in [0.06, 0.12], y in [-0.04, 0.04], axis-aligned.
+    **Randomisation:** the carton (2 x `box_half`, `box_mass`) stands with its centre uniform in x in `BOX_X` =
+    [-0.25, -0.19], y in `BOX_Y` = [-0.03, 0.03] and its yaw uniform within +-`BOX_MAX_YAW_DEG` = 10 degrees; the
+    shelf (a board 2 x `shelf_half`, its top `shelf_height` above the table, on two side panels) stands with its
+    centre uniform in x in `SHELF_X` = [0.06, 0.12], y in `SHELF_Y` = [-0.04, 0.04], axis-aligned.
 
     **Success:** the carton was carried by both hands: at some control step each hand held it (`ee.holds` for
     the left and the right) while its lowest bottom corner was at least `lift_height` above the table and it was
@@ -60,6 +52,9 @@ class CarryBoxToShelfHandsEnv(ManiLadderEnv):
     max_dense_reward = 10
     TASK_REGION = (-0.34, 0.24, -0.3, 0.3)
     PARAMS = ("lift_height", "shelf_height", "shelf_half", "box_half", "box_mass", "rest_tol")
+    BOX_X, BOX_Y = (-0.25, -0.19), (-0.03, 0.03)  # ranges of the carton's centre
+    BOX_MAX_YAW_DEG = 10
+    SHELF_X, SHELF_Y = (0.06, 0.12), (-0.04, 0.04)  # ranges of the shelf's centre
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -71,9 +66,14 @@ class CarryBoxToShelfHandsEnv(ManiLadderEnv):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            box = torch.stack([torch.rand(b) * 0.06 - 0.25, torch.rand(b) * 0.06 - 0.03, torch.zeros(b)], dim=1)
-            self.box.set_pose(Pose.create_from_pq(box, yaw_quat((torch.rand(b) * 2 - 1) * np.deg2rad(10))))
-            shelf = torch.stack([torch.rand(b) * 0.06 + 0.06, torch.rand(b) * 0.08 - 0.04, torch.zeros(b)], dim=1)
+            (x_lo, x_hi), (y_lo, y_hi) = self.BOX_X, self.BOX_Y
+            box = torch.stack([x_lo + torch.rand(b) * (x_hi - x_lo), y_lo + torch.rand(b) * (y_hi - y_lo), torch.zeros(b)],
+                              dim=1)
+            box_yaw = (torch.rand(b) * 2 - 1) * np.deg2rad(self.BOX_MAX_YAW_DEG)
+            self.box.set_pose(Pose.create_from_pq(box, yaw_quat(box_yaw)))
+            (x_lo, x_hi), (y_lo, y_hi) = self.SHELF_X, self.SHELF_Y
+            shelf = torch.stack([x_lo + torch.rand(b) * (x_hi - x_lo), y_lo + torch.rand(b) * (y_hi - y_lo), torch.zeros(b)],
+                                dim=1)
             self.shelf.set_pose(Pose.create_from_pq(shelf))
 
     def bottom_corners(self) -> torch.Tensor:
@@ -91,35 +91,11 @@ class CarryBoxToShelfHandsEnv(ManiLadderEnv):
         inside = ((rel[..., 0].abs() <= self.shelf_half[0]) & (rel[..., 1].abs() <= self.shelf_half[1])).all(dim=1)
         return resting, inside
 
-    def _update_memory(self):
-        corners = self.bottom_corners()
-        resting, inside = self._on_shelf(corners)
-        up = (corners[..., 2].min(dim=1).values >= self.lift_height) & ~(resting & inside) & ~self.memory["carried"]
-        if bool(up.any()):
-            self.memory.latch("carried", up & self.ee.holds(self.box, "left") & self.ee.holds(self.box, "right"))
-
-    def evaluate(self):
-        corners = self.bottom_corners()
-        resting, inside = self._on_shelf(corners)
-        info = {f"{side}_grasped": self.ee.holds(self.box, side) for side in SIDES}
-        touching = self.ee.touches(self.box, "left") | self.ee.touches(self.box, "right")
-        info.update(height=corners[..., 2].min(dim=1).values, on_shelf=resting, inside_footprint=inside,
-                    released=~touching, carried=self.memory["carried"])
-        info["is_lifted"] = info["height"] >= self.lift_height
-        info["success"] = info["carried"] & resting & inside & info["released"]
-        return info
-
-    def grip_poses(self) -> dict[str, tuple[torch.Tensor, torch.Tensor, torch.Tensor]]:
-        """Per side, (p, q, n): the TCP pose at which that hand's palm lies flat on the carton's side (palm in,
-        finger row along the side, thumb up; `GRIP_HEIGHT` above the bottom, `GRIP_BACK` behind the centre) and
-        the palm normal `n` (into the carton), (num_envs, 3 / 4 / 3) each."""
-        return {side: (p, tcp_quat(normal, torch.cross(normal, ex, dim=1)), normal)
-                for side, (p, normal, ex) in self.grip_points().items()}
-
     def grip_points(self) -> dict[str, tuple[torch.Tensor, torch.Tensor, torch.Tensor]]:
-        """Per side, `grip_poses`' TCP position and palm normal, and the carton's x axis, without the TCP
-        orientation (the observation and the reward use only the position: the quaternion was a third of a
-        control step)."""
+        """Per side, (TCP position, palm normal, carton's x axis), (num_envs, 3) each: where that hand's TCP puts
+        its palm flat on the carton's side (`GRIP_HEIGHT` above the bottom, `GRIP_BACK` behind the centre), the
+        normal pointing into the carton. The observation and the reward use the position; the solver turns the
+        rest into the TCP's orientation."""
         pose = self.box.pose
         ex = quaternion_apply(pose.q, torch.tensor([[1.0, 0.0, 0.0]], device=self.device).expand(self.num_envs, 3))
         ey = quaternion_apply(pose.q, torch.tensor([[0.0, 1.0, 0.0]], device=self.device).expand(self.num_envs, 3))
@@ -131,6 +107,13 @@ class CarryBoxToShelfHandsEnv(ManiLadderEnv):
             points[side] = (face + PALM_DEPTH * normal, normal, ex)
         return points
 
+    def _update_memory(self):
+        corners = self.bottom_corners()
+        resting, inside = self._on_shelf(corners)
+        up = (corners[..., 2].min(dim=1).values >= self.lift_height) & ~(resting & inside) & ~self.memory["carried"]
+        if bool(up.any()):
+            self.memory.latch("carried", up & self.ee.holds(self.box, "left") & self.ee.holds(self.box, "right"))
+
     def _get_obs_extra(self, info: dict):
         obs = dict(left_tcp_pose=self.ee.tcp("left").raw_pose, right_tcp_pose=self.ee.tcp("right").raw_pose,
                    left_grasped=info["left_grasped"], right_grasped=info["right_grasped"], carried=info["carried"])
@@ -141,6 +124,17 @@ class CarryBoxToShelfHandsEnv(ManiLadderEnv):
                        left_tcp_to_grip=grips["left"][0] - self.ee.tcp("left").p,
                        right_tcp_to_grip=grips["right"][0] - self.ee.tcp("right").p)
         return obs
+
+    def evaluate(self):
+        corners = self.bottom_corners()
+        resting, inside = self._on_shelf(corners)
+        info = {f"{side}_grasped": self.ee.holds(self.box, side) for side in SIDES}
+        touching = self.ee.touches(self.box, "left") | self.ee.touches(self.box, "right")
+        info.update(height=corners[..., 2].min(dim=1).values, on_shelf=resting, inside_footprint=inside,
+                    released=~touching, carried=self.memory["carried"])
+        info["is_lifted"] = info["height"] >= self.lift_height
+        info["success"] = info["carried"] & resting & inside & info["released"]
+        return info
 
     def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
         # reach each side and hold it; lift with both hands (kept once carried); then over the shelf, down on it,
@@ -158,34 +152,3 @@ class CarryBoxToShelfHandsEnv(ManiLadderEnv):
         reward += info["carried"] * (2 * (1 - torch.tanh(5 * gap)) + 2 * placed + placed * info["released"])
         reward[info["success"]] = self.max_dense_reward
         return reward
-
-
-@register_solver("CarryBoxToShelfHands", control_modes=TCP_DELTA_MODES)
-def solve_carry_box_to_shelf_hands(env, seed: int) -> dict:
-    """Both hands line up beside the carton, palms in, finger rows along its sides and thumbs up; move in
-    and press, bend the fingers onto the sides; lift in step, carry over the shelf, lower onto it; open,
-    move out."""
-    with DrivenSolver.episode(env, seed) as s:
-        task: CarryBoxToShelfHandsEnv = env.unwrapped
-        up = torch.tensor([[0.0, 0.0, 1.0]], device=task.device)
-        grips = {f"{side}_arm": grip for side, grip in task.grip_poses().items()}
-        s.move({arm: (p - LINE_UP * n, q) for arm, (p, q, n) in grips.items()}, max_steps=80)
-        s.move({arm: (p + SQUEEZE * n, q) for arm, (p, q, n) in grips.items()}, max_steps=25)
-        close_hands(s, {f"{side}_hand": CURL for side in SIDES}, ramp_steps=10)
-        held = {arm: p + SQUEEZE * n for arm, (p, q, n) in grips.items()}
-        rise = (task.shelf_height + CLEARANCE) * up
-        glide(s, {arm: (p, p + rise, grips[arm][1]) for arm, p in held.items()}, settle_steps=5)
-        shift = task.shelf.pose.p - task.box.pose.p
-        shift[:, 2] = 0
-        glide(s, {arm: (p + rise, p + rise + shift, grips[arm][1]) for arm, p in held.items()}, settle_steps=5)
-        down = (task.shelf_height + SET_DOWN_GAP) * up
-        glide(s, {arm: (p + rise + shift, p + down + shift, grips[arm][1]) for arm, p in held.items()},
-              step_length=0.006, settle_steps=10)
-        for side in SIDES:
-            s.release(f"{side}_hand", steps=0)
-        for _ in range(5):
-            s.step()
-        glide(s, {arm: (p + down + shift, p + down + shift - (SQUEEZE + LINE_UP) * grips[arm][2], grips[arm][1])
-                  for arm, p in held.items()}, settle_steps=5)
-        s.hold_until_success()
-        return s.info

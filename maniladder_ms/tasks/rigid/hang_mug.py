@@ -7,17 +7,11 @@ from typing import Any
 import numpy as np
 import torch
 
-from mani_skill.utils.geometry.rotation_conversions import quaternion_apply
 from mani_skill.utils.structs.pose import Pose
 
-from maniladder_ms.agents.helpers import top_down_quat, wrap_angle
 from maniladder_ms.envs import ManiLadderEnv, register_task
-from maniladder_ms.geometry import yaw_of, yaw_quat
+from maniladder_ms.geometry import yaw_quat
 from maniladder_ms.objects.mug import MUG_DENSITY, MugShape, build_mug, build_mug_tree
-from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
-from maniladder_ms.solvers.driven import DrivenSolver
-
-
 
 
 @register_task("HangMug")
@@ -25,8 +19,9 @@ class HangMugEnv(ManiLadderEnv):
     """**Task:** pick up a mug (7.4 cm wide, 9 cm tall, loop handle) and hang it by its handle on the
     horizontal peg of a mug tree.
 
-    **Randomisation:** the mug stands upright at x in [-0.15, -0.05], y in [0.05, 0.2] with a uniform
-    random yaw; the tree's post stands at x in [-0.1, 0.0], y in [-0.3, -0.26]; its peg (2 x
+    **Randomisation:** the mug stands upright at x in `MUG_X` = [-0.15, -0.05], y in `MUG_Y` = [0.05, 0.2]
+    with a uniform random yaw; the tree's post stands at x in `TREE_X` = [-0.1, 0.0], y in `TREE_Y` =
+    [-0.3, -0.26]; its peg (2 x
     `peg_radius` thick, `peg_length` long) sticks out towards +y, `peg_height` above the table.
 
     **Success:** the peg passes through the handle's opening (the point of the peg's axis nearest the
@@ -41,6 +36,8 @@ class HangMugEnv(ManiLadderEnv):
     TASK_REGION = (-0.26, 0.16, -0.36, 0.28)
     PARAMS = ("peg_height", "peg_length", "peg_radius", "clearance")
     mug_shape = MugShape()
+    MUG_X, MUG_Y = (-0.15, -0.05), (0.05, 0.2)  # ranges of the mug's centre
+    TREE_X, TREE_Y = (-0.1, 0.0), (-0.3, -0.26)  # ranges of the tree's post
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -53,9 +50,13 @@ class HangMugEnv(ManiLadderEnv):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            mug_xyz = torch.stack([torch.rand(b) * 0.1 - 0.15, 0.05 + torch.rand(b) * 0.15, torch.zeros(b)], dim=1)
+            (x_lo, x_hi), (y_lo, y_hi) = self.MUG_X, self.MUG_Y
+            mug_xyz = torch.stack([x_lo + torch.rand(b) * (x_hi - x_lo), y_lo + torch.rand(b) * (y_hi - y_lo),
+                                   torch.zeros(b)], dim=1)
             self.mug.set_pose(Pose.create_from_pq(mug_xyz, yaw_quat(torch.rand(b) * 2 * np.pi)))
-            tree_xyz = torch.stack([torch.rand(b) * 0.1 - 0.1, -0.3 + torch.rand(b) * 0.04, torch.zeros(b)], dim=1)
+            (x_lo, x_hi), (y_lo, y_hi) = self.TREE_X, self.TREE_Y
+            tree_xyz = torch.stack([x_lo + torch.rand(b) * (x_hi - x_lo), y_lo + torch.rand(b) * (y_hi - y_lo),
+                                    torch.zeros(b)], dim=1)
             self.tree.set_pose(Pose.create_from_pq(tree_xyz))
 
     def peg_root(self) -> torch.Tensor:
@@ -108,52 +109,3 @@ class HangMugEnv(ManiLadderEnv):
         reward += 2 * info["is_hooked"] + (info["is_hooked"] & ~info["is_touched"]).float()
         reward[info["success"]] = self.max_dense_reward
         return reward
-
-
-
-RIM_DEPTH = 0.025  # the fingers close this far below the rim, one inside the wall and one outside
-SLIDE_ON = 0.07  # how far along the peg (from its root) the handle's opening is carried
-REST_DROP = 0.018  # then lowered by this much: the handle's upper arm comes to rest on the peg
-
-
-@register_solver("HangMug", control_modes=TCP_DELTA_MODES)
-def solve_hang_mug(env, seed: int) -> dict:
-    """Grasp the rim opposite the handle, lift, turn the mug so the handle's opening faces along the
-    peg, slide the handle onto the peg, lower it onto the peg, let go."""
-    with DrivenSolver.episode(env, seed) as robot:
-        task: HangMugEnv = env.unwrapped
-        n, device = task.num_envs, task.device
-        shape = task.mug_shape
-        mug_yaw = yaw_of(task.mug.pose.q)
-        rim = torch.tensor([[shape.outer_radius - shape.body.wall / 2, 0.0, shape.body.height - RIM_DEPTH]], device=device)
-        grasp_p = (task.mug.pose * Pose.create_from_pq(rim.expand(n, 3))).p
-        grasp_yaw = robot.neutral_yaw(mug_yaw + np.pi / 2, np.pi)  # fingers closing across the wall
-        robot.pick("arm", "gripper", grasp_p, grasp_yaw, lift=0.2)
-        # the mug turned so its handle's opening looks along the peg (world y): yaw 0 or pi, whichever
-        # is the smaller turn; the grasp carries it as a rigid offset from the tcp
-        turn = wrap_angle(-mug_yaw * 2) / 2  # in (-pi/2, pi/2]: to the nearest multiple of pi
-        tcp_in_mug = task.mug.pose.inv() * robot.tcp("arm")
-        target_yaw = mug_yaw + turn
-        q = top_down_quat(grasp_yaw + turn, n, device=device)
-        oc = torch.as_tensor(shape.opening_centre(), dtype=torch.float32, device=device).expand(n, 3)
-
-        def tcp_for_opening_at(point):  # tcp position that puts the opening's centre at `point`
-            return robot.tcp("arm").p + point - task.opening_centre()
-
-        def tcp_for_opening_at_turned(point):  # the same, for the mug turned to target_yaw (before the turn)
-            turned = yaw_quat(target_yaw)
-            return (Pose.create_from_pq(point - quaternion_apply(turned, oc), turned) * tcp_in_mug).p
-
-        root = task.peg_root()
-        beyond_tip = root + torch.tensor([0.0, task.peg_length + 0.05, 0.0], device=device)
-        on_peg = root + torch.tensor([0.0, SLIDE_ON, 0.0], device=device)
-        robot.move({"arm": (robot.above(tcp_for_opening_at_turned(beyond_tip), 0.03), q)}, max_steps=60, pos_tol=0.008)
-        # from here on aim with the opening where it really is: the mug may sit a little tilted in the grasp
-        robot.move({"arm": (tcp_for_opening_at(beyond_tip), q)}, max_steps=30, pos_tol=0.004)
-        robot.move({"arm": (tcp_for_opening_at(on_peg), q)}, max_steps=40, pos_tol=0.004)
-        robot.move({"arm": (tcp_for_opening_at(on_peg - torch.tensor([0.0, 0.0, REST_DROP], device=device)), q)},
-                   max_steps=15, pos_tol=0.004)
-        robot.release("gripper")
-        robot.move({"arm": (robot.above(robot.tcp("arm").p, 0.08), q)}, max_steps=20, pos_tol=0.01)
-        robot.hold_until_success()
-        return robot.info

@@ -12,16 +12,17 @@ from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.agents.effectors import TOUCH_FORCE, link_forces
 from maniladder_ms.envs import ManiLadderEnv, register_task
-from maniladder_ms.geometry import yaw_of, yaw_quat
+from maniladder_ms.geometry import yaw_quat
 from maniladder_ms.objects.markers import MARKER_THICKNESS, build_zone_marker
 from maniladder_ms.objects.tools import HookShape, build_hook
-from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
-from maniladder_ms.solvers.driven import DrivenSolver
 
 TOOL_DENSITY = 250.0  # kg/m^3 (a hollow plastic hook: 90 g)
 # a smooth plastic hook: the wrist's small yaw wobble while pulling dragged the cube along a 0.3-friction face
 # and off the hook's tip on 7 of 25 seeds (a steady ~1 mm per control step sideways)
 TOOL_FRICTION = 0.05
+HAND_REACH = 0.3  # m: the gripper's links (hand and fingers) lie within 0.2 m of its TCP, the cube's corners
+# within 0.035 m of its centre: farther apart they cannot touch
+HOOK_CLEARANCE = 0.02  # the hook's pulling face this far beyond the cube's farthest corner before it drops
 
 
 @register_task("HookCubeWithTool")
@@ -32,13 +33,13 @@ class HookCubeWithToolEnv(ManiLadderEnv):
 
     **Randomisation:**
     - the cube (side 2 x `cube_half`) lies flat with a uniform random yaw, its centre uniform in x in
-      [0.28, 0.36], y in [-0.1, 0.1]: 0.89-0.98 m ahead of the arm base, where the gripper cannot reach
+      `CUBE_X` = [0.28, 0.36], y in `CUBE_Y` = [-0.1, 0.1]: 0.89-0.98 m ahead of the arm base, where the gripper cannot reach
       (the Panda reaches 0.855 m from its shoulder joint, 0.33 m above the table);
     - the target zone (square tile, side 2 x `zone_half`) lies on the cube's line (same y), its centre
-      uniform in x in [-0.1, 0.0] (0.3-0.46 m to pull);
+      uniform in x in `ZONE_X` = [-0.1, 0.0] (0.3-0.46 m to pull);
     - the hook (handle `handle_length` long, hook `hook_length` long pointing to +y, both 2.5 cm wide and
-      3 cm high) lies flat to the robot's right, its centre uniform in x in [-0.1, 0.0], y in [-0.3, -0.24],
-      its handle along +x turned by a uniform yaw in [-15, 15] degrees.
+      3 cm high) lies flat to the robot's right, its centre uniform in x in `TOOL_X` = [-0.1, 0.0], y in
+      `TOOL_Y` = [-0.3, -0.24], its handle along +x turned by a uniform yaw within +-`TOOL_MAX_YAW_DEG` = 15 degrees.
 
     **Success:** the cube's centre lies inside the zone (|dx|, |dy| <= `zone_half` from its centre) and the
     cube rests on the table (centre less than `cube_half` plus one centimetre high); the cube was pulled
@@ -61,6 +62,10 @@ class HookCubeWithToolEnv(ManiLadderEnv):
     TASK_REGION = (-0.3, 0.42, -0.35, 0.2)
     PARAMS = ("handle_length", "hook_length", "cube_half", "zone_half", "pull_fraction", "engage_gap")
     ON_TABLE_TOL = 0.01
+    CUBE_X, CUBE_Y = (0.28, 0.36), (-0.1, 0.1)  # ranges of the cube's centre
+    ZONE_X = (-0.1, 0.0)  # range of the zone centre's x (its y is the cube's)
+    TOOL_X, TOOL_Y = (-0.1, 0.0), (-0.3, -0.24)  # ranges of the hook's centre
+    TOOL_MAX_YAW_DEG = 15
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -80,14 +85,19 @@ class HookCubeWithToolEnv(ManiLadderEnv):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            cube = torch.stack([0.28 + torch.rand(b) * 0.08, torch.rand(b) * 0.2 - 0.1, torch.full((b,), self.cube_half)],
-                               dim=1)
+            (x_lo, x_hi), (y_lo, y_hi) = self.CUBE_X, self.CUBE_Y
+            cube = torch.stack([x_lo + torch.rand(b) * (x_hi - x_lo), y_lo + torch.rand(b) * (y_hi - y_lo),
+                                torch.full((b,), self.cube_half)], dim=1)
             self.cube.set_pose(Pose.create_from_pq(cube, yaw_quat(torch.rand(b) * np.pi / 2)))
-            zone = torch.stack([torch.rand(b) * 0.1 - 0.1, cube[:, 1], torch.full((b,), MARKER_THICKNESS / 2)], dim=1)
+            x_lo, x_hi = self.ZONE_X
+            zone = torch.stack([x_lo + torch.rand(b) * (x_hi - x_lo), cube[:, 1], torch.full((b,), MARKER_THICKNESS / 2)],
+                               dim=1)
             self.zone.set_pose(Pose.create_from_pq(zone))
-            tool = torch.stack([torch.rand(b) * 0.1 - 0.1, -0.3 + torch.rand(b) * 0.06,
+            (x_lo, x_hi), (y_lo, y_hi) = self.TOOL_X, self.TOOL_Y
+            tool = torch.stack([x_lo + torch.rand(b) * (x_hi - x_lo), y_lo + torch.rand(b) * (y_hi - y_lo),
                                 torch.full((b,), self.hook_shape.height / 2)], dim=1)
-            self.tool.set_pose(Pose.create_from_pq(tool, yaw_quat((torch.rand(b) * 2 - 1) * np.deg2rad(15))))
+            tool_yaw = (torch.rand(b) * 2 - 1) * np.deg2rad(self.TOOL_MAX_YAW_DEG)
+            self.tool.set_pose(Pose.create_from_pq(tool, yaw_quat(tool_yaw)))
             self.memory.store("cube_last", cube[:, :2], env_idx)
             self.memory.store("start_gap", torch.linalg.norm(cube[:, :2] - zone[:, :2], dim=1, keepdim=True), env_idx)
 
@@ -120,6 +130,16 @@ class HookCubeWithToolEnv(ManiLadderEnv):
     def tool_on_cube(self) -> torch.Tensor:
         """(num_envs,) bool: the hook presses on the cube."""
         return link_forces(self.scene, self.cube, [self.tool])[0] >= TOUCH_FORCE
+
+    def behind_cube(self) -> torch.Tensor:
+        """(num_envs, 3) where the hook's origin belongs to pull the cube: handle along +x beside the cube
+        (at -y), the hook's pulling face just beyond it."""
+        shape = self.hook_shape
+        cube = self.cube.pose.p
+        lo, hi = shape.hook_span
+        x = cube[:, 0] + self.cube_half * np.sqrt(2) + HOOK_CLEARANCE - shape.pull_face_x
+        y = cube[:, 1] - (lo + hi) / 2
+        return torch.stack([x, y, torch.full_like(x, shape.height / 2)], dim=1)
 
     def _update_memory(self):
         # contact passes (each a pass over the scene's contacts) only where contact is possible
@@ -168,16 +188,6 @@ class HookCubeWithToolEnv(ManiLadderEnv):
             "engaged": self.hooked_and_engaged(),
         }
 
-    def behind_cube(self) -> torch.Tensor:
-        """(num_envs, 3) where the hook's origin belongs to pull the cube: handle along +x beside the cube
-        (at -y), the hook's pulling face just beyond it."""
-        shape = self.hook_shape
-        cube = self.cube.pose.p
-        lo, hi = shape.hook_span
-        x = cube[:, 0] + self.cube_half * np.sqrt(2) + HOOK_CLEARANCE - shape.pull_face_x
-        y = cube[:, 1] - (lo + hi) / 2
-        return torch.stack([x, y, torch.full_like(x, shape.height / 2)], dim=1)
-
     def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
         tcp = self.ee.tcp().p
         reward = 1 - torch.tanh(5 * torch.linalg.norm(self.tool.pose.p - tcp, dim=1))
@@ -190,64 +200,3 @@ class HookCubeWithToolEnv(ManiLadderEnv):
         reward -= info["gripper_touched"].float()
         reward[info["success"]] = self.max_dense_reward
         return reward
-
-
-HAND_REACH = 0.3  # m: the gripper's links (hand and fingers) lie within 0.2 m of its TCP, the cube's corners
-# within 0.035 m of its centre: farther apart they cannot touch
-HOOK_CLEARANCE = 0.02  # the hook's pulling face this far beyond the cube's farthest corner before it drops
-GRASP_FROM_END = 0.06  # the grasp on the handle, from its near end
-GRASP_Z = 0.02  # TCP height of the grasp (the handle is 3 cm high)
-CARRY_Z = 0.16  # the hook's centre height while it moves over the cube (clear of it with the handle pitched 15 deg in the grip)
-LOWERED_Z = 0.024  # the hook's centre height while pulling (its bottom 9 mm above the table: a hook end
-# dragging on the table rattles and kicks the cube sideways)
-PULL_STEP = 0.004  # metres per control step of the pull
-
-
-@register_solver("HookCubeWithTool", control_modes=TCP_DELTA_MODES)
-def solve_hook_cube_with_tool(env, seed: int) -> dict:
-    """Grasp the handle near its end top-down, carry the hook over and beyond the cube, lower it beside and
-    behind the cube, pull straight back until the cube's centre is on the zone's."""
-    with DrivenSolver.episode(env, seed) as s:
-        task: HookCubeWithToolEnv = env.unwrapped
-        n, device = task.num_envs, task.device
-        shape = task.hook_shape
-        tool = task.tool.pose
-        grasp = (tool * Pose.create_from_pq(torch.tensor([[GRASP_FROM_END - shape.handle_length / 2, 0.0, 0.0]],
-                                                         device=device))).p
-        grasp[:, 2] = GRASP_Z
-        # fingers close across the handle: the TCP's x axis along it
-        yaw = DrivenSolver.neutral_yaw(yaw_of(tool.q), np.pi)
-        s.pick("arm", "gripper", grasp, yaw, lift=CARRY_Z - shape.height / 2)
-
-        def tcp_for(tool_p: torch.Tensor, grip: Pose | None = None):
-            """TCP target that puts the hook's origin at `tool_p`, level, the handle along +x, for the tool
-            as it sits in the grip now (the handle pitches in the fingers under the hook's weight)."""
-            grip = task.tool.pose.inv() * s.tcp("arm") if grip is None else grip
-            target = Pose.create_from_pq(tool_p, level) * grip
-            return target.p, target.q
-
-        level = yaw_quat(torch.zeros(n, device=device))
-
-        def servo(tool_p: torch.Tensor, max_steps: int, tol: float):
-            """Drive the hook's origin to `tool_p` closed loop (re-reading the grip every control step)."""
-            for _ in range(max_steps):
-                s.step({"arm": tcp_for(tool_p)})
-                if bool((torch.linalg.norm(task.tool.pose.p - tool_p, dim=1) < tol).all()):
-                    return
-
-        behind = task.behind_cube()
-        carry, lowered = behind.clone(), behind.clone()
-        carry[:, 2], lowered[:, 2] = CARRY_Z, LOWERED_Z
-        servo(carry, 80, 0.01)
-        servo(lowered, 40, 0.004)
-        # pull: the pulling face ends one cube half beyond the zone centre (the cube flat against it)
-        end = lowered.clone()
-        end[:, 0] = task.zone.pose.p[:, 0] + task.cube_half - shape.pull_face_x
-        # the grip as it is once the hook is down (re-reading it every step feeds the hook's rattle back)
-        grip = task.tool.pose.inv() * s.tcp("arm")
-        steps = max(1, round(float(torch.linalg.norm(end - lowered, dim=1).max()) / PULL_STEP))
-        for k in range(1, steps + 1):
-            s.step({"arm": tcp_for(lowered + (end - lowered) * k / steps, grip)})
-        servo(end, 10, 0.003)
-        s.hold_until_success()
-        return s.info

@@ -13,8 +13,6 @@ from maniladder_ms.agents.effectors import contact_forces
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.geometry import yaw_quat
 from maniladder_ms.objects import containers
-from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
-from maniladder_ms.solvers.driven import DrivenSolver
 
 
 @register_task("LiftBottleHand")
@@ -22,8 +20,8 @@ class LiftBottleHandEnv(ManiLadderEnv):
     """**Task:** power-grasp a standing bottle with the LEAP hand and lift it off the table.
 
     **Randomisation:** the bottle (6 cm body diameter, 14.5 cm tall: 10 cm body, 2 cm shoulder, 2.5 cm
-    neck; `bottle_mass`) stands upright, its centre uniform in x in [-0.2, -0.1], y in [-0.1, 0.1], with a
-    uniform random yaw (visible only in its lighting; the bottle is round).
+    neck; `bottle_mass`) stands upright, its centre uniform in x in `BOTTLE_X` = [-0.2, -0.1], y in `BOTTLE_Y` =
+    [-0.1, 0.1], with a uniform random yaw (visible only in its lighting; the bottle is round).
 
     **Success:** the bottle's base is >= `lift_height` above its start height (the table top), the hand
     holds it (`ee.holds`: a finger pressing against the thumb or palm, or the index / middle scissor
@@ -35,6 +33,7 @@ class LiftBottleHandEnv(ManiLadderEnv):
     TASK_REGION = (-0.25, -0.05, -0.15, 0.15)
     PARAMS = ("lift_height", "bottle_mass")
     bottle_shape = containers.bottle()
+    BOTTLE_X, BOTTLE_Y = (-0.2, -0.1), (-0.1, 0.1)  # ranges of the bottle's centre
     # where the power grasp closes, above the bottle's base: on the body 3.5 cm below the shoulder (as the
     # 12 cm can is held 3.5 cm below its top), which leaves the neck under the palm
     grasp_height = bottle_shape.inner[1][0] - 0.035
@@ -48,7 +47,9 @@ class LiftBottleHandEnv(ManiLadderEnv):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            xyz = torch.stack([torch.rand(b) * 0.1 - 0.2, torch.rand(b) * 0.2 - 0.1, torch.zeros(b)], dim=1)
+            (x_lo, x_hi), (y_lo, y_hi) = self.BOTTLE_X, self.BOTTLE_Y
+            xyz = torch.stack([x_lo + torch.rand(b) * (x_hi - x_lo), y_lo + torch.rand(b) * (y_hi - y_lo), torch.zeros(b)],
+                              dim=1)
             self.bottle.set_pose(Pose.create_from_pq(xyz, yaw_quat(torch.rand(b) * 2 * np.pi)))
 
     def _get_obs_extra(self, info: dict):
@@ -79,25 +80,3 @@ class LiftBottleHandEnv(ManiLadderEnv):
         reward = reach + is_grasped + 2 * lift * is_grasped
         reward[info["success"]] = self.max_dense_reward
         return reward
-
-
-
-# where the bottle's axis sits from the hand's tcp when the hand closes (world frame, hand yaw 0): 1 cm
-# towards the fingertips, so the curling fingers meet it before the thumb pushes it away, and 1 cm to
-# the index-finger side (+y), where it settles as the fingers close. 142 of seeds 100-249 lifted (95%);
-# the failures are the bottle squeezed out between index tip and thumb as the hand lifts. With the tcp on
-# the axis the thumb pushed the bottle over or it slipped out on 2 of 20 seeds
-GRASP_OFFSET = (0.01, 0.01, 0.0)
-
-
-@register_solver("LiftBottleHand", control_modes=TCP_DELTA_MODES)
-def solve_lift_bottle_hand(env, seed: int) -> dict:
-    """Top-down power grasp around the body below the shoulder (the bottle is round: any hand yaw does;
-    yaw 0 points the fingers away from the robot), then lift 15 cm."""
-    with DrivenSolver.episode(env, seed) as s:
-        task: LiftBottleHandEnv = env.unwrapped
-        grasp_point = torch.tensor([0.0, 0.0, task.grasp_height], device=task.device)
-        tcp = task.bottle.pose.p + grasp_point - torch.tensor(GRASP_OFFSET, device=task.device)
-        s.pick("arm", "hand", tcp, yaw=0.0, lift=task.lift_height + 0.05)
-        s.hold_until_success()
-        return s.info

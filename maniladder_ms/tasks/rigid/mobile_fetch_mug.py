@@ -1,5 +1,4 @@
-"""MobileFetchMug (L2 rigid SG, mobile): drive the TidyBot base to a side table, pick a mug there, drive back
-and set it down upright in a target zone on the main table."""
+"""MobileFetchMug (L2 rigid SG, mobile): fetch a mug from a side table with the TidyBot and set it down in a zone."""
 
 from __future__ import annotations
 
@@ -12,20 +11,11 @@ import torch
 
 from mani_skill.utils.structs.pose import Pose
 
-from maniladder_ms.agents.helpers import drive_base_to, top_down_quat
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.envs.scene import TABLE_HALF_SIZE
-from maniladder_ms.geometry import tilt, yaw_of, yaw_quat
+from maniladder_ms.geometry import tilt, yaw_quat
 from maniladder_ms.objects.markers import MARKER_THICKNESS, build_zone_marker
 from maniladder_ms.objects.mug import MUG_DENSITY, MugShape, build_mug
-from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
-from maniladder_ms.solvers.driven import DrivenSolver
-
-from .hang_mug import RIM_DEPTH
-
-SIDE_TABLE_HALF = (0.25, 0.25)  # x, y half extents of the side table's top (its top is level with the main table's)
-SIDE_TABLE_X = -0.5  # its near edge in line with the main table's (x = -0.75), which the base drives along
-SIDE_TABLE_Y = (1.1, 1.2)  # range of its centre's y: 15-25 cm of floor between the two tables
 
 
 @register_task("MobileFetchMug")
@@ -35,10 +25,11 @@ class MobileFetchMugEnv(ManiLadderEnv):
     in the target zone (a square tile) on the main table, and let go.
 
     **Randomisation:** the side table (50 x 50 cm, its top level with the main table's, its near edge in
-    line with the main table's) stands with its centre at x = -0.5, y uniform in [1.1, 1.2] (15-25 cm of
-    floor between the tables); the mug (7.4 cm wide, 9 cm tall, loop handle, ~0.2 kg) stands upright on it
-    at x uniform in [-0.55, -0.42], y within +-6 cm of the side table's centre, with a uniform random yaw;
-    the zone's centre is uniform in x in [-0.5, -0.38], y in [-0.15, 0.15] on the main table. The robot
+    line with the main table's) stands with its centre at x = `SIDE_TABLE_X` = -0.5, y uniform in
+    `SIDE_TABLE_Y` = [1.1, 1.2] (15-25 cm of floor between the tables); the mug (7.4 cm wide, 9 cm tall, loop
+    handle, ~0.2 kg) stands upright on it at x uniform in `MUG_X` = [-0.55, -0.42], y within `MUG_MAX_DY` = 6 cm
+    of the side table's centre, with a uniform random yaw; the zone's centre is uniform in x in `ZONE_X` =
+    [-0.5, -0.38], y within +-`ZONE_MAX_Y` = 0.15 on the main table. The robot
     starts at its rest pose (arm joints with the usual noise), the base at y = 0.
 
     Out of reach from the start: the arm's shoulder (Panda joint 2) stands at (-0.955, 0, 0.003); the TCP
@@ -66,6 +57,11 @@ class MobileFetchMugEnv(ManiLadderEnv):
     TASK_REGION = (-0.55, -0.33, -0.2, 0.2)
     PARAMS = ("zone_half", "lift_height", "rest_tol", "max_tilt")
     mug_shape = MugShape()
+    SIDE_TABLE_HALF = (0.25, 0.25)  # x, y half extents of the side table's top (its top is level with the main table's)
+    SIDE_TABLE_X = -0.5  # its near edge in line with the main table's (x = -0.75), which the base drives along
+    SIDE_TABLE_Y = (1.1, 1.2)  # range of its centre's y: 15-25 cm of floor between the two tables
+    MUG_X, MUG_MAX_DY = (-0.55, -0.42), 0.06  # the mug's centre: range of x, and of y about the side table's centre
+    ZONE_X, ZONE_MAX_Y = (-0.5, -0.38), 0.15  # the zone's centre on the main table: range of x, |y| at most
     # the cameras look over both tables (the side table lies 0.85-1.45 m to the left of the robot's axis)
     CAMERA_VIEWS = {
         "front_camera": ([0.65, 0.3, 0.85], [-0.75, 0.55, -0.1]),
@@ -73,17 +69,20 @@ class MobileFetchMugEnv(ManiLadderEnv):
         "top_camera": ([-0.5, 0.55, 1.6], [-0.45, 0.55, 0.0]),
     }
     RENDER_VIEW = ([0.7, -0.5, 1.0], [-0.55, 0.6, 0.0])
+    # a gripper whose TCP is further than this from the mug's bottom centre cannot hold it (the rim lies
+    # within 10 cm of it): the rule asks for the hold (a contact query) only nearer
+    HOLD_REACH = 0.15
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
-        hx, hy = SIDE_TABLE_HALF
+        hx, hy = self.SIDE_TABLE_HALF
         hz = TABLE_HALF_SIZE[2]
         builder = self.scene.create_actor_builder()
         builder.add_box_collision(half_size=[hx, hy, hz])
         if self.scene.can_render():
             mat = sapien.render.RenderMaterial(base_color=[0.45, 0.5, 0.55, 1], roughness=0.7, metallic=0.0)
             builder.add_box_visual(half_size=[hx, hy, hz], material=mat)
-        builder.initial_pose = sapien.Pose(p=[SIDE_TABLE_X, float(np.mean(SIDE_TABLE_Y)), -hz])
+        builder.initial_pose = sapien.Pose(p=[self.SIDE_TABLE_X, float(np.mean(self.SIDE_TABLE_Y)), -hz])
         self.side_table = builder.build_kinematic(name="side_table")
         self.mug = build_mug(self.scene, "mug", self.mug_shape, color=(0.9, 0.85, 0.7, 1), friction=1.0,
                              density=MUG_DENSITY)
@@ -94,20 +93,19 @@ class MobileFetchMugEnv(ManiLadderEnv):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            side_y = SIDE_TABLE_Y[0] + torch.rand(b) * (SIDE_TABLE_Y[1] - SIDE_TABLE_Y[0])
+            y_lo, y_hi = self.SIDE_TABLE_Y
+            side_y = y_lo + torch.rand(b) * (y_hi - y_lo)
             hz = TABLE_HALF_SIZE[2]
             self.side_table.set_pose(Pose.create_from_pq(
-                torch.stack([torch.full((b,), SIDE_TABLE_X), side_y, torch.full((b,), -hz)], dim=1)))
-            mug = torch.stack([-0.55 + torch.rand(b) * 0.13, side_y + (torch.rand(b) * 2 - 1) * 0.06, torch.zeros(b)],
-                              dim=1)
+                torch.stack([torch.full((b,), self.SIDE_TABLE_X), side_y, torch.full((b,), -hz)], dim=1)))
+            x_lo, x_hi = self.MUG_X
+            mug = torch.stack([x_lo + torch.rand(b) * (x_hi - x_lo), side_y + (torch.rand(b) * 2 - 1) * self.MUG_MAX_DY,
+                               torch.zeros(b)], dim=1)
             self.mug.set_pose(Pose.create_from_pq(mug, yaw_quat(torch.rand(b) * 2 * np.pi)))
-            zone = torch.stack([-0.5 + torch.rand(b) * 0.12, (torch.rand(b) * 2 - 1) * 0.15,
+            x_lo, x_hi = self.ZONE_X
+            zone = torch.stack([x_lo + torch.rand(b) * (x_hi - x_lo), (torch.rand(b) * 2 - 1) * self.ZONE_MAX_Y,
                                 torch.full((b,), MARKER_THICKNESS / 2)], dim=1)
             self.zone.set_pose(Pose.create_from_pq(zone))
-
-    # a gripper whose TCP is further than this from the mug's bottom centre cannot hold it (the rim lies
-    # within 10 cm of it): the rule asks for the hold (a contact query) only nearer
-    HOLD_REACH = 0.15
 
     def holds_mug(self) -> torch.Tensor:
         near = torch.linalg.norm(self.ee.tcp().p - self.mug.pose.p, dim=1) <= self.HOLD_REACH
@@ -151,48 +149,3 @@ class MobileFetchMugEnv(ManiLadderEnv):
         reward += fetched * placed * (1 + (~info["is_grasped"]).float())
         reward[info["success"]] = self.max_dense_reward
         return reward
-
-
-CARRY_HEIGHT = 0.2  # TCP height above the table top while the base drives: the hanging mug clears both tables
-CARRY_SPEED = 0.6  # fraction of the base's top speed while the mug hangs in the gripper
-SET_DOWN_GAP = 0.005  # the mug's bottom this far above the table when the gripper opens
-
-
-@register_solver("MobileFetchMug", control_modes=TCP_DELTA_MODES)
-def solve_mobile_fetch_mug(env, seed: int) -> dict:
-    """Lift the TCP clear of the mug, drive the base sideways until the rim grasp point lies straight ahead of
-    the arm, grasp the rim opposite the handle top-down (HangMug's grasp) and lift; drive back until the zone
-    lies ahead, the arm riding with the base; lower the mug into the zone, open and rise."""
-    with DrivenSolver.episode(env, seed) as robot:
-        task: MobileFetchMugEnv = env.unwrapped
-        n, device = task.num_envs, task.device
-        shape = task.mug_shape
-        base_start = task.agent.base_pose.clone()
-        rim = torch.tensor([[shape.outer_radius - shape.body.wall / 2, 0.0, shape.body.height - RIM_DEPTH]],
-                           device=device)
-        grasp_p = (task.mug.pose * Pose.create_from_pq(rim.expand(n, 3))).p
-        grasp_yaw = robot.neutral_yaw(yaw_of(task.mug.pose.q) + np.pi / 2, np.pi)  # fingers closing across the wall
-        q = top_down_quat(grasp_yaw, n, device=device)
-        tcp = robot.tcp("arm").p.clone()
-        robot.move({"arm": (torch.cat([tcp[:, :2], torch.full((n, 1), CARRY_HEIGHT, device=device)], dim=1), q)},
-                   max_steps=40, pos_tol=0.01, rot_tol=0.05)
-        # the base's y joint moves the arm along world y: put the grasp point straight ahead of the shoulder
-        drive_base_to(robot, base_start + torch.stack([torch.zeros(n, device=device), grasp_p[:, 1] - tcp[:, 1],
-                                                       torch.zeros(n, device=device)], dim=1), max_steps=150)
-        robot.pick("arm", "gripper", grasp_p, grasp_yaw, lift=CARRY_HEIGHT - grasp_p[0, 2].item())
-        zone = task.zone.pose.p
-        drive_base_to(robot, base_start + torch.stack([torch.zeros(n, device=device), zone[:, 1] - tcp[:, 1],
-                                                       torch.zeros(n, device=device)], dim=1), max_steps=200,
-                      speed=CARRY_SPEED)
-
-        def tcp_for_mug_at(xy, height):  # the TCP that puts the held mug's bottom centre over xy, `height` up
-            mug = task.mug.pose.p
-            goal = torch.cat([xy, torch.full((n, 1), height, device=device)], dim=1)
-            return robot.tcp("arm").p + goal - mug
-
-        robot.move({"arm": (tcp_for_mug_at(zone[:, :2], 0.05), q)}, max_steps=60, pos_tol=0.004)
-        robot.move({"arm": (tcp_for_mug_at(zone[:, :2], SET_DOWN_GAP), q)}, max_steps=40, pos_tol=0.003)
-        robot.release("gripper")
-        robot.move({"arm": (robot.above(robot.tcp("arm").p, 0.1), q)}, max_steps=20, pos_tol=0.01)
-        robot.hold_until_success()
-        return robot.info

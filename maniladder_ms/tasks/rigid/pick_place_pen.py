@@ -10,10 +10,8 @@ import torch
 from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.envs import ManiLadderEnv, register_task
-from maniladder_ms.geometry import actor_yaw, yaw_quat
+from maniladder_ms.geometry import yaw_quat
 from maniladder_ms.objects import build_pen, build_tray
-from maniladder_ms.solvers import register_solver
-from maniladder_ms.solvers.panda import APPROACH_HEIGHT, PandaSolver
 
 
 @register_task("PickPlacePen")
@@ -22,9 +20,9 @@ class PickPlacePenEnv(ManiLadderEnv):
 
     **Randomisation:**
     - the pen (`pen_length` long, 2 x `pen_radius` thick) lies flat with a uniform random yaw, its centre uniform in
-      x in [-0.12, 0.08], |y| in [0.06, 0.2] on a random side of the robot's centre line;
-    - the tray (inner 2 x `tray_inner_half`, walls `tray_wall_height` high) stands on the other side, centre x in [-0.1, 0.1],
-      |y| in [0.1, 0.2], yaw uniform in [-pi/4, pi/4].
+      x in `PEN_X` = [-0.12, 0.08], |y| in `PEN_ABS_Y` = [0.06, 0.2] on a random side of the robot's centre line;
+    - the tray (inner 2 x `tray_inner_half`, walls `tray_wall_height` high) stands on the other side, centre x in
+      `TRAY_X` = [-0.1, 0.1], |y| in `TRAY_ABS_Y` = [0.1, 0.2], yaw uniform in +-`TRAY_MAX_YAW` = +-pi/4.
 
     **Success:** the pen centre, in the tray's frame, lies inside the tray's inner footprint shrunk by
     `margin` on every side; the pen centre is below the rim (top of the walls); and the gripper does not
@@ -37,6 +35,9 @@ class PickPlacePenEnv(ManiLadderEnv):
     PARAMS = ("pen_length", "pen_radius", "tray_inner_half", "tray_wall_height", "margin")
     tray_wall_thickness = 0.008
     tray_base_thickness = 0.006
+    PEN_X, PEN_ABS_Y = (-0.12, 0.08), (0.06, 0.2)  # ranges of the pen centre's x and |y|
+    TRAY_X, TRAY_ABS_Y = (-0.1, 0.1), (0.1, 0.2)  # ranges of the tray centre's x and |y| (|y| on the pen's other side)
+    TRAY_MAX_YAW = np.pi / 4
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -53,15 +54,14 @@ class PickPlacePenEnv(ManiLadderEnv):
         with torch.device(self.device):
             b = len(env_idx)
             side = torch.where(torch.rand(b) < 0.5, -1.0, 1.0)
-            pen_xyz = torch.stack(
-                [torch.rand(b) * 0.2 - 0.12, side * (0.06 + torch.rand(b) * 0.14), torch.full((b,), self.pen_radius)],
-                dim=1,
-            )
+            (x_lo, x_hi), (y_lo, y_hi) = self.PEN_X, self.PEN_ABS_Y
+            pen_xyz = torch.stack([x_lo + torch.rand(b) * (x_hi - x_lo), side * (y_lo + torch.rand(b) * (y_hi - y_lo)),
+                                   torch.full((b,), self.pen_radius)], dim=1)
             self.pen.set_pose(Pose.create_from_pq(pen_xyz, yaw_quat(torch.rand(b) * np.pi)))
-            tray_xyz = torch.stack(
-                [torch.rand(b) * 0.2 - 0.1, -side * (0.1 + torch.rand(b) * 0.1), torch.zeros(b)], dim=1
-            )
-            self.tray.set_pose(Pose.create_from_pq(tray_xyz, yaw_quat((torch.rand(b) - 0.5) * np.pi / 2)))
+            (x_lo, x_hi), (y_lo, y_hi) = self.TRAY_X, self.TRAY_ABS_Y
+            tray_xyz = torch.stack([x_lo + torch.rand(b) * (x_hi - x_lo), -side * (y_lo + torch.rand(b) * (y_hi - y_lo)),
+                                    torch.zeros(b)], dim=1)
+            self.tray.set_pose(Pose.create_from_pq(tray_xyz, yaw_quat((torch.rand(b) - 0.5) * 2 * self.TRAY_MAX_YAW)))
 
     def _pen_in_tray_frame(self) -> torch.Tensor:
         return (self.tray.pose.inv() * self.pen.pose).p
@@ -105,26 +105,3 @@ class PickPlacePenEnv(ManiLadderEnv):
         reward += (info["is_placed"] & ~is_grasped).float()
         reward[info["success"]] = self.max_dense_reward
         return reward
-
-
-
-@register_solver("PickPlacePen")
-def solve_pick_place_pen(env, seed: int) -> dict:
-    """Grasp the pen at its centre from above, lift, turn it along the tray's long side, lower, release."""
-    with PandaSolver.episode(env, seed) as robot:
-        task: PickPlacePenEnv = env.unwrapped
-        pen_p = task.pen.pose.p[0].cpu().numpy()
-        pen_yaw = actor_yaw(task.pen)
-        grasp_yaw = robot.closest_grasp_yaw(pen_yaw + np.pi / 2)
-        robot.pick(robot.top_down_pose([pen_p[0], pen_p[1], task.pen_radius], grasp_yaw))
-        # rotate the pen axis onto the tray's long axis: the grasp yaw follows by the same angle
-        tray_p = task.tray.pose.p[0].cpu().numpy()
-        tray_yaw = actor_yaw(task.tray)
-        turn = (tray_yaw - pen_yaw + np.pi / 2) % np.pi - np.pi / 2
-        release_z = task.tray_base_thickness + task.pen_radius + 0.01
-        # the pen lies the same way in the tray after a half turn: take whichever wrist yaw has a straight path
-        above_tray = [tray_p[0], tray_p[1], release_z + APPROACH_HEIGHT]
-        place_yaw = robot.straight_line_yaw(above_tray, [grasp_yaw + turn, grasp_yaw + turn - np.pi, grasp_yaw + turn + np.pi])
-        robot.place(robot.top_down_pose([tray_p[0], tray_p[1], release_z], place_yaw))
-        robot.hold_until_success()
-        return robot.info

@@ -11,11 +11,8 @@ import torch
 from mani_skill.utils.geometry.rotation_conversions import quaternion_apply
 from mani_skill.utils.structs.pose import Pose
 
-from maniladder_ms.agents.helpers import top_down_quat
 from maniladder_ms.envs import ManiLadderEnv, register_task
-from maniladder_ms.geometry import yaw_of, yaw_quat
-from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
-from maniladder_ms.solvers.driven import DrivenSolver
+from maniladder_ms.geometry import yaw_quat
 
 BOOK_DENSITY = 500.0
 
@@ -26,9 +23,9 @@ class PivotBookEnv(ManiLadderEnv):
     far end against a wall; pivot it about that end until it stands upright against the wall.
     Non-prehensile: the book is too flat to grasp from the table.
 
-    **Randomisation:** the book's centre y is uniform in [-0.1, 0.1], its yaw uniform in [-8, 8] deg,
-    and its far end between 0 and 5 mm from the wall (a 2 cm thick wall 8 cm high whose face is at
-    x = 0.05).
+    **Randomisation:** the book's centre y is uniform in +-`BOOK_MAX_Y` = +-0.1, its yaw uniform in
+    +-`BOOK_MAX_YAW_DEG` = +-8 deg, and its far end between 0 and `MAX_WALL_GAP` = 5 mm from the wall (a 2 cm
+    thick wall 8 cm high whose face is at x = 0.05).
 
     **Success:** the book's long axis is within `upright_tol` of vertical, its lower end's centre within
     `wall_gap` of the wall's face (it stands against the wall it was pivoted on, not anywhere on the
@@ -44,6 +41,9 @@ class PivotBookEnv(ManiLadderEnv):
     PARAMS = ("book_half_size", "upright_tol", "wall_gap", "rest_speed", "rest_ang")
     wall_face_x = 0.05
     wall_half_size = (0.01, 0.3, 0.04)  # 8 cm: enough to stop the book's foot, low enough for the front camera to see over
+    BOOK_MAX_Y = 0.1  # the book's centre y within +- this
+    BOOK_MAX_YAW_DEG = 8
+    MAX_WALL_GAP = 0.005  # the far end stops short of the wall by up to this
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -68,11 +68,12 @@ class PivotBookEnv(ManiLadderEnv):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            yaw = torch.deg2rad((torch.rand(b) - 0.5) * 16)
+            yaw = torch.deg2rad((torch.rand(b) - 0.5) * (2 * self.BOOK_MAX_YAW_DEG))
             # the far end's corners touch the wall (or stop short by the gap) whatever the yaw
             reach = self.book_half_size[0] * torch.cos(yaw) + self.book_half_size[1] * torch.sin(yaw.abs())
-            x = self.wall_face_x - reach - torch.rand(b) * 0.005
-            xyz = torch.stack([x, (torch.rand(b) - 0.5) * 0.2, torch.full((b,), self.book_half_size[2])], dim=1)
+            x = self.wall_face_x - reach - torch.rand(b) * self.MAX_WALL_GAP
+            y = (torch.rand(b) - 0.5) * (2 * self.BOOK_MAX_Y)
+            xyz = torch.stack([x, y, torch.full((b,), self.book_half_size[2])], dim=1)
             self.book.set_pose(Pose.create_from_pq(xyz, yaw_quat(yaw)))
 
     def book_axis(self) -> torch.Tensor:
@@ -111,61 +112,3 @@ class PivotBookEnv(ManiLadderEnv):
         reward = reach + 3 * info["tilt_up"] / (np.pi / 2) + info["is_upright"].float()
         reward[info["success"]] = self.max_dense_reward
         return reward
-
-
-
-LEAD = 0.35  # rad: the finger's target runs this far ahead of the book along the near end's arc
-RAISE_START = np.deg2rad(5)  # book tilt from which the finger can get under its near end
-TIP_BELOW_TCP = 0.01  # the Panda's closed fingertips reach about this far below its tcp
-FINGER_HALF_THICKNESS = 0.01  # closed Panda fingers, from the tcp to their outer face
-NEAR_UPRIGHT = 0.05  # rad short of vertical where the finger stops following the arc
-PRESS_DEPTH = 0.025  # how far into the end face the finger is aimed while sliding up it
-
-
-@register_solver("PivotBook", control_modes=TCP_DELTA_MODES)
-def solve_pivot_book(env, seed: int) -> dict:
-    """Lift the book's near end by pressing its end face with the closed fingers and sliding them up
-    (friction raises the end while the wall holds the far end), then keep the fingertips under the
-    rising end, following its arc about the far bottom edge until the book stands against the wall."""
-    with DrivenSolver.episode(env, seed) as robot:
-        task: PivotBookEnv = env.unwrapped
-        n, device = task.num_envs, task.device
-        hx, _, hz = task.book_half_size
-        yaw = yaw_of(task.book.pose.q)
-        toward_wall = torch.stack([torch.cos(yaw), torch.sin(yaw), torch.zeros_like(yaw)], dim=1)
-        up = torch.tensor([0.0, 0.0, 1.0], device=device)
-        q = top_down_quat(robot.neutral_yaw(yaw, np.pi / 2), n, device=device)
-        tip_to_tcp = TIP_BELOW_TCP * up
-        robot.grasp("gripper")
-        near_face = task.book.pose.p - toward_wall * hx
-        start = near_face - toward_wall * 0.03 + up * (0.01 - hz)
-        robot.move({"arm": (start + up * 0.08 + tip_to_tcp, q)}, max_steps=60)
-        robot.move({"arm": (start + tip_to_tcp, q)}, max_steps=30, pos_tol=0.004)
-        # friction lift: press the end face lightly (the target just inside it) and slide up
-        for _ in range(60):
-            if bool((task.evaluate()["tilt_up"] >= RAISE_START).all()):
-                break
-            tip = robot.tcp("arm").p - tip_to_tcp
-            target = task.book.pose.p - task.book_axis() * (hx + FINGER_HALF_THICKNESS - PRESS_DEPTH)
-            target[:, 2] = tip[:, 2] + 0.02
-            robot.step({"arm": (target + tip_to_tcp, q)})
-        # follow the near end's arc about the far bottom edge, fingertips at the end's bottom edge
-        def tcp_at(tilt):
-            axis = task.book_axis()
-            normal = quaternion_apply(task.book.pose.q, torch.tensor([0.0, 0, 1.0], device=device).expand(n, 3))
-            pivot = task.book.pose.p + axis * hx - normal * hz
-            phi = tilt.clamp(max=np.pi / 2)  # past vertical would drive the top into the wall and kick the foot out
-            along = -torch.cos(phi)[:, None] * toward_wall + torch.sin(phi)[:, None] * up
-            below = -torch.sin(phi)[:, None] * toward_wall - torch.cos(phi)[:, None] * up
-            return pivot + along * 2 * hx + below * 0.005 + tip_to_tcp
-
-        robot.follow_arc("arm", q, lambda: task.evaluate()["tilt_up"], tcp_at, lead=LEAD,
-                         stop_at=np.pi / 2 - NEAR_UPRIGHT, max_steps=80)
-        # rise straight up along the book's top end: the fingers' friction carries it the last degrees
-        # onto its end face, flat against the wall, where it stands (short of that it falls back, so
-        # backing away first fails); then back off
-        clear = robot.above(robot.tcp("arm").p, 0.06)
-        robot.move({"arm": (clear, q)}, max_steps=15, pos_tol=0.01)
-        robot.move({"arm": (clear - toward_wall * 0.06, q)}, max_steps=15, pos_tol=0.01)
-        robot.hold_until_success()
-        return robot.info

@@ -14,10 +14,6 @@ from maniladder_ms.geometry import tilt, yaw_quat
 from maniladder_ms.objects.mug import (MUG_DENSITY, MugShape, build_coaster, build_mug, mug_body_centre,
                                        placed_on_coaster)
 from maniladder_ms.objects.tabletop import place_at_rest
-from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
-from maniladder_ms.solvers.driven import DrivenSolver
-from maniladder_ms.solvers.mug import mug_to_coaster
-
 
 
 @register_task("PlaceMugOnCoasterHand")
@@ -26,9 +22,9 @@ class PlaceMugOnCoasterHandEnv(ManiLadderEnv):
     mug by its body, lifts it, carries it over the coaster, sets it down upright on it and lets go.
 
     **Randomisation:** the mug (8.4 cm wide, 9 cm tall, loop handle; ~0.13 kg; `objects.mug`) stands upright,
-    its centre uniform in x in [-0.2, -0.1], y in [0.05, 0.15], its handle pointing anywhere (yaw uniform in
-    [0, 2 pi)); the coaster (11 cm across, 5 mm thick, fixed to the table) has its centre uniform in x in
-    [-0.2, -0.1], y in [-0.15, -0.07] (a 12-30 cm carry).
+    its centre uniform in x in `MUG_X` = [-0.2, -0.1], y in `MUG_Y` = [0.05, 0.15], its handle pointing anywhere
+    (yaw uniform in [0, 2 pi)); the coaster (11 cm across, 5 mm thick, fixed to the table) has its centre uniform
+    in x in `COASTER_X` = [-0.2, -0.1], y in `COASTER_Y` = [-0.15, -0.07] (a 12-30 cm carry).
 
     **Success:** the mug was carried: at some control step the hand held it (`ee.holds`: a finger pressing
     against the thumb or palm) with its body at least `lift_height` clear of the table (its lowest point; episode
@@ -49,6 +45,8 @@ class PlaceMugOnCoasterHandEnv(ManiLadderEnv):
     TASK_REGION = (-0.29, -0.01, -0.21, 0.24)  # the mug with its handle (8 cm from the axis) and the coaster
     PARAMS = ("lift_height", "max_tilt", "centre_tol", "rest_tol")
     mug_shape = MugShape()
+    MUG_X, MUG_Y = (-0.2, -0.1), (0.05, 0.15)  # ranges of the mug's centre
+    COASTER_X, COASTER_Y = (-0.2, -0.1), (-0.15, -0.07)  # ranges of the coaster's centre
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -61,9 +59,13 @@ class PlaceMugOnCoasterHandEnv(ManiLadderEnv):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            mug = torch.stack([torch.rand(b) * 0.1 - 0.2, 0.05 + torch.rand(b) * 0.1, torch.zeros(b)], dim=1)
+            (x_lo, x_hi), (y_lo, y_hi) = self.MUG_X, self.MUG_Y
+            mug = torch.stack([x_lo + torch.rand(b) * (x_hi - x_lo), y_lo + torch.rand(b) * (y_hi - y_lo), torch.zeros(b)],
+                              dim=1)
             place_at_rest(self.mug, Pose.create_from_pq(mug, yaw_quat(torch.rand(b) * 2 * np.pi)))
-            coaster = torch.stack([torch.rand(b) * 0.1 - 0.2, -0.15 + torch.rand(b) * 0.08, torch.zeros(b)], dim=1)
+            (x_lo, x_hi), (y_lo, y_hi) = self.COASTER_X, self.COASTER_Y
+            coaster = torch.stack([x_lo + torch.rand(b) * (x_hi - x_lo), y_lo + torch.rand(b) * (y_hi - y_lo),
+                                   torch.zeros(b)], dim=1)
             self.coaster.set_pose(Pose.create_from_pq(coaster))
 
     def mug_centre(self) -> torch.Tensor:
@@ -110,15 +112,3 @@ class PlaceMugOnCoasterHandEnv(ManiLadderEnv):
                              + (info["placed"] & info["released"]).float())
         reward[info["success"]] = self.max_dense_reward
         return reward
-
-
-@register_solver("PlaceMugOnCoasterHand", control_modes=TCP_DELTA_MODES)
-def solve_place_mug_on_coaster_hand(env, seed: int) -> dict:
-    """Top-down power grasp on the mug's body with the handle along the finger row (to the index or the ring
-    finger's side, whichever keeps the wrist nearer its rest yaw), lift, straighten the mug in the grip, carry it
-    over the coaster, straighten again, lower it onto the coaster closed loop (the TCP target follows where the mug
-    is), relax the grip, open the fingers, then the thumb, and rise (`mug_to_coaster`)."""
-    with DrivenSolver.episode(env, seed) as s:
-        mug_to_coaster(s, env.unwrapped)
-        s.hold_until_success()
-        return s.info

@@ -10,13 +10,9 @@ import torch
 from mani_skill.utils.building import actors
 from mani_skill.utils.structs.pose import Pose
 
-from maniladder_ms.agents.helpers import top_down_quat
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.geometry import yaw_quat
 from maniladder_ms.objects.markers import MARKER_THICKNESS, build_zone_marker
-from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
-from maniladder_ms.solvers.bimanual import glide
-from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver
 
 SIDES = {"left": 1.0, "right": -1.0}  # sign of y on each arm's side of the table
 BLOCK_COLORS = {"left": (0.85, 0.5, 0.1, 1), "right": (0.15, 0.35, 0.85, 1)}
@@ -30,10 +26,11 @@ class PushBlocksBimanualEnv(ManiLadderEnv):
     not be lifted).
 
     **Randomisation:** per side (left: y > 0, right: y < 0, mirrored ranges):
-    - the block (5 cm cube) has its centre uniform in x in [-0.2, -0.1], |y| in [0.15, 0.3], and a uniform
-      random yaw;
-    - its zone (12 cm square tile, axis-aligned) is centred 10-15 cm (uniform) away from the block, in a
-      direction within +-30 degrees (uniform) of straight ahead (+x), turned away from the centre line.
+    - the block (5 cm cube) has its centre uniform in x in `BLOCK_X` = [-0.2, -0.1], |y| in `BLOCK_ABS_Y` =
+      [0.15, 0.3], and a uniform random yaw;
+    - its zone (12 cm square tile, axis-aligned) is centred `ZONE_DISTANCE` = 10-15 cm (uniform) away from the
+      block, in a direction within `ZONE_MAX_TURN_DEG` = 30 degrees (uniform) of straight ahead (+x), turned away
+      from the centre line.
 
     **Success:** each block's centre lies inside its own zone shrunk by `margin` on every side (|dx|, |dy|
     <= `zone_half` - `margin` from the zone centre) and the block is on the table (centre less than
@@ -46,6 +43,9 @@ class PushBlocksBimanualEnv(ManiLadderEnv):
     max_dense_reward = 8
     TASK_REGION = (-0.25, 0.1, -0.4, 0.4)
     PARAMS = ("block_half", "zone_half", "margin", "on_table_tol")
+    BLOCK_X, BLOCK_ABS_Y = (-0.2, -0.1), (0.15, 0.3)  # ranges of each block's centre x and |y|
+    ZONE_DISTANCE = (0.1, 0.15)  # range of the zone centre's distance from its block's
+    ZONE_MAX_TURN_DEG = 30  # the zone's direction from the block: up to this far from +x, away from the centre line
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -63,12 +63,13 @@ class PushBlocksBimanualEnv(ManiLadderEnv):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
+            (x_lo, x_hi), (y_lo, y_hi), (d_lo, d_hi) = self.BLOCK_X, self.BLOCK_ABS_Y, self.ZONE_DISTANCE
             for side, sign in SIDES.items():
-                block = torch.stack([torch.rand(b) * 0.1 - 0.2, sign * (0.15 + torch.rand(b) * 0.15),
+                block = torch.stack([x_lo + torch.rand(b) * (x_hi - x_lo), sign * (y_lo + torch.rand(b) * (y_hi - y_lo)),
                                      torch.full((b,), self.block_half)], dim=1)
                 self.blocks[side].set_pose(Pose.create_from_pq(block, yaw_quat(torch.rand(b) * np.pi / 2)))
-                heading = sign * torch.rand(b) * np.pi / 6
-                distance = 0.1 + torch.rand(b) * 0.05
+                heading = sign * torch.rand(b) * np.pi / (180 / self.ZONE_MAX_TURN_DEG)  # pi / 6: float32 as drawn
+                distance = d_lo + torch.rand(b) * (d_hi - d_lo)
                 zone = block + torch.stack([torch.cos(heading), torch.sin(heading), torch.zeros(b)], dim=1) * distance[:, None]
                 zone[:, 2] = MARKER_THICKNESS / 2
                 self.zones[side].set_pose(Pose.create_from_pq(zone))
@@ -116,41 +117,3 @@ class PushBlocksBimanualEnv(ManiLadderEnv):
             reward += (1 - torch.tanh(5 * reach)) + 2 * (1 - torch.tanh(5 * to_zone)) + info[f"{side}_in_zone"]
         reward[info["success"]] = self.max_dense_reward
         return reward
-
-
-
-PUSH_HEIGHT = 0.02  # TCP height while pushing: the closed fingertips just clear the table
-BEHIND = 0.025  # gap between the fingers and the block before the push
-FINGER_HALF = 0.01  # the closed fingers' half thickness along the push
-PUSH_STEP = 0.008  # metres per control step (16 cm/s): the block does not slide on ahead of the fingers
-
-
-@register_solver("PushBlocksBimanual", control_modes=TCP_DELTA_MODES)
-def solve_push_blocks_bimanual(env, seed: int) -> dict:
-    """Both arms at once: closed gripper down behind the block on the line through the zone centre,
-    push along that line until the block centre is on the zone centre, rise."""
-    with DrivenSolver.episode(env, seed) as s:
-        task: PushBlocksBimanualEnv = env.unwrapped
-        n, device = task.num_envs, task.device
-        starts, ends = {}, {}
-        for side in SIDES:
-            block_p, zone_p = task.blocks[side].pose.p.clone(), task.zones[side].pose.p.clone()
-            heading = (zone_p - block_p) * torch.tensor([1.0, 1.0, 0.0], device=device)
-            heading = torch.nn.functional.normalize(heading, dim=1)
-            contact = task.block_half + FINGER_HALF  # TCP to block centre when touching
-            start, end = block_p - heading * (contact + BEHIND), zone_p - heading * contact
-            start[:, 2] = end[:, 2] = PUSH_HEIGHT
-            # fingers side by side across the push line: closing axis (the TCP's y) perpendicular to it
-            yaw = torch.atan2(heading[:, 1], heading[:, 0])
-            starts[side], ends[side] = (start, top_down_quat(yaw, n, device)), end
-        for side in SIDES:
-            s.grip(True, f"{side}_gripper", steps=0)
-        s.move({f"{side}_arm": (s.above(p, APPROACH_HEIGHT), q) for side, (p, q) in starts.items()}, max_steps=60,
-               pos_tol=0.01)
-        s.move({f"{side}_arm": (p, q) for side, (p, q) in starts.items()}, max_steps=30)
-        glide(s, {f"{side}_arm": (p, ends[side], q) for side, (p, q) in starts.items()}, step_length=PUSH_STEP,
-              settle_steps=10)
-        s.move({f"{side}_arm": (s.above(ends[side], 0.05), q) for side, (_, q) in starts.items()}, max_steps=15,
-               pos_tol=0.02)
-        s.hold_until_success()
-        return s.info

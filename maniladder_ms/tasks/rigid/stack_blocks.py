@@ -1,4 +1,4 @@
-"""StackBlocks family (Stack6Blocks, L2 rigid SG): stack N cubes into one tower."""
+"""Stack6Blocks (L2 rigid SG, the StackBlocks family's one task): stack `num_blocks` cubes into one tower."""
 
 from __future__ import annotations
 
@@ -11,9 +11,7 @@ from mani_skill.utils.building import actors
 from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.envs import ManiLadderEnv, register_task
-from maniladder_ms.geometry import actor_yaw, yaw_quat
-from maniladder_ms.solvers import register_solver
-from maniladder_ms.solvers.panda import PandaSolver
+from maniladder_ms.geometry import yaw_quat
 
 # metres from the TCP: a block the gripper (hand or fingers) touches has its centre within this; the
 # Panda hand is about 20 cm wide and its fingers 5 cm long
@@ -28,8 +26,9 @@ BLOCK_COLORS = [
 class StackBlocksEnv(ManiLadderEnv):
     """**Task:** stack `num_blocks` cubes (2 x `half_size`) into a single tower (any order).
 
-    **Randomisation:** block centres are sampled uniformly in x in [-0.15, 0.15], y in [-0.25, 0.25]
-    with at least 8 cm between any two, each with a uniform random yaw.
+    **Randomisation:** block centres are sampled uniformly between `BLOCK_XY_LOW` and `BLOCK_XY_HIGH` (x in
+    [-0.15, 0.15], y in [-0.25, 0.25]) with at least `min_spacing` = 8 cm between any two, each with a uniform
+    random yaw.
 
     **Success:** all `num_blocks` blocks form one tower: with the blocks sorted by height, the lowest rests on the table (centre within
     `z_tol` of one half-size) and each next block's centre is within `xy_tol` of the one below
@@ -40,11 +39,17 @@ class StackBlocksEnv(ManiLadderEnv):
     **Rest thresholds:** they sit above the contact-solver vibration of a settled tower that has just been
     restored from a saved state (measured: up to 5.5 cm/s and 0.5 rad/s for several steps, until PhysX
     puts the blocks back to sleep), so a demo replayed from its recorded states keeps its success.
+
+    **Level 2:** (against Level 1's single pick-and-place, PickPlacePen: 2 stages, grasp and place, 92 steps
+    mean) five pick-and-place cycles in sequence (10 stages), ~440 steps (at most ~490; horizon 600), each block
+    centred within `xy_tol` = 2 cm of the one below, and the six-block tower must end at rest by itself: one
+    misplaced or knocked block undoes the earlier cycles.
     """
 
     TASK_REGION = (-0.2, 0.2, -0.3, 0.3)
     PARAMS = ("num_blocks", "half_size", "xy_tol", "z_tol", "static_lin", "static_ang")
     min_spacing = 0.08
+    BLOCK_XY_LOW, BLOCK_XY_HIGH = (-0.15, -0.25), (0.15, 0.25)  # corners of the region of the block centres
 
     @property
     def max_dense_reward(self) -> float:
@@ -71,7 +76,7 @@ class StackBlocksEnv(ManiLadderEnv):
 
     def _sample_spaced_xy(self, b: int, tries: int = 1000) -> torch.Tensor:
         """(b, num_blocks, 2) positions, pairwise at least `min_spacing` apart (rejection, per env)."""
-        lo, hi = torch.tensor([-0.15, -0.25]), torch.tensor([0.15, 0.25])
+        lo, hi = torch.tensor(self.BLOCK_XY_LOW), torch.tensor(self.BLOCK_XY_HIGH)
         xy = lo + torch.rand(b, self.num_blocks, 2) * (hi - lo)
         for _ in range(tries):
             d = torch.cdist(xy, xy) + torch.eye(self.num_blocks) * 1e3
@@ -136,34 +141,3 @@ class StackBlocksEnv(ManiLadderEnv):
         reward = 2 * progress + reach
         reward[info["success"]] = self.max_dense_reward
         return reward
-
-
-
-STACK_SITE = (-0.05, 0.0)  # the solver builds the tower on the block nearest this point
-
-
-@register_solver("Stack6Blocks")
-def solve_stack_blocks(env, seed: int) -> dict:
-    """Keep the block nearest the workspace centre as the base; put every other block on the current top."""
-    with PandaSolver.episode(env, seed) as robot:
-        task: StackBlocksEnv = env.unwrapped
-        pos = task._block_positions()[0].cpu().numpy()
-        base = int(np.argmin(np.linalg.norm(pos[:, :2] - np.array(STACK_SITE), axis=1)))
-        others = sorted((i for i in range(task.num_blocks) if i != base), key=lambda i: np.linalg.norm(pos[i, :2] - pos[base, :2]))
-        size = 2 * task.half_size
-        top = task.blocks[base]
-        for level, i in enumerate(others, start=1):
-            block = task.blocks[i]
-            p = block.pose.p[0].cpu().numpy()
-            # travel between the tower and the blocks at a height that clears the tower's top
-            carry_z = task.half_size + size * level + 0.05
-            robot.pick(robot.top_down_pose(p, robot.closest_grasp_yaw(actor_yaw(block), np.pi / 2)),
-                       approach_height=carry_z - p[2], lift_height=carry_z - p[2])
-            # aim at the block actually on top, so small placement errors do not add up along the tower
-            top_p = top.pose.p[0].cpu().numpy()
-            release_z = top_p[2] + size + 0.004
-            robot.place(robot.top_down_pose([top_p[0], top_p[1], release_z], robot.closest_grasp_yaw(actor_yaw(top), np.pi / 2)),
-                        approach_height=carry_z - release_z, retreat_height=carry_z + size - release_z)
-            top = block
-        robot.hold_until_success()  # let the tower come to rest
-        return robot.info
