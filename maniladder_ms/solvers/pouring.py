@@ -1,5 +1,6 @@
-"""Solver phase of the pouring tasks (`deformables.pouring.CupToBowl`): roll a held cup about an axis fixed in
-the hand while steering its measured mouth over the receiving container (PourWaterHand, PourWaterBimanual)."""
+"""Solver phase of the pouring tasks (`tasks.particles.pour_particles.base.CupToBowl`): roll a held cup about an
+axis fixed in the hand while steering its measured mouth over the receiving container (PourWaterHand,
+PourWaterBimanual, PourGrainsHandToCup)."""
 
 from __future__ import annotations
 

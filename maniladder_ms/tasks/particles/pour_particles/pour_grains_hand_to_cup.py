@@ -4,17 +4,14 @@ from __future__ import annotations
 
 from typing import Any
 
-import numpy as np
 import torch
 
 from maniladder_ms.deformables import particles
-from .base import CupToBowl
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.objects import containers
-from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
-from maniladder_ms.solvers.bimanual import READY_ARM_JOINTS, Grasp, close_hands, glide, side_grasp
-from maniladder_ms.solvers.driven import DrivenSolver
-from maniladder_ms.solvers.pouring import steer_roll
+from maniladder_ms.solvers.bimanual import READY_ARM_JOINTS
+
+from .base import CupToBowl
 
 # The left hand pours and the right holds. Both take side grasps, palm level with the container, the finger row
 # upright. The pourer's grasp needs its thumb low, under the glass' grains. For the right Panda that grasp puts
@@ -101,74 +98,3 @@ class PourGrainsHandToCupEnv(CupToBowl, ManiLadderEnv):
         reward += 2 * self.pour_reward(info) * info["cup_held"]
         reward[info["success"]] = self.max_dense_reward
         return reward
-
-
-# Side grasps: the palm normal's yaw, its tilt below the horizontal, which way the finger row runs (the TCP's y
-# along +-z: the pourer's thumb low, the holder's high), the TCP's height above the container's floor, and its
-# shifts along the TCP's x (towards where the fingers start to curl) and along the palm normal (past the axis).
-SIDE_GRASP = {
-    # the glass: LEAP "power"'s fingers with the thumb joints beyond its base only slightly bent ("power"'s 0.6 /
-    # 0.8 / 0.8 pushed the standing glass over by ~30 deg while closing)
-    POURER: dict(yaw=-np.pi / 2, pitch=0.0, up=-1.0, height=0.06, shift=0.04, inwards=0.0,
-                 approach="preshape", close=np.array([0.0, 1.5, 0.6, 0.4] * 3 + [1.6, 0.3, 0.3, 0.3])),
-    # the cup, palm tilted 0.3 rad down: "power"'s fingers and the thumb swung in 1 rad, straight, pressing the
-    # cup's near side below the rim (seeds 106/107/109/110: fingers only held by one fingertip and a flickering
-    # palm contact, the cup counted held on 8 of 15 seeds; a thumb swung 0.6 or curled at its outer joints reached
-    # over the rim and 18-55 % of the grains got in; this thumb: 3/4, thumb 8-38 N, three fingertips 6-14 N).
-    # The hand comes in open: "preshape"'s swung thumb met the cup first and tilted it 17-24 deg. Its row's
-    # lowest finger clears the table at a TCP height of 7.5 cm
-    HOLDER: dict(yaw=np.pi / 2, pitch=0.3, up=-1.0, height=0.075, shift=0.02, inwards=0.035,
-                 approach="open", close=np.array([0.0, 1.5, 0.6, 0.4] * 3 + [1.0, 0.0, 0.0, 0.0])),
-}
-LINE_UP_DISTANCE = 0.1  # along the palm normal, before moving in
-ABOVE = 0.1  # the first target: this far above the line-up point (the ready pose is there)
-# the pourer's thumb swings under its palm before the descent: open, it hangs ~11 cm below the TCP and met the
-# table at the line-up; swung for 5 steps only, the glass then pivoted 30-45 deg in the carry
-PRESHAPE_STEPS = 20
-LIFT = 0.1
-CARRY_STEP = 0.01  # m per control step
-CARRY_BESIDE = 0.08  # the upright glass' axis this far from the cup's, against the pour direction
-# the glass' bottom above the table while carried, and the mouth's height at the end of the roll: with 0.14 /
-# 0.16 the glass and the pourer's fingers hit the holder's hand (held on 1 of 5 seeds), with 0.18 / 0.19 4 of 5
-CARRY_BOTTOM, MOUTH_HEIGHT = 0.18, 0.19
-# rad about the pourer's palm normal (-y): this sign tips the mouth towards the robot (-x), turning the left
-# Panda's joint 7 from -1.5 to ~1.0 rad (the other sign would need -3.9, past its limit)
-POUR_ROLL, POUR_ROLL_STEPS, POUR_HOLD_STEPS = 2.4, 70, 60
-CLEAR = 0.02  # the glass' lower bottom edge clears the cup's rim by this during the roll
-
-
-@register_solver("PourGrainsHandToCup", control_modes=TCP_DELTA_MODES)
-def solve_pour_grains_hand_to_cup(env, seed: int) -> dict:
-    """Both hands line up beside their containers from the ready pose and move in; the holder closes on the
-    cup, the pourer on the glass, lifts it, carries it upright beside the cup and rolls it over the cup."""
-    with DrivenSolver.episode(env, seed) as s:
-        task: PourGrainsHandToCupEnv = env.unwrapped
-        grasps, normals = [], {}
-        for side, vessel in ((HOLDER, task.bowl), (POURER, task.cup)):
-            p, q, normals[side] = side_grasp(vessel.pose.p, SIDE_GRASP[side])
-            grasps.append(Grasp(f"{side}_arm", f"{side}_hand", p, q, -LINE_UP_DISTANCE * normals[side]))
-        s.move({g.arm: (s.above(g.lined_up[0], ABOVE), g.q) for g in grasps}, max_steps=60, pos_tol=0.01)
-        for g, side in zip(grasps, (HOLDER, POURER)):
-            s.set_ee(g.ee, SIDE_GRASP[side]["approach"], steps=0)
-        for _ in range(PRESHAPE_STEPS):
-            s.step()
-        s.move({g.arm: g.lined_up for g in grasps}, max_steps=60)
-        s.move({g.arm: (g.p, g.q) for g in grasps}, max_steps=40, pos_tol=0.003)
-        close_hands(s, {g.ee: SIDE_GRASP[side]["close"] for g, side in zip(grasps, (HOLDER, POURER))})
-        glass = grasps[1]
-        s.move({glass.arm: (s.above(glass.p, LIFT), glass.q)}, max_steps=30)
-        # the roll tips the mouth along palm normal x up: carry the glass to the cup's other side
-        direction = torch.linalg.cross(normals[POURER], torch.tensor([[0.0, 0.0, 1.0]], device=task.device).expand_as(glass.p))
-        held = s.tcp(glass.arm).p - task.cup.pose.p  # the TCP relative to the glass' bottom, as held
-        carry = task.bowl.pose.p - CARRY_BESIDE * direction + held
-        carry[:, 2] = CARRY_BOTTOM + held[:, 2]
-        glide(s, {glass.arm: (s.tcp(glass.arm).p, carry, glass.q)}, step_length=CARRY_STEP)
-        # roll the glass about the palm normal, its mouth steered to MOUTH_HEIGHT over the cup, its bottom edge
-        # clearing the cup's rim
-        end = task.bowl.pose.p.clone()
-        end[:, 2] = MOUTH_HEIGHT
-        rim_z = torch.full((task.num_envs,), task.bowl_shape.inner[-1][0], device=task.device)
-        steer_roll(s, task, glass.arm, normals[POURER], glass.q, end, rim_z, POUR_ROLL, POUR_ROLL_STEPS,
-                   POUR_HOLD_STEPS, CLEAR)
-        s.hold_until_success(max_steps=40)
-        return s.info
