@@ -58,7 +58,7 @@ LEAP_SYNERGIES = {
     # 0.3 at PIP/DIP, index and ring turned 0.1 rad at their side joints towards the middle finger (narrowing the
     # gaps), thumb swung 1.0 under the palm as the dish's fourth side. 40 beans (4 mm) dropped on a palm-up right
     # hand: 36 still on it after 40 steps and a 20 cm carry at 5 mm a step (HandoverBallHands' CRADLE_DISH 27, the
-    # knuckles at 0.9 34; CupBeansHands, session 16)
+    # knuckles at 0.9 34; measured for CupBeansHands)
     "cup": np.array([0.1, 0.6, 0.3, 0.3, 0.0, 0.6, 0.3, 0.3, -0.1, 0.6, 0.3, 0.3, 1.0, 0.0, 0.3, 0.3]),
 }
 # centre of the end face of a LEAP finger's tip (index, middle, ring) in its tip link's frame: the end of

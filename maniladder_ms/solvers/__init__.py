@@ -88,10 +88,6 @@ def find_solver(task_id: str) -> Solver | None:
         module = solver_module(task_id)
         if module is not None:
             importlib.import_module(module)
-        else:  # TRANSITION: a solver not yet moved out of its task module
-            from maniladder_ms.tasks import load
-
-            load(task_id)
     return SOLVERS.get(task_id)
 
 
