@@ -16,6 +16,16 @@ def yaw_of(q: torch.Tensor) -> torch.Tensor:
     return 2 * torch.atan2(q[:, 3], q[:, 0])
 
 
+def matrix_yaw(m: torch.Tensor) -> torch.Tensor:
+    """(b, 3, 3) rotation matrices -> (b,) yaw: the angle about world z of the rotated x axis (seen from above)."""
+    return torch.atan2(m[:, 1, 0], m[:, 0, 0])
+
+
+def wrap_angle(a: torch.Tensor) -> torch.Tensor:
+    """Angles wrapped into [-pi, pi)."""
+    return (a + torch.pi) % (2 * torch.pi) - torch.pi
+
+
 def tilt(actor) -> torch.Tensor:
     """(num_envs,) angle (rad) between the actor's z axis and the world's."""
     q = actor.pose.q

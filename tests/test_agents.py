@@ -15,7 +15,9 @@ from mani_skill.agents.registration import REGISTERED_AGENTS
 import maniladder_ms  # noqa: F401  (registers the agents)
 from maniladder_ms.agents import AGENT_UIDS
 from maniladder_ms.agents.effectors import contact_forces, link_forces
-from maniladder_ms.agents.helpers import LEAP_SYNERGIES, Driver, drive_base_to, hold_action, leap_fingertip
+from maniladder_ms.agents.effectors import leap_fingertip
+from maniladder_ms.solvers.control import Driver, drive_base_to, hold_action
+from maniladder_ms.solvers.postures import LEAP_SYNERGIES
 from maniladder_ms.solvers.driven import DrivenSolver
 from maniladder_ms.agents.gallery import CUBE_HALF, CYLINDER_HALF_LENGTH
 

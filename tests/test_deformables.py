@@ -292,7 +292,7 @@ def test_ee_delta_gripper_picks_up_a_flat_towel_corner(corner):
     """The same pinch with pd_ee_delta_pose (DrivenSolver) on the towel lying flat: the fingers open
     only to a 4 cm gap before coming down (fully open, 8 cm, a finger lands on the corner's
     neighbours and stops the hand 1.5 cm short: 4/8 missed), close, lift 15 cm, hold 60 steps."""
-    from maniladder_ms.agents.helpers import top_down_quat
+    from maniladder_ms.solvers.control import top_down_quat
     from maniladder_ms.solvers.driven import DrivenSolver
 
     rng = np.random.default_rng(corner)

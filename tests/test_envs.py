@@ -123,7 +123,7 @@ def test_state_round_trip_after_50_steps(task_id):
 def test_no_success_at_reset_holding_still_or_acting_randomly(state_env):
     """A rule met without doing the task measures nothing: never success at reset, while the robot holds
     its pose (30 steps) or under uniform random actions (60 steps), on a few seeds."""
-    from maniladder_ms.agents.helpers import hold_action
+    from maniladder_ms.solvers.control import hold_action
 
     base = state_env.unwrapped
     for seed in (0, 1):

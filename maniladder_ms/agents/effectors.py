@@ -41,6 +41,7 @@ import numpy as np
 import torch
 
 from mani_skill.utils import common, sapien_utils
+from mani_skill.utils.geometry.rotation_conversions import quaternion_apply
 
 SINGLE = "main"  # the side name of a single-arm agent's one end effector
 TOUCH_FORCE = 0.05  # N: a link presses on an object above this (LEAP's contact threshold)
@@ -297,3 +298,19 @@ class EndEffectors:
     def is_open(self, side: Optional[str] = None) -> torch.Tensor:
         """(num_envs,) bool: `side` is open (None: every end effector is)."""
         return self._each(side, lambda s: self[s].is_open(), reduce=torch.Tensor.__and__)
+
+
+# centre of the end face of a LEAP finger's tip (index, middle, ring) in its tip link's frame: the end of
+# the tip's collision box (scripts/make_agents.py), the finger running along the link's -y (a left hand,
+# reflected in y, along +y)
+LEAP_TIP_END = (0.0, -0.0495, 0.0145)
+
+
+def leap_fingertip(agent, finger: str = "index", prefix: str = "") -> torch.Tensor:
+    """World position (num_envs, 3) of the end of a LEAP finger (index, middle, ring), where it presses;
+    `prefix` "left_" / "right_" picks a hand of a two-arm agent."""
+    tip = agent.robot.links_map[f"{prefix}leap_{finger}_tip"].pose
+    x, y, z = LEAP_TIP_END
+    end = torch.tensor((x, -y if prefix.startswith("left") else y, z), dtype=tip.p.dtype, device=tip.p.device)
+    end = end.expand_as(tip.p)
+    return tip.p + quaternion_apply(tip.q, end)

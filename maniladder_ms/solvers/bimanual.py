@@ -13,18 +13,15 @@ import torch
 from mani_skill.utils.geometry.rotation_conversions import (axis_angle_to_matrix, matrix_to_quaternion,
                                                             quaternion_to_matrix)
 
-from maniladder_ms.agents.helpers import LEAP_SYNERGIES, top_down_quat
+from maniladder_ms.solvers.control import top_down_quat
+
+from maniladder_ms.solvers.postures import LEAP_SYNERGIES
 
 from .driven import APPROACH_HEIGHT, DrivenSolver
 
 LIFT_STEP = 0.01  # metres per control step of a two-arm lift: both targets rise together
 PRESHAPE_STEPS = 5  # LEAP hands take their preshape once lined up (as DrivenSolver.pick)
 HAND_RAMP_STEPS, HAND_HOLD_STEPS = 40, 8  # Driver.close_hand's slow closing ramp, for several hands at once
-# a LEAP giver's grip for a hand-to-hand pass (HandoverBallHands, HandoverMugHands): fingers further round at the
-# knuckle (j1 2.1), less at PIP/DIP, than "power". Holding a tennis ball 100 steps at the meeting point after the
-# carry (seeds 100-109): power 5/10, [0,1.8,0.6,0.4] 7/10, this 10/10; it also keeps the ball through the roll to
-# palm-up (4/4) where power drops it at 30-60 degrees of tilt
-GIVER_SYNERGY = [0, 2.1, 0.3, 0.2] * 3 + [1.6, 0.6, 0.8, 0.8]
 
 
 @dataclass
@@ -209,7 +206,7 @@ def top_down_carry(s: DrivenSolver, points: dict, yaw: torch.Tensor, lift: float
 
 
 class HandoverSolver(DrivenSolver):
-    """DrivenSolver for LEAP hand-to-hand passes: the left hand (the giver) grasps with `GIVER_SYNERGY`; one arm
+    """DrivenSolver for LEAP hand-to-hand passes: the left hand (the giver) grasps with the "giver" posture; one arm
     can run along a target sequence in the background (`background`: an iterator of {arm: (p, q)}, one item a
     control step) while the solver's phases move the other arm; `move` then waits only for the arms it was given."""
 
@@ -217,7 +214,7 @@ class HandoverSolver(DrivenSolver):
 
     def grasp(self, ee_part: str):
         if ee_part == "left_hand":
-            self.close_hand(ee_part, GIVER_SYNERGY)
+            self.close_hand(ee_part, "giver")
         else:
             super().grasp(ee_part)
 

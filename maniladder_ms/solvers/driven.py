@@ -1,4 +1,4 @@
-"""Closed-loop TCP solvers for every agent (`pd_ee_delta_pose` through `agents.helpers.Driver`).
+"""Closed-loop TCP solvers for every agent (`pd_ee_delta_pose` through `solvers.control.Driver`).
 
 The LEAP hands and the dual-arm agents have no motion planner here; their task solvers servo TCP
 targets with `DrivenSolver` and compose its phases: top-down picks with a gripper or a hand's power
@@ -13,7 +13,7 @@ import torch
 
 from mani_skill.utils.geometry.rotation_conversions import quaternion_apply
 
-from maniladder_ms.agents.helpers import Driver, top_down_quat
+from maniladder_ms.solvers.control import Driver, top_down_quat
 
 from .base import SolverBase
 

@@ -8,7 +8,7 @@ import torch
 
 from mani_skill.utils.geometry.rotation_conversions import quaternion_apply
 
-from maniladder_ms.agents.helpers import top_down_quat
+from maniladder_ms.solvers.control import top_down_quat
 from maniladder_ms.geometry import uprighting
 from maniladder_ms.objects.mug import COASTER_HEIGHT
 

@@ -24,7 +24,8 @@ JOINT_ACC_LIMIT = 4.0
 PRECISE_SETTLE_STEPS = 2
 SETTLE_TOLERANCE = 0.02
 MAX_SETTLE_STEPS = 10
-APPROACH_HEIGHT = 0.08  # metres above a grasp or release pose where the straight descent starts
+PLANNED_APPROACH_HEIGHT = 0.08  # metres above a grasp or release pose where the planned straight descent starts (the
+# closed-loop solvers' driven.APPROACH_HEIGHT is 0.1: another name for another number)
 
 
 class PandaSolver(SolverBase):
@@ -107,13 +108,16 @@ class PandaSolver(SolverBase):
                 break
             self.last = self.planner.follow_path({"position": goal[None]})
 
-    def grip(self, closed: bool, steps: int = 6):
+    def grip(self, closed: bool, part: str = "gripper", steps: int = 6):
+        """Close or open the gripper over `steps` steps (the signature of `Driver.grip`: the Panda has one part)."""
+        if part != "gripper":
+            raise ValueError(f"the single Panda has one end effector, 'gripper', not {part!r}")
         self.last = self.planner.close_gripper(t=steps) if closed else self.planner.open_gripper(t=steps)
 
     def hold_still(self):
         self.grip(closed=self.planner.gripper_state == self.planner.CLOSED, steps=1)
 
-    def pick(self, grasp: sapien.Pose, approach_height: float = APPROACH_HEIGHT, lift_height: float = 0.1,
+    def pick(self, grasp: sapien.Pose, approach_height: float = PLANNED_APPROACH_HEIGHT, lift_height: float = 0.1,
              approach_from=None):
         """Grasp at `grasp` from `approach_from` (a world offset from it; default: `approach_height` above),
         coming in along a straight line, close, lift by `lift_height`."""
@@ -123,7 +127,7 @@ class PandaSolver(SolverBase):
         self.grip(closed=True)
         self.move(sapien.Pose([0, 0, lift_height]) * grasp)
 
-    def place(self, release: sapien.Pose, approach_height: float = APPROACH_HEIGHT, retreat_height: float = 0.06):
+    def place(self, release: sapien.Pose, approach_height: float = PLANNED_APPROACH_HEIGHT, retreat_height: float = 0.06):
         self.move(sapien.Pose([0, 0, approach_height]) * release)
         self.move(release, settle_steps=PRECISE_SETTLE_STEPS)
         self.grip(closed=False)

@@ -6,6 +6,11 @@ from __future__ import annotations
 
 import numpy as np
 
+import torch
+
+from maniladder_ms.solvers.bimanual import Grasp, side_grasp
+from maniladder_ms.solvers.postures import LEAP_SYNERGIES
+
 # the approach: the hand goes LINE_UP_ABOVE over its line-up point (the ready poses are there), LINE_UP_DISTANCE
 # out from the grasp along the palm normal, takes the grasp's "approach" synergy over SIDE_PRESHAPE_STEPS, comes
 # down to the line-up point and moves in
@@ -21,4 +26,11 @@ SIDE_PRESHAPE_STEPS = 20
 # on the way in; LEAP "power"'s fingers with the thumb joints beyond its base only slightly bent ("power"'s 0.6 /
 # 0.8 / 0.8 pushed the standing glass over by ~30 deg while closing)
 LEFT_THUMB_LOW_GRASP = dict(yaw=-np.pi / 2, pitch=0.0, up=-1.0, height=0.06, shift=0.04, inwards=0.0,
-                            approach="preshape", close=np.array([0.0, 1.5, 0.6, 0.4] * 3 + [1.6, 0.3, 0.3, 0.3]))
+                            approach="preshape", close=LEAP_SYNERGIES["side_power"])
+
+
+def lined_up_side_grasp(arm: str, ee: str, vessel_p: torch.Tensor, spec: dict) -> tuple[Grasp, torch.Tensor]:
+    """(the `Grasp` of `arm` / `ee`, the palm normal) for the side grasp `spec` (`bimanual.side_grasp`) of an upright
+    container standing at `vessel_p`, lined up `LINE_UP_DISTANCE` out from it along the palm normal."""
+    p, q, normal = side_grasp(vessel_p, spec)
+    return Grasp(arm, ee, p, q, -LINE_UP_DISTANCE * normal), normal

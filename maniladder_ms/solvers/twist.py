@@ -12,7 +12,8 @@ from __future__ import annotations
 
 import torch
 
-from maniladder_ms.agents.helpers import top_down_quat
+from maniladder_ms.geometry import matrix_yaw
+from maniladder_ms.solvers.control import top_down_quat
 from mani_skill.utils.geometry.rotation_conversions import quaternion_apply, quaternion_invert, quaternion_to_matrix
 
 from .driven import DrivenSolver
@@ -26,8 +27,7 @@ BACK_MARGIN = 0.3  # rad: the hand turns back for the rest of the turn plus this
 
 def tcp_yaw(s: DrivenSolver, arm: str) -> torch.Tensor:
     """(n,) yaw of a top-down TCP: the angle of its x axis about world z."""
-    r = quaternion_to_matrix(s.tcp(arm).q)
-    return torch.atan2(r[:, 1, 0], r[:, 0, 0])
+    return matrix_yaw(quaternion_to_matrix(s.tcp(arm).q))
 
 
 def _j7(s: DrivenSolver, arm: str) -> torch.Tensor:

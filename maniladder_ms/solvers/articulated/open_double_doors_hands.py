@@ -16,7 +16,7 @@ import torch
 
 from mani_skill.utils.structs.pose import Pose
 
-from maniladder_ms.agents.helpers import top_down_quat
+from maniladder_ms.solvers.control import top_down_quat
 from maniladder_ms.objects.cabinet import DOOR_SIDE, DOORS
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.bimanual import Grasp, grasp_together, reach

@@ -11,7 +11,9 @@ from __future__ import annotations
 
 import torch
 
-from maniladder_ms.agents.helpers import leap_fingertip, top_down_quat
+from maniladder_ms.agents.effectors import leap_fingertip
+
+from maniladder_ms.solvers.control import top_down_quat
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver
 from maniladder_ms.tasks.articulated.press_button_hand import PressButtonHandEnv

@@ -20,7 +20,10 @@ import torch
 
 from mani_skill.utils.geometry.rotation_conversions import quaternion_apply, quaternion_invert
 
-from maniladder_ms.agents.helpers import leap_fingertip, top_down_quat, wrap_angle
+from maniladder_ms.agents.effectors import leap_fingertip
+
+from maniladder_ms.geometry import wrap_angle
+from maniladder_ms.solvers.control import top_down_quat
 from maniladder_ms.geometry import yaw_of
 from maniladder_ms.objects.controls import turn_direction, valve_angle
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver

@@ -9,7 +9,9 @@ push its tip into the block's top centre, then pull it back out.
 
 from __future__ import annotations
 
-from maniladder_ms.agents.helpers import leap_fingertip, top_down_quat
+from maniladder_ms.agents.effectors import leap_fingertip
+
+from maniladder_ms.solvers.control import top_down_quat
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver
 from maniladder_ms.tasks.clay.poke_clay_hand import PokeClayHandEnv

@@ -14,7 +14,7 @@ import numpy as np
 import sapien
 
 from maniladder_ms.solvers import register_solver
-from maniladder_ms.solvers.panda import APPROACH_HEIGHT, PRECISE_SETTLE_STEPS, PandaSolver
+from maniladder_ms.solvers.panda import PLANNED_APPROACH_HEIGHT, PRECISE_SETTLE_STEPS, PandaSolver
 from maniladder_ms.tasks.cloth.flatten_towel_corner import FlattenTowelCornerEnv
 
 GRASP_ABOVE = 0.006  # the TCP this far above the corner particle's centre: the pads pinch its sides, clear of the sheet
@@ -31,7 +31,7 @@ def solve_flatten_towel_corner(env, seed: int) -> dict:
         goal = task.corner_goal()[0].cpu().numpy()
         way = goal[:2] - corner[:2]
         yaw = robot.closest_grasp_yaw(float(np.arctan2(way[1], way[0])) + np.pi / 2)
-        robot.move(sapien.Pose([0, 0, APPROACH_HEIGHT]) * robot.top_down_pose(corner, yaw))
+        robot.move(sapien.Pose([0, 0, PLANNED_APPROACH_HEIGHT]) * robot.top_down_pose(corner, yaw))
         grasp = robot.top_down_pose(task.corner_point()[0].cpu().numpy() + [0, 0, GRASP_ABOVE], yaw)
         robot.move(grasp, settle_steps=PRECISE_SETTLE_STEPS)
         robot.grip(closed=True)

@@ -19,10 +19,11 @@ from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.bimanual import close_hands, glide, tcp_quat
 from maniladder_ms.solvers.driven import DrivenSolver
 from maniladder_ms.tasks.rigid.carry_box_to_shelf_hands import CLEARANCE, SIDES, CarryBoxToShelfHandsEnv
+from maniladder_ms.solvers.postures import LEAP_SYNERGIES
 
 LINE_UP = 0.06  # the palms line up this far out from the sides before moving in
 SQUEEZE = 0.01  # each TCP's target this far past the carton's side: the arms' stiffness presses the palms on
-CURL = np.array([0.0, 0.5, 0.0, 0.0] * 3 + [0.0, 0.0, 0.0, 0.0])  # fingers bent at their knuckles onto the side
+CURL = LEAP_SYNERGIES["knuckle_curl"]
 SET_DOWN_STEP = 0.006  # m a control step of the set-down
 SET_DOWN_GAP = 0.004  # the carton's bottom this far above the shelf's top when the hands let go
 RELEASE_WAIT = 5  # control steps the opened hands rest before moving out

@@ -18,7 +18,8 @@ import torch
 from mani_skill.utils.geometry.rotation_conversions import quaternion_apply
 from mani_skill.utils.structs.pose import Pose
 
-from maniladder_ms.agents.helpers import top_down_quat, wrap_angle
+from maniladder_ms.geometry import wrap_angle
+from maniladder_ms.solvers.control import top_down_quat
 from maniladder_ms.geometry import yaw_of, yaw_quat
 from maniladder_ms.objects.mug import rim_point
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver

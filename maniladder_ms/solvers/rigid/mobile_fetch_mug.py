@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from maniladder_ms.agents.helpers import drive_base_to, top_down_quat
+from maniladder_ms.solvers.control import drive_base_to, top_down_quat
 from maniladder_ms.geometry import yaw_of
 from maniladder_ms.objects.mug import rim_point
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver

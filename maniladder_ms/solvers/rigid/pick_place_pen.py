@@ -13,7 +13,7 @@ import numpy as np
 
 from maniladder_ms.geometry import actor_yaw
 from maniladder_ms.solvers import register_solver
-from maniladder_ms.solvers.panda import APPROACH_HEIGHT, PandaSolver
+from maniladder_ms.solvers.panda import PLANNED_APPROACH_HEIGHT, PandaSolver
 from maniladder_ms.tasks.rigid.pick_place_pen import PickPlacePenEnv
 
 RELEASE_GAP = 0.01  # the pen's underside this far above the tray's base when the gripper opens
@@ -34,7 +34,7 @@ def solve_pick_place_pen(env, seed: int) -> dict:
         turn = (tray_yaw - pen_yaw + np.pi / 2) % np.pi - np.pi / 2
         release_z = task.tray_base_thickness + task.pen_radius + RELEASE_GAP
         # the pen lies the same way in the tray after a half turn: take whichever wrist yaw has a straight path
-        above_tray = [tray_p[0], tray_p[1], release_z + APPROACH_HEIGHT]
+        above_tray = [tray_p[0], tray_p[1], release_z + PLANNED_APPROACH_HEIGHT]
         place_yaw = robot.straight_line_yaw(above_tray, [grasp_yaw + turn, grasp_yaw + turn - np.pi, grasp_yaw + turn + np.pi])
         robot.place(robot.top_down_pose([tray_p[0], tray_p[1], release_z], place_yaw))
         robot.hold_until_success()

@@ -18,7 +18,7 @@ import torch
 
 from mani_skill.utils.geometry.rotation_conversions import quaternion_apply
 
-from maniladder_ms.agents.helpers import top_down_quat
+from maniladder_ms.solvers.control import top_down_quat
 from maniladder_ms.geometry import yaw_of
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.driven import DrivenSolver

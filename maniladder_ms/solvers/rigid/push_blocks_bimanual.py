@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import torch
 
-from maniladder_ms.agents.helpers import top_down_quat
+from maniladder_ms.solvers.control import top_down_quat
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.bimanual import glide
 from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver

@@ -10,7 +10,7 @@ import torch
 from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.agents.effectors import TOUCH_FORCE, link_forces
-from maniladder_ms.agents.helpers import leap_fingertip
+from maniladder_ms.agents.effectors import leap_fingertip
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.geometry import yaw_quat
 from maniladder_ms.objects.controls import ButtonShape, build_push_button, button_travel

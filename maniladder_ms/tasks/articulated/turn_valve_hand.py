@@ -9,7 +9,7 @@ import torch
 
 from mani_skill.utils.structs.pose import Pose
 
-from maniladder_ms.agents.helpers import leap_fingertip
+from maniladder_ms.agents.effectors import leap_fingertip
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.geometry import yaw_quat
 from maniladder_ms.objects.controls import ValveShape, build_turn_arrow, build_wheel_valve, turn_direction, valve_angle

@@ -8,7 +8,7 @@ import numpy as np
 import torch
 
 from maniladder_ms.agents.effectors import TOUCH_FORCE, link_forces
-from maniladder_ms.agents.helpers import leap_fingertip
+from maniladder_ms.agents.effectors import leap_fingertip
 from maniladder_ms.deformables import clay
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.tasks.clay.base import ClayTask

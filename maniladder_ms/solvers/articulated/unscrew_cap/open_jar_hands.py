@@ -16,10 +16,12 @@ from __future__ import annotations
 import numpy as np
 
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
-from maniladder_ms.solvers.bimanual import Grasp, close_hands, side_grasp
+from maniladder_ms.solvers.bimanual import close_hands
 from maniladder_ms.solvers.driven import DrivenSolver
 from maniladder_ms.solvers.twist import is_wound_up, unscrew
 from maniladder_ms.tasks.articulated.unscrew_cap.open_jar_hands import HOLDER, TWISTER, OpenJarHandsEnv
+from maniladder_ms.solvers.postures import LEAP_SYNERGIES
+from maniladder_ms.solvers.side_grasps import LINE_UP_ABOVE, SIDE_PRESHAPE_STEPS, lined_up_side_grasp
 
 from .phases import FOLLOW, WIND_UP_STEPS, wind_up_above_lid
 
@@ -29,24 +31,13 @@ from .phases import FOLLOW, WIND_UP_STEPS, wind_up_above_lid
 # twisted; with the palm on it, 4-7 deg). The grasp centre 8 cm up the 16 cm body (seeds 100-149: 43/50 there,
 # 37/50 at 9.5 cm); the ring finger stays open (curled, it reached the lid)
 HOLD_GRASP = dict(yaw=-np.pi / 2, pitch=0.0, up=-1.0, height=0.08, shift=0.04, inwards=0.045,
-                  approach="preshape", close=np.array([0.0, 1.5, 0.6, 0.4] * 2 + [0.0] * 4 + [1.6, 0.3, 0.3, 0.3]))
-LINE_UP_DISTANCE = 0.1  # m out from the grasp (along the palm normal) where the holding hand lines up
-ABOVE = 0.1  # its first target is this far above the line-up point (the ready pose is there)
-HOLD_PRESHAPE_STEPS = 20  # control steps the holding hand goes to ABOVE before it comes down to the line-up point
+                  approach="preshape", close=LEAP_SYNERGIES["side_power_ring_open"])
 READY_POS_TOL = 0.01  # m: both arms are at their targets
 MOVE_IN_STEPS, MOVE_IN_POS_TOL = 40, 0.003
 HOLD_CLOSE_STEPS = 20  # control steps the holding hand closes over
 
-# The rim grasp: index and middle fingers bent down at their knuckles, the thumb swung down from the palm's wrist
-# end opposite them, all three tips at one height, the lid between them (a top-down pinch on its rim, the palm
-# ~9 cm above it); it closes by bending the finger knuckles and the thumb's tip joint towards each other. The
-# thumb opens only to joint 14 at -0.1 (its pad ~0.5 cm off the rim): opened further it rested on the holding
-# hand's ring-finger knuckle, which stands 6-7 cm from the lid's axis up to near the lid top. On a clamped jar
-# its close turns the lid 0.02-0.06 rad and it holds the lid through a stroke at ~0.04 rad/step; it turns the lid
-# ~1:1 with the wrist, and the opening hand, the flat one's swinging thumb no longer dragging the lid, opens to
-# RIM_OPEN (seeds 100-109: 8/10, the flat hand 6/10)
-RIM_OPEN = np.array([0.0, 1.45, 0.0, 0.0, 0.0, 1.45, 0.0, 0.0, 0.0, 0.2, 0.2, 0.2, 1.67, 0.0, -0.1, 0.0])
-RIM_CLOSE = np.array([0.0, 1.75, 0.0, 0.0, 0.0, 1.75, 0.0, 0.0, 0.0, 0.2, 0.2, 0.2, 1.67, 0.0, 0.3, 0.0])
+RIM_OPEN = LEAP_SYNERGIES["rim_open"]
+RIM_CLOSE = LEAP_SYNERGIES["rim_close"]
 RIM_OFFSET = (-0.0205, 0.007, 0.0395)  # the lid's mid-height centre in the TCP frame where the rim grasp closes
 RAMP_STEPS = 40  # control steps the rim grasp closes over (the held jar gives)
 # the arm's IK-step controller left the TCP 1.0 cm high and 0.9 cm off under the hand's load: an integral on the
@@ -68,16 +59,15 @@ def solve_open_jar_hands(env, seed: int) -> dict:
     then rim-grasp twist strokes until the lid is off."""
     with DrivenSolver.episode(env, seed) as s:
         task: OpenJarHandsEnv = env.unwrapped
-        p, q, normal = side_grasp(task.jar.pose.p, HOLD_GRASP)
-        hold = Grasp(f"{HOLDER}_arm", f"{HOLDER}_hand", p, q, -LINE_UP_DISTANCE * normal)
+        hold, _ = lined_up_side_grasp(f"{HOLDER}_arm", f"{HOLDER}_hand", task.jar.pose.p, HOLD_GRASP)
         twist_arm = f"{TWISTER}_arm"
         s.set_ee(hold.ee, HOLD_GRASP["approach"], steps=0)
         for k in range(WIND_UP_STEPS):
-            target = (s.above(hold.lined_up[0], ABOVE), hold.q) if k < HOLD_PRESHAPE_STEPS else hold.lined_up
+            target = (s.above(hold.lined_up[0], LINE_UP_ABOVE), hold.q) if k < SIDE_PRESHAPE_STEPS else hold.lined_up
             errs = s.step({hold.arm: target, twist_arm: wind_up_above_lid(s, task, twist_arm, RIM_OFFSET)})
             ep, _ = errs[twist_arm]
             hp, _ = errs[hold.arm]
-            if (k >= HOLD_PRESHAPE_STEPS and bool((ep < READY_POS_TOL).all() and (hp < READY_POS_TOL).all())
+            if (k >= SIDE_PRESHAPE_STEPS and bool((ep < READY_POS_TOL).all() and (hp < READY_POS_TOL).all())
                     and is_wound_up(s, twist_arm)):
                 break
         s.move({hold.arm: (hold.p, hold.q)}, max_steps=MOVE_IN_STEPS, pos_tol=MOVE_IN_POS_TOL)

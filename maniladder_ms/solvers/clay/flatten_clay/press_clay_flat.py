@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import torch
 
-from maniladder_ms.agents.helpers import top_down_quat
+from maniladder_ms.solvers.control import top_down_quat
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.clay.flatten_clay.phases import flat_with_margin
 from maniladder_ms.solvers.driven import DrivenSolver

@@ -16,7 +16,7 @@ import numpy as np
 import sapien
 
 from maniladder_ms.solvers import register_solver
-from maniladder_ms.solvers.panda import APPROACH_HEIGHT, PRECISE_SETTLE_STEPS, PandaSolver
+from maniladder_ms.solvers.panda import PLANNED_APPROACH_HEIGHT, PRECISE_SETTLE_STEPS, PandaSolver
 from maniladder_ms.tasks.cloth.fold_towel.fold_towel_in_half import FoldTowelInHalfEnv
 
 GRASP_ABOVE = 0.003  # the TCP this far above a corner particle's centre: the pads pinch its sides, clear of the sheet
@@ -40,7 +40,7 @@ def _pinch(robot: PandaSolver, task: FoldTowelInHalfEnv, i: int, inner: int, res
         diagonal = points[inner, :2] - points[i, :2]
         yaw = float(np.arctan2(diagonal[1], diagonal[0])) + np.pi / 2
         yaw = rest_yaw + (yaw - rest_yaw + np.pi / 2) % np.pi - np.pi / 2  # the last joint kept mid-range
-        robot.move(sapien.Pose([0, 0, APPROACH_HEIGHT]) * robot.top_down_pose(points[i], yaw))
+        robot.move(sapien.Pose([0, 0, PLANNED_APPROACH_HEIGHT]) * robot.top_down_pose(points[i], yaw))
         robot.planner.open_gripper(t=4, gripper_state=PINCH_OPENING)
         grasp = robot.top_down_pose(task.towel.positions()[0, i].cpu().numpy() + [0, 0, GRASP_ABOVE], yaw)
         robot.move(grasp, settle_steps=PRECISE_SETTLE_STEPS)

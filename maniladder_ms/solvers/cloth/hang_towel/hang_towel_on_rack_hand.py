@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from maniladder_ms.agents.helpers import LEAP_SYNERGIES
+from maniladder_ms.solvers.postures import LEAP_SYNERGIES
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.bimanual import glide
 from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver, SCISSOR_RAMP_STEPS

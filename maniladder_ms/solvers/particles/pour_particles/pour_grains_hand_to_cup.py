@@ -16,11 +16,12 @@ import numpy as np
 import torch
 
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
-from maniladder_ms.solvers.bimanual import Grasp, close_hands, glide, side_grasp
+from maniladder_ms.solvers.bimanual import close_hands, glide
 from maniladder_ms.solvers.driven import DrivenSolver
 from maniladder_ms.solvers.pouring import steer_roll
-from maniladder_ms.solvers.side_grasps import LEFT_THUMB_LOW_GRASP, LINE_UP_ABOVE, LINE_UP_DISTANCE, SIDE_PRESHAPE_STEPS
+from maniladder_ms.solvers.side_grasps import LEFT_THUMB_LOW_GRASP, LINE_UP_ABOVE, SIDE_PRESHAPE_STEPS, lined_up_side_grasp
 from maniladder_ms.tasks.particles.pour_particles.pour_grains_hand_to_cup import HOLDER, POURER, PourGrainsHandToCupEnv
+from maniladder_ms.solvers.postures import LEAP_SYNERGIES
 
 # Side grasps: the palm normal's yaw, its tilt below the horizontal, which way the finger row runs (the TCP's y
 # along +-z: the pourer's thumb low, the holder's high), the TCP's height above the container's floor, and its
@@ -34,7 +35,7 @@ SIDE_GRASP = {
     # The hand comes in open: "preshape"'s swung thumb met the cup first and tilted it 17-24 deg. Its row's
     # lowest finger clears the table at a TCP height of 7.5 cm
     HOLDER: dict(yaw=np.pi / 2, pitch=0.3, up=-1.0, height=0.075, shift=0.02, inwards=0.035,
-                 approach="open", close=np.array([0.0, 1.5, 0.6, 0.4] * 3 + [1.0, 0.0, 0.0, 0.0])),
+                 approach="open", close=LEAP_SYNERGIES["side_power_thumb_straight"]),
 }
 LIFT = 0.1
 CARRY_STEP = 0.01  # m per control step
@@ -56,8 +57,8 @@ def solve_pour_grains_hand_to_cup(env, seed: int) -> dict:
         task: PourGrainsHandToCupEnv = env.unwrapped
         grasps, normals = [], {}
         for side, vessel in ((HOLDER, task.bowl), (POURER, task.cup)):
-            p, q, normals[side] = side_grasp(vessel.pose.p, SIDE_GRASP[side])
-            grasps.append(Grasp(f"{side}_arm", f"{side}_hand", p, q, -LINE_UP_DISTANCE * normals[side]))
+            grasp, normals[side] = lined_up_side_grasp(f"{side}_arm", f"{side}_hand", vessel.pose.p, SIDE_GRASP[side])
+            grasps.append(grasp)
         s.move({g.arm: (s.above(g.lined_up[0], LINE_UP_ABOVE), g.q) for g in grasps}, max_steps=60, pos_tol=0.01)
         for g, side in zip(grasps, (HOLDER, POURER)):
             s.set_ee(g.ee, SIDE_GRASP[side]["approach"], steps=0)

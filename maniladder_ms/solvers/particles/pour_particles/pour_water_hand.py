@@ -14,11 +14,12 @@ from __future__ import annotations
 import numpy as np
 
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
-from maniladder_ms.solvers.bimanual import close_hands, glide, side_grasp
+from maniladder_ms.solvers.bimanual import close_hands, glide
 from maniladder_ms.solvers.driven import DrivenSolver
 from maniladder_ms.solvers.pouring import steer_roll
-from maniladder_ms.solvers.side_grasps import LINE_UP_ABOVE, LINE_UP_DISTANCE, SIDE_PRESHAPE_STEPS
+from maniladder_ms.solvers.side_grasps import LINE_UP_ABOVE, SIDE_PRESHAPE_STEPS, lined_up_side_grasp
 from maniladder_ms.tasks.particles.pour_particles.pour_water_hand import PourWaterHandEnv
+from maniladder_ms.solvers.postures import LEAP_SYNERGIES
 
 # The side grasp (`side_grasp`): palm normal along +y, level, the finger row upright with the thumb high (TCP y
 # along -z for this right hand), "preshape" on the way in as PourGrainsHandToCup's pourer. Closer in and more
@@ -29,7 +30,7 @@ from maniladder_ms.tasks.particles.pour_particles.pour_water_hand import PourWat
 # (none lost on seeds 100-109). Either change alone: 8 cm in with the old curl 2/4 (17-51 deg), the curl alone 3/4
 # (55-112 deg, one dropped)
 GRASP = dict(yaw=np.pi / 2, pitch=0.0, up=-1.0, height=0.055, shift=0.04, inwards=0.08, approach="preshape",
-             close=np.array([0.0, 1.5, 1.0, 1.0] * 3 + [1.6, 0.6, 0.6, 0.6]))
+             close=LEAP_SYNERGIES["side_wrap"])
 LIFT = 0.1
 CARRY_STEP = 0.01
 CARRY_BESIDE = 0.09  # the upright cup's axis this far from the bowl's, against the pour direction (+x)
@@ -46,8 +47,8 @@ def solve_pour_water_hand(env, seed: int) -> dict:
     to the bowl's near (-x) side and roll it about the palm normal, the mouth steered over the bowl's centre."""
     with DrivenSolver.episode(env, seed) as s:
         task: PourWaterHandEnv = env.unwrapped
-        p, q, normal = side_grasp(task.cup.pose.p, GRASP)
-        lined = p - LINE_UP_DISTANCE * normal
+        grasp, normal = lined_up_side_grasp("arm", "hand", task.cup.pose.p, GRASP)
+        (p, q), (lined, _) = (grasp.p, grasp.q), grasp.lined_up
         s.move({"arm": (s.above(lined, LINE_UP_ABOVE), q)}, max_steps=40, pos_tol=0.01)
         s.set_ee("hand", GRASP["approach"], steps=0)
         for _ in range(SIDE_PRESHAPE_STEPS):  # the thumb swings in before the hand moves down and in

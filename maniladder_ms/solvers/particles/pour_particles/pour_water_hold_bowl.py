@@ -16,7 +16,7 @@ import torch
 
 from mani_skill.utils.geometry.rotation_conversions import axis_angle_to_quaternion, quaternion_multiply
 
-from maniladder_ms.agents.helpers import top_down_quat
+from maniladder_ms.solvers.control import top_down_quat
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.bimanual import Grasp, grasp_together, reach, tcp_quat
 from maniladder_ms.solvers.driven import DrivenSolver

@@ -24,12 +24,15 @@ import torch
 from mani_skill.utils.geometry.rotation_conversions import (axis_angle_to_matrix, matrix_to_quaternion, quaternion_apply,
                                                             quaternion_to_matrix)
 
-from maniladder_ms.agents.helpers import LEAP_SYNERGIES, leap_fingertip, top_down_quat
+from maniladder_ms.agents.effectors import leap_fingertip
+
+from maniladder_ms.solvers.control import top_down_quat
+
+from maniladder_ms.solvers.postures import LEAP_SYNERGIES
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
-from maniladder_ms.solvers.bimanual import (HandoverSolver, close_hands, glide, glide_targets, roll_targets, side_grasp,
-                                            tcp_quat)
+from maniladder_ms.solvers.bimanual import HandoverSolver, close_hands, glide, glide_targets, roll_targets, tcp_quat
 from maniladder_ms.solvers.driven import DrivenSolver
-from maniladder_ms.solvers.side_grasps import LEFT_THUMB_LOW_GRASP, LINE_UP_ABOVE, LINE_UP_DISTANCE, SIDE_PRESHAPE_STEPS
+from maniladder_ms.solvers.side_grasps import LEFT_THUMB_LOW_GRASP, LINE_UP_ABOVE, SIDE_PRESHAPE_STEPS, lined_up_side_grasp
 from maniladder_ms.tasks.particles.scoop_beans.cup_beans_hands import (TRAY_FLOOR, TRAY_INNER, TRAY_WALL,
                                                                        CupBeansHandsEnv)
 
@@ -93,11 +96,7 @@ CUP_CARRY_STEP = 0.01  # m per control step carrying the held cup
 # rim (the held cup pushed 0.5-3.5 cm down in the grasp) for about one more bean delivered; at 3 cm no touch
 POUR_LIP_OVER_RIM = 0.03
 POUR_TILT, POUR_TILT_STEPS, POUR_HOLD_STEPS = np.deg2rad(60.0), 90, 30
-# during the tilt the middle finger opens flat, the index and ring half ("cup"'s knuckles 0.6 / PIP-DIP 0.3 halved),
-# low walls funnelling the beans onto the middle finger (the 7 cm mouth is narrower than the 12.6 cm hand); kept in
-# "cup" the curl hooks the beans in at any tilt (tilted to 70 deg, 9 of 21 still on it). Of 15 beans in the palm
-# this delivers 11-13 (seeds 100-104); index and ring curled to 0.9 / 0.5 6-8, flat 8-11
-POUR_HAND = np.array([0.1, 0.3, 0.15, 0.15, 0.0, 0.0, 0.0, 0.0, -0.1, 0.3, 0.15, 0.15, 1.0, 0.0, 0.3, 0.3])
+POUR_HAND = LEAP_SYNERGIES["pour_flat"]
 
 
 def palm_up_quat(n: int, device, tilt: float = PALM_TILT) -> torch.Tensor:
@@ -187,8 +186,8 @@ def left_takes_cup(s: DrivenSolver, task: CupBeansHandsEnv):
     """From the sweep's end over the ledge, the left moves level `LEFT_CLEAR_Y` away (+y) turning to its side grasp,
     goes above the line-up point for it beside the cup, comes in, closes, lifts the cup and carries it upright to
     `CUP_HOLD_AT`."""
-    p, q, normal = side_grasp(task.cup.pose.p, CUP_GRASP)
-    lined_up = p - LINE_UP_DISTANCE * normal
+    grasp, _ = lined_up_side_grasp("left_arm", "left_hand", task.cup.pose.p, CUP_GRASP)
+    (p, q), (lined_up, _) = (grasp.p, grasp.q), grasp.lined_up
     clear = s.tcp("left_arm").p + torch.tensor([0.0, LEFT_CLEAR_Y, 0.0], device=task.device)
     s.move({"left_arm": (clear, q)}, max_steps=40, pos_tol=0.02)
     s.move({"left_arm": (s.above(lined_up, LINE_UP_ABOVE), q)}, max_steps=80, pos_tol=0.01)

@@ -2,7 +2,7 @@
 top-down and holds it up; the right hand, rolled palm-up, comes up under it and takes it from below (the "cradle").
 
 1. The right rolls palm-up beside the meeting point in the background (`roll_targets`) while the left picks the
-   ball top-down (GIVER_SYNERGY, `solvers.bimanual`) and carries it to MEET.
+   ball top-down (the "giver" posture, `solvers.postures`) and carries it to MEET.
 2. The right comes up under the ball (a 4.5 mm gap, CRADLE_BALL_IN_TAKER), the last CRADLE_APPROACH straight up,
    and raises a low dish (CRADLE_DISH).
 3. The left relaxes: its joint targets go to its measured joint positions (no squeeze).
@@ -17,7 +17,9 @@ import torch
 
 from mani_skill.utils.geometry.rotation_conversions import quaternion_to_matrix
 
-from maniladder_ms.agents.helpers import LEAP_SYNERGIES, top_down_quat
+from maniladder_ms.solvers.control import top_down_quat
+
+from maniladder_ms.solvers.postures import LEAP_SYNERGIES
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.bimanual import HandoverSolver, glide, roll_targets
 from maniladder_ms.tasks.rigid.handover.handover_ball_hands import HandoverBallHandsEnv
@@ -32,7 +34,7 @@ MEET = (-0.1, 0.02, 0.36)  # left TCP during the handover: high enough for the p
 TAKER_ROLL_OFFSET = (0.0, -0.2, -0.12)  # where the right turns palm-up: clear of the ball and the left hand
 
 
-# The giver holds the ball top-down with GIVER_SYNERGY: its contacts (index tip, middle tip, thumb tip) all sit at or
+# The giver holds the ball top-down with the "giver" posture: its contacts (index tip, middle tip, thumb tip) all sit at or
 # above the ball's equator (measured in the ball frame: index +0.007, middle +0.015, thumb +0.031 m), so the lower
 # hemisphere is free for a palm-up taker. The swap that works: the taker's palm comes up under the ball with a gap,
 # the giver's joint targets are set to their MEASURED positions (its ~30 N squeeze drops to ~1 N with no finger
@@ -58,9 +60,7 @@ CRADLE_TAKER_CLOSE_STEPS = 30  # ... while the taker ramps to its grip (20: 1/10
 CRADLE_GIVER_RISE = 0.005  # metres a control step, from the first step of the swap, up to CRADLE_GIVER_LIFT
 CRADLE_GIVER_LIFT = 0.08
 CRADLE_SWAP_STEPS = 60
-# the further curl for a ball left on the palm with no finger on it: holds it with the ring tip (12 N) against the
-# palm (13 N), where [0, 1.5, 1.4, 1.2] flings it off (picked on seeds 100-149: docs/tasks/HandoverBallHands.md)
-CRADLE_SQUEEZE = [0, 1.9, 1.0, 0.8] * 3 + [1.6, 0.6, 0.8, 0.8]
+CRADLE_SQUEEZE = LEAP_SYNERGIES["cradle_squeeze"]
 ON_PALM = 0.1  # m: the ball counts as on the right palm within this of its TCP
 
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from maniladder_ms.agents.helpers import top_down_quat
+from maniladder_ms.solvers.control import top_down_quat
 from maniladder_ms.geometry import yaw_of
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.bimanual import Grasp, hand_over, line_up, tcp_quat

@@ -25,7 +25,9 @@ import torch
 
 from mani_skill.utils.geometry.rotation_conversions import quaternion_apply, quaternion_multiply
 
-from maniladder_ms.agents.helpers import leap_fingertip, top_down_quat
+from maniladder_ms.agents.effectors import leap_fingertip
+
+from maniladder_ms.solvers.control import top_down_quat
 from maniladder_ms.geometry import tilt, uprighting
 from maniladder_ms.objects.mug import COASTER_HEIGHT
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver

@@ -8,6 +8,7 @@ import torch
 
 from mani_skill.utils.structs.pose import Pose
 
+from maniladder_ms.geometry import matrix_yaw
 from maniladder_ms.tasks.rigid.insert_peg.base import InsertPegTask
 
 GRASP_BELOW_TOP = 0.025  # the TCP this far below the peg's top face: the finger pads hold its upper end
@@ -21,10 +22,6 @@ FLOOR_TOL = 0.001  # m: the descent is done once the lower end is within this of
 BACK_OFF = 0.06  # m the open gripper rises after letting go
 
 
-def _yaw_in(m: torch.Tensor) -> torch.Tensor:
-    return torch.atan2(m[:, 1, 0], m[:, 0, 0])
-
-
 def peg_in_hand(task: InsertPegTask, ee_side: str | None) -> Pose:
     """The peg's pose in the TCP frame, measured now."""
     return task.ee.tcp(ee_side).inv() * task.peg.pose
@@ -35,7 +32,7 @@ def peg_goal_tcp(task: InsertPegTask, peg_in_tcp: Pose, tip_height: float):
     its lower end `tip_height` above the rim (along the axis), its faces along the hole's walls (of the four
     such yaws the nearest to the peg's now). The block's pose is read now: the goal follows a moving block."""
     peg_in_block = (task.block.pose.inv() * task.peg.pose).to_transformation_matrix()
-    turns = torch.round(_yaw_in(peg_in_block) / (np.pi / 2)) * (np.pi / 2)
+    turns = torch.round(matrix_yaw(peg_in_block) / (np.pi / 2)) * (np.pi / 2)
     n = task.num_envs
     local_p = torch.zeros(n, 3, device=task.device)
     local_p[:, 2] = task.hole.rim_height + tip_height + task.peg_length / 2

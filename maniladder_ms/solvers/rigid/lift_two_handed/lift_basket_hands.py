@@ -11,7 +11,8 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from maniladder_ms.agents.helpers import top_down_quat
+from maniladder_ms.geometry import yaw_of
+from maniladder_ms.solvers.control import top_down_quat
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.bimanual import Grasp, lift_together
 from maniladder_ms.solvers.driven import DrivenSolver
@@ -30,7 +31,7 @@ def solve_lift_basket_hands(env, seed: int) -> dict:
     with DrivenSolver.episode(env, seed) as s:
         task: LiftBasketHandsEnv = env.unwrapped
         n = task.num_envs
-        basket_yaw = 2 * torch.atan2(task.basket.pose.q[:, 3], task.basket.pose.q[:, 0])
+        basket_yaw = yaw_of(task.basket.pose.q)
         handles = task.handle_centres()
         up = torch.tensor([0.0, 0.0, APPROACH], device=task.device)
         above_bar = torch.tensor([0, 0, BAR_CLEARANCE], device=task.device)

@@ -19,18 +19,16 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from maniladder_ms.agents.helpers import leap_fingertip, top_down_quat
+from maniladder_ms.agents.effectors import leap_fingertip
+
+from maniladder_ms.solvers.control import top_down_quat
 from maniladder_ms.geometry import yaw_of
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver
 from maniladder_ms.tasks.rigid.pick_thin_card.slide_card_to_edge_hand import SlideCardToEdgeHandEnv
+from maniladder_ms.solvers.postures import LEAP_SYNERGIES
 
-# 1. press: "point" with the index swung back past straight down (MCP 2.0 rad): its tip ends 4.1 cm behind the tcp
-# instead of 1.7 cm ahead, and it presses the card's centre: the tcp stays 7.8 cm further from the robot's base,
-# so the top-down hand gets low enough over cards starting nearest the robot (chosen on seeds 100-149:
-# docs/tasks/SlideCardToEdgeHand.md); the tilted tip's lowest corner lies `TIP_LOW` below the centre of its end
-# face (the tip's collision box, measured)
-POINT_BACK = np.array([0.0, 2.0, 0.0, 0.0, 0.0, 0.0, 1.6, 1.6, 0.0, 0.0, 1.6, 1.6, 0.0, 0.0, 0.0, 0.0])
+POINT_BACK = LEAP_SYNERGIES["point_back"]
 TIP_LOW = 0.0042
 PRESS_DEPTH = 0.002  # the index tip's target this far below the card's top: it presses the card on the stand
 # (1 mm left the tilted tip barely touching where the arm stops 1 mm short of its target)
@@ -54,12 +52,9 @@ CLAMP_PRESS = 0.002  # the palm's target this far into the card
 CLAMP_HOVER = 0.03  # m above the clamp pose where the open hand lines up before it lays its palm on the card
 # 4. lift
 LIFT_MARGIN = 0.03  # m lifted beyond `lift_height`, so the held card clears the rule's height with room
-# the thumb raised (j12 near its lower limit, -0.349): open, its links reach 4 mm below the palm's underside, over
-# the stand, and would hold the palm off the card; the ring finger (beside the card) stays straight
-THUMB_UP = [-0.34, 0.0, 0.0, 0.0]
-HOOK_CURL = np.array([0.0, 0.0, 1.57, 1.57, 0.0, 0.0, 1.57, 1.57, 0.0, 0.0, 0.0, 0.0, *THUMB_UP])  # hooks at the front
-CLAMP = np.array([0.0, 1.57, 1.57, 1.57, 0.0, 1.57, 1.57, 1.57, 0.0, 0.0, 0.0, 0.0, *THUMB_UP])  # swung under
-OPEN_THUMB_UP = np.array([0.0] * 12 + THUMB_UP)
+HOOK_CURL = LEAP_SYNERGIES["hook_curl"]
+CLAMP = LEAP_SYNERGIES["clamp"]
+OPEN_THUMB_UP = LEAP_SYNERGIES["open_thumb_up"]
 
 
 @register_solver("SlideCardToEdgeHand", control_modes=TCP_DELTA_MODES)

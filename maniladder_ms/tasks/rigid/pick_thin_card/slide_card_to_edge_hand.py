@@ -9,7 +9,7 @@ import torch
 
 from mani_skill.utils.structs.pose import Pose
 
-from maniladder_ms.agents.helpers import leap_fingertip
+from maniladder_ms.agents.effectors import leap_fingertip
 from maniladder_ms.envs import register_task
 from maniladder_ms.geometry import tilt, yaw_quat
 from maniladder_ms.objects.tabletop import build_flat_box

@@ -1,11 +1,12 @@
-"""Motion helpers for the ManiLadder agents, vectorised over the env's parallel sub-scenes.
+"""The control layer of the scripted solvers: motion helpers for the ManiLadder agents, vectorised over the env's
+parallel sub-scenes (`DrivenSolver` in `driven.py` builds the solvers' moves on `Driver`).
 
 Everything here builds flat action tensors (num_envs, action_dim) for the agent's current control
 mode from per-part targets, so the same helpers drive every embodiment:
 
 - `hold_action(agent, qpos)`: the action that holds `qpos` (default: the current joint targets).
 - `Driver(env)`: closed-loop TCP moves through `pd_ee_delta_pose` (ManiSkill's IK controller) for
-  each arm, gripper open/close, LEAP grasp synergies, base velocity.
+  each arm, gripper open/close, LEAP hand postures (`postures.LEAP_SYNERGIES`), base velocity.
 """
 
 from __future__ import annotations
@@ -21,60 +22,11 @@ from mani_skill.utils.geometry.rotation_conversions import (
     axis_angle_to_matrix,
     matrix_to_axis_angle,
     matrix_to_euler_angles,
-    quaternion_apply,
     quaternion_to_matrix,
 )
 
-# LEAP grasp synergies: 16 joint targets (LEAP order j0..j15: index, middle, ring, thumb x 4).
-# MCP side joints (j0, j4, j8) stay 0. "power" closes on an object centred at the hand's tcp (the
-# tcp was placed there, see scripts/make_agents.py); the targets lie past the contact so the PD drives
-# squeeze. Found by a grid search over finger and thumb postures lifting a 5 cm cube and holding a
-# 300 g can; shallower postures drop the can, deeper ones push the cube out while closing.
-LEAP_SYNERGIES = {
-    "open": np.zeros(16),
-    # fingers slightly bent, thumb swung under the palm: the approach posture of "power" (take it once
-    # above the object), so that closing only curls digits towards the object instead of sweeping the
-    # thumb across it
-    "preshape": np.array([0.0, 0.4, 0.0, 0.0] * 3 + [1.5, 0.0, 0.0, 0.0]),
-    # fingers curl over the far side of the object, the thumb swings under the palm and presses the near side
-    "power": np.array([0.0, 1.5, 0.6, 0.4, 0.0, 1.5, 0.6, 0.4, 0.0, 1.5, 0.6, 0.4, 1.6, 0.6, 0.8, 0.8]),
-    # index + thumb tips meet, middle/ring tucked away
-    "pinch": np.array([0.0, 1.1, 0.6, 0.4, 0.0, 0.2, 0.2, 0.2, 0.0, 0.2, 0.2, 0.2, 1.6, 0.4, 0.5, 0.5]),
-    # index and middle fingers straight down (bent 90 degrees at their knuckles), spread sideways 0.25 rad
-    # each, ring curled, thumb flat: the approach posture of "scissor"
-    "scissor_open": np.array([-0.25, 1.57, 0.0, 0.0, 0.25, 1.57, 0.0, 0.0, 0.0, 0.0, 1.6, 1.6, 0.0, 0.0, 0.0, 0.0]),
-    # the two fingers swung together at their side joints: a thin object (a 1.6 cm rope) lying on the table
-    # between the two fingertips is held between their side faces like a cigarette, the only pinch whose
-    # contacts reach down to 8 mm above the table. The side targets (0.02 rad, just past straight) stop the
-    # fingers ~0.05 rad short on a 1.6 cm rope: ~1.4 N m, under the 1.9 N m force limit, so the pair keeps
-    # its stiffness. Targets far past each other (0.12 rad) saturate both drives: the pinched pair then
-    # drifts sideways as one, the rope's beads ratchet through it and 2 of 5 seeds dropped the rope after
-    # 20-40 hold steps; at 0.02 (and 0.0) 10/10 held 80 steps
-    "scissor": np.array([0.02, 1.57, 0.0, 0.0, -0.02, 1.57, 0.0, 0.0, 0.0, 0.0, 1.6, 1.6, 0.0, 0.0, 0.0, 0.0]),
-    # index bent 90 degrees at its knuckle, straight (points down from a top-down hand), middle/ring curled
-    # at PIP/DIP, thumb flat: the index tip is the lowest point by 9 cm, for pressing buttons
-    "point": np.array([0.0, 1.57, 0.0, 0.0, 0.0, 0.0, 1.6, 1.6, 0.0, 0.0, 1.6, 1.6, 0.0, 0.0, 0.0, 0.0]),
-    # a cupped palm for loose grains on a palm-up hand: the three fingers raised 0.6 rad at the knuckles and bent
-    # 0.3 at PIP/DIP, index and ring turned 0.1 rad at their side joints towards the middle finger (narrowing the
-    # gaps), thumb swung 1.0 under the palm as the dish's fourth side. 40 beans (4 mm) dropped on a palm-up right
-    # hand: 36 still on it after 40 steps and a 20 cm carry at 5 mm a step (HandoverBallHands' CRADLE_DISH 27, the
-    # knuckles at 0.9 34; measured for CupBeansHands)
-    "cup": np.array([0.1, 0.6, 0.3, 0.3, 0.0, 0.6, 0.3, 0.3, -0.1, 0.6, 0.3, 0.3, 1.0, 0.0, 0.3, 0.3]),
-}
-# centre of the end face of a LEAP finger's tip (index, middle, ring) in its tip link's frame: the end of
-# the tip's collision box (scripts/make_agents.py), the finger running along the link's -y (a left hand,
-# reflected in y, along +y)
-LEAP_TIP_END = (0.0, -0.0495, 0.0145)
-
-
-def leap_fingertip(agent, finger: str = "index", prefix: str = "") -> torch.Tensor:
-    """World position (num_envs, 3) of the end of a LEAP finger (index, middle, ring), where it presses;
-    `prefix` "left_" / "right_" picks a hand of a two-arm agent."""
-    tip = agent.robot.links_map[f"{prefix}leap_{finger}_tip"].pose
-    x, y, z = LEAP_TIP_END
-    end = torch.tensor((x, -y if prefix.startswith("left") else y, z), dtype=tip.p.dtype, device=tip.p.device)
-    end = end.expand_as(tip.p)
-    return tip.p + quaternion_apply(tip.q, end)
+from maniladder_ms.geometry import wrap_angle
+from maniladder_ms.solvers.postures import LEAP_SYNERGIES
 
 
 def _controllers(agent) -> dict:
@@ -248,10 +200,6 @@ def top_down_quat(yaw, n: int, device=None) -> torch.Tensor:
     # R = Rz(yaw) * Rx(pi): q = (cos(y/2), 0, 0, sin(y/2)) * (0, 1, 0, 0)
     c, s = torch.cos(yaw / 2), torch.sin(yaw / 2)
     return torch.stack([torch.zeros_like(c), c, s, torch.zeros_like(c)], dim=1)
-
-
-def wrap_angle(a: torch.Tensor) -> torch.Tensor:
-    return (a + torch.pi) % (2 * torch.pi) - torch.pi
 
 
 def drive_base_to(driver: Driver, target, max_steps: int = 200, pos_tol: float = 0.005, yaw_tol: float = 0.01,
