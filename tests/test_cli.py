@@ -49,6 +49,7 @@ def test_show_points_at_the_row_the_class_and_the_solver(capsys):
     assert main(["show", "PickPlacePen"]) == 0
     out = capsys.readouterr().out
     assert "maniladder_ms/tasks/rigid/pick_place_pen.py:" in out and "solve_pick_place_pen" in out
+    assert "maniladder_ms/solvers/rigid/pick_place_pen.py:" in out  # the solver tree mirrors the task tree
     assert "margin" in out and "(2 cm margin)" in out
     line = int(out.split("task_catalog.yaml:")[1].split()[0])
     catalog = (REPO / "maniladder_ms/data/task_catalog.yaml").read_text().splitlines()
