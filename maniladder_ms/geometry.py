@@ -2,7 +2,8 @@
 
 import torch
 
-from mani_skill.utils.geometry.rotation_conversions import axis_angle_to_quaternion, quaternion_apply, quaternion_multiply
+from mani_skill.utils.geometry.rotation_conversions import (axis_angle_to_quaternion, matrix_to_quaternion, quaternion_apply,
+                                                             quaternion_multiply)
 
 
 def yaw_quat(yaw: torch.Tensor) -> torch.Tensor:
@@ -49,3 +50,11 @@ def uprighting(body_q: torch.Tensor, q: torch.Tensor) -> torch.Tensor:
     c = torch.cross(axis, z, dim=1)
     angle = torch.atan2(c.norm(dim=1), (axis * z).sum(1))
     return quaternion_multiply(axis_angle_to_quaternion(torch.nn.functional.normalize(c, dim=1) * angle[:, None]), q)
+
+
+def tcp_quat(pointing: torch.Tensor, closing: torch.Tensor) -> torch.Tensor:
+    """(n, 4) wxyz quaternions of TCPs whose z axis (out of the palm) is `pointing` and whose fingers close
+    along `closing` (the TCP's y axis; made orthogonal to `pointing`); both (n, 3) world directions."""
+    z = torch.nn.functional.normalize(pointing, dim=1)
+    y = torch.nn.functional.normalize(closing - (closing * z).sum(1, keepdim=True) * z, dim=1)
+    return matrix_to_quaternion(torch.stack([torch.cross(y, z, dim=1), y, z], dim=2))

@@ -13,6 +13,7 @@ import torch
 from mani_skill.utils.geometry.rotation_conversions import (axis_angle_to_matrix, matrix_to_quaternion,
                                                             quaternion_to_matrix)
 
+from maniladder_ms.geometry import tcp_quat
 from maniladder_ms.solvers.control import top_down_quat
 
 from maniladder_ms.solvers.postures import LEAP_SYNERGIES
@@ -38,24 +39,6 @@ class Grasp:
     @property
     def lined_up(self) -> tuple[torch.Tensor, torch.Tensor]:
         return self.p + self.approach, self.q
-
-
-def tcp_quat(pointing: torch.Tensor, closing: torch.Tensor) -> torch.Tensor:
-    """(n, 4) wxyz quaternions of TCPs whose z axis (out of the palm) is `pointing` and whose fingers close
-    along `closing` (the TCP's y axis; made orthogonal to `pointing`); both (n, 3) world directions."""
-    z = torch.nn.functional.normalize(pointing, dim=1)
-    y = torch.nn.functional.normalize(closing - (closing * z).sum(1, keepdim=True) * z, dim=1)
-    return matrix_to_quaternion(torch.stack([torch.cross(y, z, dim=1), y, z], dim=2))
-
-
-# LEAP side grasps on an upright container (PourGrainsHandToCup, OpenJarHands): arm joints 1-7 of a ready pose per
-# side of `ml_dual_panda_leap`, each hand 10 cm above its line-up point for PourGrainsHandToCup's containers, turned
-# for its side grasp (pinocchio IK; of 200 random starts, the solution furthest from the joint limits: 1.08 rad left,
-# 0.96 rad right). From the top-down rest pose that is a ~180 degree wrist turn, which pd_ee_delta_pose servoing
-# landed on a wrong IK branch on ~30 % of seeds. The left one is for a side grasp with the thumb low (palm normal
-# along -y), the right one for the thumb high (palm normal along +y)
-READY_ARM_JOINTS = {"left": (0.487, 0.683, -0.076, -1.836, -1.191, 1.363, -1.379),
-                    "right": (0.664, 0.602, -0.869, -2.112, 1.569, 1.393, -0.213)}
 
 
 def side_grasp(vessel_p: torch.Tensor, spec: dict) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:

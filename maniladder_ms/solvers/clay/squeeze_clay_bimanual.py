@@ -16,7 +16,7 @@ import numpy as np
 import torch
 
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
-from maniladder_ms.solvers.bimanual import tcp_quat
+from maniladder_ms.geometry import tcp_quat
 from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver
 from maniladder_ms.tasks.clay.squeeze_clay_bimanual import SIDES, SqueezeClayBimanualEnv
 

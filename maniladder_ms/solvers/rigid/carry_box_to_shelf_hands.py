@@ -16,7 +16,8 @@ import numpy as np
 import torch
 
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
-from maniladder_ms.solvers.bimanual import close_hands, glide, tcp_quat
+from maniladder_ms.geometry import tcp_quat
+from maniladder_ms.solvers.bimanual import close_hands, glide
 from maniladder_ms.solvers.driven import DrivenSolver
 from maniladder_ms.tasks.rigid.carry_box_to_shelf_hands import CLEARANCE, SIDES, CarryBoxToShelfHandsEnv
 from maniladder_ms.solvers.postures import LEAP_SYNERGIES

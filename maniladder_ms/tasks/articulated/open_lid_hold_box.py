@@ -12,7 +12,7 @@ from mani_skill.utils.structs.pose import Pose
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.geometry import yaw_quat
 from maniladder_ms.objects.boxes import LiddedBoxShape, build_lidded_box, lid_angle
-from maniladder_ms.solvers.bimanual import tcp_quat
+from maniladder_ms.geometry import tcp_quat
 
 
 @register_task("OpenLidHoldBox")

@@ -14,7 +14,8 @@ from __future__ import annotations
 import torch
 
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
-from maniladder_ms.solvers.bimanual import Grasp, tcp_quat
+from maniladder_ms.geometry import tcp_quat
+from maniladder_ms.solvers.bimanual import Grasp
 from maniladder_ms.solvers.driven import DrivenSolver
 from maniladder_ms.solvers.twist import is_wound_up, unscrew
 from maniladder_ms.tasks.articulated.unscrew_cap.open_jar_bimanual import OpenJarBimanualEnv

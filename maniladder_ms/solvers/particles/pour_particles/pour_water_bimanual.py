@@ -18,7 +18,8 @@ import torch
 from mani_skill.utils.geometry.rotation_conversions import quaternion_apply
 
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
-from maniladder_ms.solvers.bimanual import Grasp, glide, grasp_together, reach, tcp_quat
+from maniladder_ms.geometry import tcp_quat
+from maniladder_ms.solvers.bimanual import Grasp, glide, grasp_together, reach
 from maniladder_ms.solvers.driven import DrivenSolver
 from maniladder_ms.solvers.pouring import steer_roll
 from maniladder_ms.tasks.particles.pour_particles.pour_water_bimanual import PourWaterBimanualEnv

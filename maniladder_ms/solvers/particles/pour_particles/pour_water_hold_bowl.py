@@ -18,7 +18,8 @@ from mani_skill.utils.geometry.rotation_conversions import axis_angle_to_quatern
 
 from maniladder_ms.solvers.control import top_down_quat
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
-from maniladder_ms.solvers.bimanual import Grasp, grasp_together, reach, tcp_quat
+from maniladder_ms.geometry import tcp_quat
+from maniladder_ms.solvers.bimanual import Grasp, grasp_together, reach
 from maniladder_ms.solvers.driven import DrivenSolver
 from maniladder_ms.tasks.particles.pour_particles.pour_water_hold_bowl import PourWaterHoldBowlEnv
 

@@ -30,7 +30,8 @@ from maniladder_ms.solvers.control import top_down_quat
 
 from maniladder_ms.solvers.postures import LEAP_SYNERGIES
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
-from maniladder_ms.solvers.bimanual import HandoverSolver, close_hands, glide, glide_targets, roll_targets, tcp_quat
+from maniladder_ms.geometry import tcp_quat
+from maniladder_ms.solvers.bimanual import HandoverSolver, close_hands, glide, glide_targets, roll_targets
 from maniladder_ms.solvers.driven import DrivenSolver
 from maniladder_ms.solvers.side_grasps import LEFT_THUMB_LOW_GRASP, LINE_UP_ABOVE, SIDE_PRESHAPE_STEPS, lined_up_side_grasp
 from maniladder_ms.tasks.particles.scoop_beans.cup_beans_hands import (TRAY_FLOOR, TRAY_INNER, TRAY_WALL,

@@ -16,7 +16,8 @@ import torch
 from maniladder_ms.solvers.control import top_down_quat
 from maniladder_ms.geometry import yaw_of
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
-from maniladder_ms.solvers.bimanual import Grasp, hand_over, line_up, tcp_quat
+from maniladder_ms.geometry import tcp_quat
+from maniladder_ms.solvers.bimanual import Grasp, hand_over, line_up
 from maniladder_ms.solvers.driven import DrivenSolver
 from maniladder_ms.tasks.rigid.handover.handover_cube import HandoverCubeEnv
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from maniladder_ms.envs import register_task
 from maniladder_ms.objects.jar import JarShape
-from maniladder_ms.solvers.bimanual import READY_ARM_JOINTS
+from maniladder_ms.agents.poses import READY_ARM_JOINTS
 
 from .base import UnscrewCapTask
 
@@ -43,7 +43,7 @@ class OpenJarHandsEnv(UnscrewCapTask):
     max_dense_reward = 6
     JAR_REGION = (-0.16, -0.1, -0.04, 0.02)
     TASK_REGION = (-0.25, 0.0, -0.15, 0.25)
-    # the holding arm starts in the side-grasp ready pose (`solvers.bimanual.READY_ARM_JOINTS`: reached from the
+    # the holding arm starts in the side-grasp ready pose (`agents.poses.READY_ARM_JOINTS`: reached from the
     # top-down rest pose, the ~180 degree wrist turn took a wrong IK branch on ~30 % of seeds); the twisting arm at rest
     READY_JOINTS = {f"{HOLDER}_panda_joint{i}": angle for i, angle in enumerate(READY_ARM_JOINTS[HOLDER], 1)}
     jar_shape = JarShape(body_radius=0.03, body_height=0.16, lid_radius=0.033, lid_height=0.035)

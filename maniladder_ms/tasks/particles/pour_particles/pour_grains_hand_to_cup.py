@@ -9,7 +9,7 @@ import torch
 from maniladder_ms.deformables import particles
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.objects import containers
-from maniladder_ms.solvers.bimanual import READY_ARM_JOINTS
+from maniladder_ms.agents.poses import READY_ARM_JOINTS
 
 from .base import CupToBowl
 
@@ -19,7 +19,7 @@ from .base import CupToBowl
 # it left the arm 0.5-0.6 rad short on ~30 % of seeds. For the left Panda, joint 7 is at -1.4 rad, with >= 0.8 rad
 # to every limit over the reach, carry and roll. The right hand holds the cup with its thumb high (margin 0.96).
 POURER, HOLDER = "left", "right"
-# the ready pose (`solvers.bimanual.READY_ARM_JOINTS`): each hand raised above its container, turned for its side
+# the ready pose (`agents.poses.READY_ARM_JOINTS`): each hand raised above its container, turned for its side
 # grasp (the pourer's with the thumb low, the holder's high)
 
 

@@ -14,7 +14,7 @@ from maniladder_ms.deformables import particles
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.objects import containers
 from maniladder_ms.objects.tabletop import build_raised_tray
-from maniladder_ms.solvers.bimanual import READY_ARM_JOINTS
+from maniladder_ms.agents.poses import READY_ARM_JOINTS
 
 from .base import ScoopBeansTask
 
