@@ -51,3 +51,10 @@ def test_the_import_check_can_fail():
     assert sibling not in allowed_task_imports("rigid/hang_mug.py")
     assert f"{TASKS}rigid/handover/base.py" in allowed_task_imports("rigid/handover/handover_cube.py")
     assert f"{TASKS}rigid/handover/base.py" not in allowed_task_imports("rigid/hang_mug.py")
+
+
+def test_no_task_module_imports_the_solvers():
+    """An env runs without its solver (a user's policy drives it): task modules import nothing from solvers/."""
+    found = [f"{TASKS}{name} imports {f}" for name in tasks.module_files()
+             for f in sorted(module_imports(f"{TASKS}{name}")) if f.startswith("maniladder_ms/solvers/")]
+    assert not found, "\n".join(found)
