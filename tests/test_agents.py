@@ -14,8 +14,7 @@ from mani_skill.agents.registration import REGISTERED_AGENTS
 
 import maniladder_ms  # noqa: F401  (registers the agents)
 from maniladder_ms.agents import AGENT_UIDS
-from maniladder_ms.agents.effectors import contact_forces, link_forces
-from maniladder_ms.agents.effectors import leap_fingertip
+from maniladder_ms.agents.effectors import contact_forces, leap_fingertip, link_forces
 from maniladder_ms.solvers.control import Driver, drive_base_to, hold_action
 from maniladder_ms.solvers.postures import LEAP_SYNERGIES
 from maniladder_ms.solvers.driven import DrivenSolver
