@@ -98,6 +98,14 @@ class ManiLadderEnv(BaseEnv):
         cameras: the sensor cameras to capture (uids, e.g. ("front_camera", "left_camera", "top_camera"));
             default all: the three third-view cameras and the robot's wrist cameras. A visual policy
             declares what it sees and renders nothing else.
+        fresh_physics_per_seed: a seeded reset (`env.reset(seed=s)`, all sub-scenes) rebuilds the scene, so the
+            episode starts from fresh PhysX: contact warm-start caches, which are not env state, otherwise
+            carry over from earlier episodes, and the same seed and actions end differently after another
+            episode (measured: a HangTowelOnBar demo that succeeds alone fails after one other episode; ManiSkill's
+            seeded-sequence-reset check differed by up to 1.4 on CupBeansHands). An episode is then a function of
+            (task, seed, actions) alone, whatever ran before it. Cost: ~0.25-0.3 s a reset with state obs,
+            ~0.3-0.5 s with the three cameras (measured on 5 tasks, 2-core CPU; an episode is 2-40 s). Unseeded
+            resets (RL rollouts) keep the scene. False: never rebuild on a seeded reset.
     """
 
     SUPPORTED_ROBOTS: ClassVar[list[str]] = ["ml_panda", "panda_wristcam"]
@@ -137,8 +145,10 @@ class ManiLadderEnv(BaseEnv):
         robot_init_qpos_noise: float = 0.02,
         render_backend: Optional[str] = None,
         cameras: Optional[Sequence[str]] = None,
+        fresh_physics_per_seed: bool = True,
         **kwargs,
     ):
+        self.fresh_physics_per_seed = bool(fresh_physics_per_seed)
         self.cameras = None if cameras is None else tuple(cameras)
         self._sensors_on = True
         self.task_spec = None if task_id is None else default_catalog().get(task_id)
@@ -156,6 +166,9 @@ class ManiLadderEnv(BaseEnv):
         self.robot_init_qpos_noise = robot_init_qpos_noise
         if domain_randomization:
             kwargs.setdefault("reconfiguration_freq", 1)
+        # unseeded resets draw their episode seed from the main RNG and seed torch with it (ManiSkill's option):
+        # otherwise their layouts come from torch's global RNG, which whatever else ran in the process moves
+        kwargs.setdefault("enhanced_determinism", True)
         render_backend = resolve_render_backend(render_backend, kwargs.get("obs_mode"), kwargs.get("render_mode"))
         super().__init__(*args, robot_uids=robot_uids, render_backend=render_backend, **kwargs)
 
@@ -174,15 +187,19 @@ class ManiLadderEnv(BaseEnv):
 
     def reset(self, seed=None, options=None):
         """ManiSkill's reset, plus the option `visual_seed` (see the class doc): the look's seed for this
-        episode; with domain randomisation a reset given one rebuilds the scene in that look."""
+        episode; with domain randomisation a reset given one rebuilds the scene in that look. A seeded reset of
+        every sub-scene starts from fresh physics (`fresh_physics_per_seed`, see the class doc)."""
         options = dict(options or {})
         self._visual_seed_option = _check_visual_seed(options.pop("visual_seed", None))
+        env_idx = options.get("env_idx")
+        partial = env_idx is not None and len(env_idx) < self.num_envs
         if self._visual_seed_option is not None and self.domain_randomization:
-            env_idx = options.get("env_idx")
-            if env_idx is not None and len(env_idx) < self.num_envs:
+            if partial:
                 raise ValueError(
                     f"the reset option visual_seed rebuilds every sub-scene in a new look; it cannot go with a "
                     f"partial reset (env_idx: {len(env_idx)} of {self.num_envs} sub-scenes)")
+            options["reconfigure"] = True
+        if seed is not None and self.fresh_physics_per_seed and not partial:
             options["reconfigure"] = True
         return super().reset(seed=seed, options=options)
 

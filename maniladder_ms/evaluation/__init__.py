@@ -11,8 +11,10 @@
 
 from __future__ import annotations
 
-PROTOCOL_VERSION = 1
-"""Bump when anything that changes the numbers changes (seeds, success rule, obs processing...)."""
+PROTOCOL_VERSION = 2
+"""Bump when anything that changes the numbers changes (seeds, success rule, obs processing...).
+2: every seeded episode starts from fresh physics (order-independent episodes); 1 reused the scene, so an
+episode's outcome depended on the episodes run before it in the same process."""
 
 EVAL_SEED_BASE = 1_000_000
 """Evaluation seeds start here; demonstration seeds must stay below it (disjoint by construction)."""

@@ -9,6 +9,10 @@ Protocol:
 - Env: `maniladder_ms.make(task)` with the task's catalog horizon as the time limit, default scene (no
   domain randomisation), sparse reward, the policy's control mode (default `pd_joint_delta_pos`) and
   obs mode (default `rgb`: four 128x128 RGB cameras, state parts removed; see `policies`).
+- Episodes are order-independent (protocol 2): every seeded reset starts from fresh physics (the base env's
+  `fresh_physics_per_seed`), so an episode's outcome depends on the policy, the task and its seed alone, not
+  on the episodes before it, the worker that ran it or a resume. Each record carries `state_digest`, a hash of
+  the env state at the episode's end, so two runs can be compared episode by episode.
 - Success: the task's success rule holds at some control step <= the horizon. ManiSkill ends an episode
   at its first success (terminated), so this is also the state at the end of the episode.
 - Instructions: each episode's `EpisodeContext.instruction` is the task's canonical instruction, or with
@@ -22,6 +26,7 @@ Protocol:
 from __future__ import annotations
 
 import contextlib
+import hashlib
 
 import concurrent.futures as cf
 import multiprocessing as mp
@@ -83,6 +88,12 @@ def as_action_chunk(raw, action_dim: int, where: str) -> np.ndarray:
         bad = np.argwhere(~np.isfinite(a))[0]
         raise PolicyError(f"{where}: the policy returned a non-finite action (value {a[tuple(bad)]} at index {tuple(int(i) for i in bad)})")
     return a
+
+
+def state_digest(base) -> str:
+    """A hash of the env state (float32 bytes, memory fields included): equal digests, equal episodes' ends."""
+    state = base.get_state()
+    return hashlib.sha1(np.ascontiguousarray(_to_numpy(state)).tobytes()).hexdigest()[:16]
 
 
 def reached_flags(info: dict) -> set[str]:
@@ -229,6 +240,7 @@ class EpisodeRunner:
             "wall_s": round(wall, 4), "policy_s": round(policy_s, 4), "level": spec.level, "suite": spec.suite,
             "obs_mode": env_kwargs["obs_mode"], "control_mode": base.control_mode,
             "reached": sorted(env.reached),  # intermediate flags that held at some step (`reached_flags`)
+            "state_digest": state_digest(base),
             "instruction": ctx.instruction,
             "time": time.strftime("%Y-%m-%dT%H:%M:%S"),
         }

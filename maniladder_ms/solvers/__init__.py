@@ -36,10 +36,10 @@ class Solver:
 
 SOLVERS: dict[str, Solver] = {}
 
-# Solver episodes start from a freshly built scene: PhysX keeps contact warm-start caches across resets
-# (they are not part of the env state), so an episode otherwise plays out a little differently after
-# different earlier episodes, and a demo replayed alone (`demos verify`, ManiSkill's replay_trajectory,
-# which reset with the recorded options) could miss what the recording reached.
+# Solver episodes start from a freshly built scene (as every seeded reset of a ManiLadder env does, see
+# `ManiLadderEnv`'s `fresh_physics_per_seed`); the option is passed explicitly too, so that the reset kwargs a
+# demo records say so, and a replay (`demos verify`, ManiSkill's replay_trajectory, which reset with the
+# recorded options) rebuilds the scene whatever the env's setting.
 EPISODE_RESET_OPTIONS = {"reconfigure": True}
 
 
