@@ -39,14 +39,16 @@ def cmd_list(args) -> int:
         print(f"\n{len(tasks)} tasks, {sum(t.implemented for t in tasks)} implemented (*); "
               "`maniladder show TASK` lists a task's paraphrases")
         return 0
+    from maniladder_ms.levels import level_label, levels_note
+
     header = ("", "task", "level", "suite", "object", "skills", "horizon", "Cg/Cp/Cv")
     rows = [
-        ("*" if t.implemented else " ", t.id, str(t.level), t.suite, t.object_class, ",".join(t.skills),
+        ("*" if t.implemented else " ", t.id, level_label(t), t.suite, t.object_class, ",".join(t.skills),
          str(t.horizon), "{C_geom}/{C_proc}/{C_perc}".format(**t.scores))
         for t in tasks
     ]
     print_table(header, rows)
-    print(f"\n{len(tasks)} tasks, {sum(t.implemented for t in tasks)} implemented (*)")
+    print(f"\n{len(tasks)} tasks, {sum(t.implemented for t in tasks)} implemented (*); {levels_note(tasks)}")
     return 0
 
 
@@ -79,8 +81,11 @@ def cmd_show(args) -> int:
     """Where a task lives: its catalog row (family, params, rendered rule), its env class and solver files."""
     from mani_skill.utils.registration import REGISTERED_ENVS
 
+    from maniladder_ms.levels import level_label, levels_note
+
     spec = _catalog().get(args.task)
-    rows = [("task", f"{spec.id} ({spec.suite}, horizon {spec.horizon})"), ("family", spec.family),
+    rows = [("task", f"{spec.id} ({spec.suite}, horizon {spec.horizon})"),
+            ("level", f"{level_label(spec)}: {levels_note([spec])}"), ("family", spec.family),
             ("description", spec.description), ("success", spec.success), ("instruction", spec.instruction)]
     rows += [(f"paraphrase {i}", p) for i, p in enumerate(spec.paraphrases, 1)]
     rows += [(f"param {k}", str(v)) for k, v in spec.params.items()]

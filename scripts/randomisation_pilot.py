@@ -106,7 +106,7 @@ def main(argv=None):
 
     variant = f"{args.task}_scale{args.scale:g}" + ("_one_side" if args.one_side else "")
     work = Path(args.work) / variant
-    protocol = CalibrationProtocol()
+    protocol = CalibrationProtocol(purpose="development")  # a pilot informs a decision: development seeds
     h5 = demo_path(work / "demos", args.task, "none", demo_control_mode_for(args.task))
     if not h5.is_file():  # the protocol's demos: seeds from its demo seed, in the calibration's control mode
         generate(args.task, protocol.demos, work / "demos", seed=protocol.demo_seed, control_mode=demo_control_mode_for(args.task))
@@ -115,13 +115,14 @@ def main(argv=None):
 
         state_oracle.main([args.task, "--demo-file", str(h5), "--num-demos", str(protocol.demos), "--steps", str(args.steps)])
     else:
-        r = TaskCalibration(args.task, work=work / "calibration", out=work / "result", demos_dir=work / "demos").run()
+        r = TaskCalibration(args.task, work=work / "calibration", out=work / "result", demos_dir=work / "demos",
+                            protocol=protocol).run()
         result = work / "result" / f"{args.task}.json"  # labelled: not the registered task's calibration
         r["randomisation_pilot"] = {"scale": args.scale, "one_side": args.one_side,
                                     "note": "layout drawn from a narrowed randomisation, not the registered task's"}
         result.write_text(json.dumps(r, indent=1))
         print(f"VISUAL {variant}: {r['successes']}/{r['episodes']} ({100 * r['success']:.0f}%, 95% "
-              f"[{100 * r['ci95'][0]:.0f}, {100 * r['ci95'][1]:.0f}]), selection {r['selection']['selection_rates']}")
+              f"[{100 * r['ci95'][0]:.0f}, {100 * r['ci95'][1]:.0f}]), development seeds")
 
 
 if __name__ == "__main__":

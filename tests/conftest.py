@@ -20,7 +20,6 @@ whichever real tasks are built.
 
 from __future__ import annotations
 
-import ast
 import hashlib
 import os
 import subprocess
@@ -98,72 +97,13 @@ def commit() -> str:
     return _git("rev-parse", "HEAD")
 
 
-@lru_cache(maxsize=None)
-def _module_file(dotted: str) -> str | None:
-    """The repo-relative file of a maniladder_ms module or package (`a/b.py` or `a/b/__init__.py`), if any."""
-    parts = dotted.split(".")
-    if parts[0] != "maniladder_ms" or not all(p.isidentifier() for p in parts):
-        return None
-    base = REPO.joinpath(*parts)
-    for path in (base.with_suffix(".py"), base / "__init__.py"):
-        if path.is_file():
-            return path.relative_to(REPO).as_posix()
-    return None
-
-
-@lru_cache(maxsize=None)
-def _with_packages(dotted: str) -> frozenset[str]:
-    """The files Python runs to import `dotted`: the module's and every package's above it."""
-    parts = dotted.split(".")
-    return frozenset(f for k in range(1, len(parts) + 1) if (f := _module_file(".".join(parts[:k]))))
-
-
-@lru_cache(maxsize=None)
-def module_imports(path: str) -> frozenset[str]:
-    """The maniladder_ms files that the module file `path` (repo-relative) imports, read statically (`ast`, no
-    import): `import a.b`, `from a.b import c` (c a submodule or a name), relative imports resolved, imports
-    inside functions included, each with the packages above it. A file that does not parse imports nothing
-    here (its own tests fail on it)."""
-    try:
-        tree = ast.parse((REPO / path).read_text(encoding="utf-8"))
-    except (OSError, SyntaxError, UnicodeDecodeError, ValueError):
-        return frozenset()
-    package = path[:-3].replace("/", ".").removesuffix(".__init__")
-    if not path.endswith("/__init__.py"):
-        package = package.rpartition(".")[0]
-    names = []
-    for node in ast.walk(tree):
-        if isinstance(node, ast.Import):
-            names += [a.name for a in node.names]
-        elif isinstance(node, ast.ImportFrom):
-            if node.level:
-                up = package.split(".")[: len(package.split(".")) - (node.level - 1)]
-                module = ".".join(up + ([node.module] if node.module else []))
-            else:
-                module = node.module or ""
-            names += [module, *(f"{module}.{a.name}" for a in node.names if a.name != "*")]
-    return frozenset(f for name in names for f in _with_packages(name))
-
-
-def import_closure(*dotted: str) -> frozenset[str]:
-    """Every maniladder_ms file that importing the modules `dotted` runs, transitively (static, see
-    `module_imports`)."""
-    todo = [f for d in dotted for f in _with_packages(d)]
-    seen = set(todo)
-    while todo:
-        for f in module_imports(todo.pop()):
-            if f not in seen:
-                seen.add(f)
-                todo.append(f)
-    return frozenset(seen)
-
-
 @lru_cache(maxsize=1)
 def task_files() -> dict[str, tuple[frozenset[str], frozenset[str]]]:
     """{implemented task: (its own files, its import closure)}: own = its task module, its solver module (once
     moved to solvers/) and its demos folder prefix; the closure = every maniladder_ms file that importing the two
     modules runs."""
     from maniladder_ms import solvers, tasks
+    from maniladder_ms.provenance import import_closure
 
     implemented = {t.id for t in maniladder_ms.default_catalog().filter(implemented=True)}
     solver_files = solvers.solver_files()

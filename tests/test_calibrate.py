@@ -12,7 +12,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from maniladder_ms.policy.calibrate import CalibrationProtocol, TaskCalibration, calibrate, measured_level
+from maniladder_ms.policy.calibrate import (CalibrationProtocol, ResultExistsError, TaskCalibration, calibrate,
+                                            measured_level, verdict)
 from maniladder_ms.policy.flow import LadderFlowConfig
 
 from conftest import FIXTURE_TASK
@@ -23,13 +24,34 @@ REPO = Path(__file__).resolve().parents[1]
 # runs for real, in seconds, and solves nothing
 TINY = LadderFlowConfig(encoder="random-projection", d_model=32, heads=2, encoder_layers=1, decoder_layers=1,
                         dropout=0.0, batch_size=16, train_steps=6)
-TINY_PROTOCOL = CalibrationProtocol(demos=2, frame_stride=4, checkpoints=2, selection_episodes=1, episodes=1)
+# two checkpoints (the selection stage runs) and two training seeds (pooled)
+TINY_PROTOCOL = CalibrationProtocol(demos=2, frame_stride=4, checkpoints=2, selection_episodes=1, episodes=1,
+                                    training_seeds=2)
 
 
 def test_measured_level_follows_the_catalog_intervals():
     # L1 [60, 85] %, L2 [20, 60) %, L3 (0, 20) %, L4 0 %; above L1's interval: 0 (easier than Level 1)
     cases = {0.0: 4, 0.05: 3, 0.199: 3, 0.2: 2, 0.59: 2, 0.6: 1, 0.85: 1, 0.86: 0, 1.0: 0}
     assert {r: measured_level(r) for r in cases} == cases
+
+
+def test_verdict_places_the_interval_against_the_catalog_band():
+    # L1 [60, 85] %: 36/50 = 72 % [58, 83] straddles 60; 72/100 [62, 80] is inside; 10/50 is outside
+    assert verdict(36, 50, 1) == "straddles" and verdict(72, 100, 1) == "inside" and verdict(10, 50, 1) == "outside"
+    assert verdict(0, 50, 4) == "inside" and verdict(1, 50, 4) == "outside" and verdict(40, 50, 4) == "outside"
+    assert verdict(0, 50, 3) == "straddles" and verdict(3, 100, 3) == "inside" and verdict(30, 50, 3) == "outside"
+    assert verdict(95, 100, 1) == "outside"  # easier than Level 1
+
+
+def test_development_and_final_runs_use_their_own_seed_sets_never_the_retired_one():
+    from maniladder_ms.policy.calibrate import RETIRED_SEED_SETS, SEED_SETS
+
+    dev, final = CalibrationProtocol(purpose="development"), CalibrationProtocol()
+    assert dev.seeds == [0] and final.seeds == [0, 1, 2]
+    assert dev.seed_set != final.seed_set and not {dev.seed_set, final.seed_set} & set(RETIRED_SEED_SETS)
+    assert set(SEED_SETS.values()).isdisjoint(RETIRED_SEED_SETS)
+    with pytest.raises(ValueError, match="purpose"):
+        CalibrationProtocol(purpose="tuning")
 
 
 def test_calibrating_an_unbuilt_task_is_a_clear_error(tmp_path, fixture_catalog):
@@ -61,17 +83,20 @@ calibrate(["PickPlacePen"], Path({work!r}), Path({out!r}), demos_dir=Path({demos
 """
 
 
-def test_calibrate_resumes_after_a_kill(tmp_path):
-    """Kill a calibration once its checkpoints exist and selection has begun; the re-run keeps the features
-    and checkpoints, finishes, and writes the task's result, the table and the plot."""
+def test_calibrate_resumes_after_a_kill(tmp_path, monkeypatch):
+    """Kill a calibration once its first seed's checkpoints exist and selection has begun; the re-run keeps the
+    features and checkpoints, finishes both training seeds, and writes the task's pooled result with its
+    provenance, the table and the plot. The work folder is the task version's: a changed task starts afresh."""
+    from maniladder_ms import provenance
+
     work, out = tmp_path / "work", tmp_path / "out"
-    task_dir = work / "PickPlacePen"
+    task_dir = work / "PickPlacePen" / provenance.task_hash("PickPlacePen")
     code = _CHILD.format(tests=str(REPO / "tests"), work=str(work), out=str(out), demos=str(REPO / "demos"))
     child = subprocess.Popen([sys.executable, "-c", code], cwd=tmp_path, start_new_session=True,
                              stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     try:
         # wait for the selection stage's first episode file, then kill the whole process group
-        while child.poll() is None and not list(task_dir.glob("select_*/episodes.jsonl")):
+        while child.poll() is None and not list(task_dir.glob("seed_0/select_*/episodes.jsonl")):
             time.sleep(0.2)
         assert child.poll() is None, f"the calibration ended before it could be killed: {child.stderr.read().decode()[-2000:]}"
         os.killpg(child.pid, signal.SIGKILL)
@@ -80,47 +105,86 @@ def test_calibrate_resumes_after_a_kill(tmp_path):
         if child.poll() is None:
             os.killpg(child.pid, signal.SIGKILL)
     assert not (out / "PickPlacePen.json").exists()
-    kept = {p.name: p.stat().st_mtime_ns for p in [task_dir / "features.npz", *task_dir.glob("checkpoint_*.pt")]}
-    assert set(kept) == {"features.npz", "checkpoint_3.pt", "checkpoint_6.pt"}
+
+    def kept_files():
+        return {p.relative_to(task_dir).as_posix(): p.stat().st_mtime_ns
+                for p in [task_dir / "features.npz", *task_dir.glob("seed_*/checkpoint_*.pt")]}
+
+    kept = kept_files()
+    assert set(kept) == {"features.npz", "seed_0/checkpoint_3.pt", "seed_0/checkpoint_6.pt"}
     timings_before = json.loads((task_dir / "timings.json").read_text())
 
     summary = calibrate(["PickPlacePen"], work, out, demos_dir=REPO / "demos", config=TINY, protocol=TINY_PROTOCOL,
                         progress=False)
 
-    assert {p.name: p.stat().st_mtime_ns for p in [task_dir / "features.npz", *task_dir.glob("checkpoint_*.pt")]} == kept
+    assert {k: v for k, v in kept_files().items() if k in kept} == kept
+    assert set(kept_files()) == set(kept) | {"seed_1/checkpoint_3.pt", "seed_1/checkpoint_6.pt"}
     timings = json.loads((task_dir / "timings.json").read_text())
-    assert timings["features"] == timings_before["features"] and timings["train"] == timings_before["train"]
+    assert timings["features"] == timings_before["features"]
     result = json.loads((out / "PickPlacePen.json").read_text())
-    assert result["episodes"] == 1 and result["successes"] == 0 and result["measured_level"] == 4
+    assert result["episodes"] == 2 and result["successes"] == 0 and result["measured_level"] == 4
+    assert set(result["per_training_seed"]) == {"0", "1"} and result["training_seed_spread"]["max"] == 0
     assert result["agree"] is False and result["catalog_level"] == 1  # a 6-step policy solves nothing: flagged
-    assert result["selection"]["selected_step"] in (3, 6) and set(result["selection"]["selection_rates"]) == {"3", "6"}
-    assert result["control_mode"] == "pd_joint_pos" and result["demo_control_mode"] == "pd_joint_pos" and result["config"]["encoder"] == "random-projection"
+    assert result["verdict"] == verdict(0, 2, 1) and result["purpose"] == "final" and result["seed_set"] == 2
+    assert result["per_training_seed"]["0"]["selection"]["selected_step"] in (3, 6)
+    assert result["control_mode"] == "pd_joint_pos" and result["config"]["encoder"] == "random-projection"
+    env = result["environment"]
+    assert result["task_hash"] == provenance.task_hash("PickPlacePen") and env["renderer"] == "cpu"
+    assert env["torch_threads"] == 1 and env["packages"]["mani-skill"] and "commit" in env
     assert summary["n_tasks"] == 1 and (out / "calibration.json").is_file() and (out / "calibration.png").stat().st_size > 0
 
-    # the work folder belongs to its settings: another configuration is refused, not mixed in
-    with pytest.raises(ValueError, match="other settings"):
-        calibrate(["PickPlacePen"], work, out, demos_dir=REPO / "demos", config=dataclasses.replace(TINY, train_steps=8),
-                  protocol=TINY_PROTOCOL, progress=False)
-
-    # more evaluation episodes on the same work folder: the evaluation resumes and adds them; nothing retrains
-    more = dataclasses.replace(TINY_PROTOCOL, episodes=2)
-    calibrate(["PickPlacePen"], work, out, demos_dir=REPO / "demos", config=TINY, protocol=more, progress=False)
-    assert {p.name: p.stat().st_mtime_ns for p in [task_dir / "features.npz", *task_dir.glob("checkpoint_*.pt")]} == kept
-    assert json.loads((out / "PickPlacePen.json").read_text())["episodes"] == 2
-    assert json.loads((task_dir / "settings.json").read_text())["calibration"]["episodes"] == 2
+    # the work folder belongs to its settings, the declared episode count included: no growing after a look
+    for config, protocol in ((dataclasses.replace(TINY, train_steps=8), TINY_PROTOCOL),
+                             (TINY, dataclasses.replace(TINY_PROTOCOL, episodes=2))):
+        with pytest.raises(ValueError, match="other settings"):
+            calibrate(["PickPlacePen"], work, out, demos_dir=REPO / "demos", config=config, protocol=protocol,
+                      progress=False)
     # a re-run of the finished task leaves its result file as it was (no new time stamp to commit)
     finished = (out / "PickPlacePen.json").read_bytes()
-    calibrate(["PickPlacePen"], work, out, demos_dir=REPO / "demos", config=TINY, protocol=more, progress=False)
+    calibrate(["PickPlacePen"], work, out, demos_dir=REPO / "demos", config=TINY, protocol=TINY_PROTOCOL, progress=False)
     assert (out / "PickPlacePen.json").read_bytes() == finished
-    with pytest.raises(ValueError, match="can add episodes, not drop them"):  # the folder keeps its 2 episodes
+    # another result in the results folder (an older protocol's, committed) is not overwritten without --replace
+    old = dict(json.loads(finished), protocol="v3", task_hash=None)
+    (out / "PickPlacePen.json").write_text(json.dumps(old))
+    with pytest.raises(ResultExistsError, match="--replace"):
         calibrate(["PickPlacePen"], work, out, demos_dir=REPO / "demos", config=TINY, protocol=TINY_PROTOCOL,
                   progress=False)
+    assert json.loads((out / "PickPlacePen.json").read_text())["protocol"] == "v3"
+    calibrate(["PickPlacePen"], work, out, demos_dir=REPO / "demos", config=TINY, protocol=TINY_PROTOCOL,
+              progress=False, replace=True)
+    replaced = json.loads((out / "PickPlacePen.json").read_text())
+    assert replaced["protocol"] == result["protocol"] and replaced["task_hash"] == result["task_hash"]
 
-    # `maniladder report` shows a calibration folder
+    # `maniladder report` shows a calibration folder, older protocols labelled
     from maniladder_ms.cli import main
 
     assert main(["report", str(out)]) == 0
     assert "PickPlacePen" in (out / "report" / "report.html").read_text()
+
+    # a changed task (another version hash) gets a fresh work folder: nothing of the old version is reused
+    monkeypatch.setattr(provenance, "task_hash", lambda task_id: "0123456789abcdef")
+    changed = TaskCalibration("PickPlacePen", work, out, demos_dir=REPO / "demos", config=TINY, protocol=TINY_PROTOCOL)
+    assert changed.dir == work / "PickPlacePen" / "0123456789abcdef" and not changed.features_path.exists()
+
+
+def test_the_committed_calibration_report_labels_protocols_and_stale_rows(tmp_path, capsys):
+    from maniladder_ms.policy.calibrate import write_calibration_report
+
+    write_calibration_report(REPO / "docs" / "calibration", out=tmp_path)
+    text = capsys.readouterr().out
+    assert "LadderFlow v3 (superseded by v4: not comparable)" in text
+    stale = {line.split(":")[0].removeprefix("STALE ") for line in text.splitlines() if line.startswith("STALE ")}
+    assert stale == {"LiftBasketHands", "LiftBottleHand", "LiftRopeHand", "StretchRopeHands"}
+
+
+def test_task_hash_follows_the_task_version():
+    from maniladder_ms import provenance
+
+    parts = provenance.task_hash_parts("PickPlacePen")
+    assert "maniladder_ms/tasks/rigid/pick_place_pen.py" in parts and "maniladder_ms/solvers/rigid/pick_place_pen.py" in parts
+    assert "maniladder_ms/tasks/rigid/hang_mug.py" not in parts  # another task's module is not this task's version
+    assert provenance.task_hash("PickPlacePen") != provenance.task_hash("HangMug")
+    assert len(provenance.task_hash("PickPlacePen")) == 16
 
 
 def test_results_of_another_protocol_are_not_summarised(tmp_path):

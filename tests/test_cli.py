@@ -45,6 +45,26 @@ def test_list_filters_and_json(capsys):
     assert {"PickPlacePen", "Stack6Blocks", "HangMug", "HandoverCube"} <= listed
 
 
+def test_levels_shown_say_whether_they_are_measured(capsys, tmp_path, monkeypatch):
+    """No current-protocol result committed: every level is a design target, and list/show say so; a committed
+    current result of the task as built makes its level measured."""
+    from maniladder_ms import levels, provenance
+    from maniladder_ms.policy.flow import PROTOCOL_VERSION
+
+    assert main(["list", "--suite", "L1-rigid-SG"]) == 0
+    out = capsys.readouterr().out
+    assert "L1 target" in out and "design targets" in out and "measured" not in out.split("design targets")[0]
+    assert main(["show", "PickPlacePen"]) == 0 and "design target" in capsys.readouterr().out
+    result = {"task": "PickPlacePen", "measured_level": 1, "measured_level_text": "L1", "success": 0.72,
+              "protocol": PROTOCOL_VERSION, "task_hash": provenance.task_hash("PickPlacePen")}
+    (tmp_path / "PickPlacePen.json").write_text(json.dumps(result))
+    read = levels.measured_results.__wrapped__
+    monkeypatch.setattr(levels, "measured_results", lambda folder=tmp_path: read(folder))
+    assert main(["list", "--suite", "L1-rigid-SG"]) == 0
+    out = capsys.readouterr().out
+    assert f"L1 measured {PROTOCOL_VERSION} (72%, L1)" in out and "1 of" in out and "L1 target" in out
+
+
 def test_show_points_at_the_row_the_class_and_the_solver(capsys):
     assert main(["show", "PickPlacePen"]) == 0
     out = capsys.readouterr().out

@@ -471,3 +471,17 @@ def test_episode_outcomes_do_not_depend_on_order_or_workers(tmp_path):
                  progress=False)
         by_workers[workers] = {r["episode"]: r["state_digest"] for r in read_episodes(tmp_path / f"w{workers}")}
     assert by_workers[1] == by_workers[2] == forward
+
+
+def test_report_warns_when_level_means_cover_different_tasks(tmp_path):
+    from maniladder_ms.evaluation.report import load_runs, task_set_warnings, write_report
+
+    _fake_run(tmp_path / "a", "random", {PEN: 0.1, "Stack6Blocks": 0.0})
+    _fake_run(tmp_path / "b", "solver", {PEN: 1.0, "Stack6Blocks": 0.5})
+    _fake_run(tmp_path / "c", "solver", {PEN: 1.0})
+    assert task_set_warnings(load_runs([tmp_path / "a", tmp_path / "b"])) == []
+    level = maniladder_ms.default_catalog().get("Stack6Blocks").level
+    (warning,) = task_set_warnings(load_runs([tmp_path / "a", tmp_path / "c"]))
+    assert warning.startswith(f"L{level} means are over different task sets")
+    page = write_report([tmp_path / "a", tmp_path / "c"], out=tmp_path / "rep").read_text()
+    assert "over different task sets" in page and "design target" in page

@@ -6,7 +6,8 @@ import sys
 import pytest
 
 import conftest
-from conftest import SHARED_CAP, TASKS_ENV, module_imports, task_files, task_sample, tasks_for_changes
+from conftest import SHARED_CAP, TASKS_ENV, task_files, task_sample, tasks_for_changes
+from maniladder_ms.provenance import module_imports
 
 BIMANUAL = "maniladder_ms/solvers/bimanual.py"
 

@@ -7,7 +7,8 @@ from pathlib import Path
 
 from maniladder_ms import solvers, tasks
 
-from conftest import REPO, module_imports
+from conftest import REPO
+from maniladder_ms.provenance import module_imports
 
 TASKS = "maniladder_ms/tasks/"
 

@@ -49,6 +49,10 @@ def print_summary(summary: dict, file=None):
         parts = [f"{reason}: " + (", ".join(ids) if len(ids) <= 6 else f"{len(ids)} tasks") for reason, ids in by_reason.items()]
         print(f"\nskipped {len(summary['skipped'])} task(s) (not evaluated): " + "; ".join(parts), file=file)
     print(f"\n{summary['ladder']['text']}", file=file)
+    from maniladder_ms.catalog import default_catalog
+    from maniladder_ms.levels import levels_note
+
+    print(f"(the levels tasks count towards: {levels_note(default_catalog().get(t) for t in summary['tasks'])})", file=file)
 
 
 def cmd_eval(args) -> int:
@@ -69,7 +73,7 @@ def cmd_report(args) -> int:
 
     from .report import write_report
 
-    if len(args.results) == 1 and args.results[0].is_dir() and load_results(args.results[0]):  # `maniladder calibrate` results
+    if len(args.results) == 1 and args.results[0].is_dir() and load_results(args.results[0], protocol=None):  # `maniladder calibrate` results
         html = write_calibration_report(args.results[0], out=args.out)
     else:
         html = write_report(args.results, out=args.out, title=args.title)

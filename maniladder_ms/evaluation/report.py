@@ -207,7 +207,8 @@ def fig_deltas(runs) -> bytes:
 
 
 # ---- HTML ---------------------------------------------------------------------------------------
-CSS = """
+CSS = """.warn{color:#b71c1c;font-weight:bold}
+
 body{font-family:system-ui,-apple-system,Segoe UI,Helvetica,Arial,sans-serif;margin:24px auto;max-width:1100px;color:#222}
 h1{font-size:22px} h2{font-size:17px;margin-top:28px;border-bottom:1px solid #ddd;padding-bottom:4px}
 table{border-collapse:collapse;margin:8px 0;font-size:13px} th,td{border:1px solid #ccc;padding:3px 7px;text-align:center}
@@ -305,6 +306,20 @@ def _runs_html(runs) -> str:
     return "".join(out)
 
 
+def task_set_warnings(runs) -> list[str]:
+    """One line per level whose runs evaluated different tasks: their level means are not comparable as they
+    stand (random on four tasks against a solver on two others says nothing about either)."""
+    out = []
+    for level in LEVELS:
+        sets = [{t for t, v in run["summary"]["tasks"].items() if v["level"] == level} for run in runs]
+        if any(sets) and any(s != sets[0] for s in sets[1:]):
+            parts = [f"{run['name']}: {len(s)} task(s)" for run, s in zip(runs, sets)]
+            common = set.intersection(*sets)
+            out.append(f"L{level} means are over different task sets ({'; '.join(parts)}; {len(common)} in common): "
+                       "compare the per-task rows, not the level means")
+    return out
+
+
 def write_report(paths, out=None, title: str = "ManiLadder evaluation report") -> Path:
     """Write `report.html` and its PNGs into `out` (default <first results folder>/report); returns the HTML path."""
     paths = [Path(p) for p in (paths if isinstance(paths, (list, tuple)) else [paths])]
@@ -327,6 +342,10 @@ def write_report(paths, out=None, title: str = "ManiLadder evaluation report") -
             f'{len(runs)} run(s){"; deltas (▲ up / ▼ down, percentage points) are against the first" if len(runs) > 1 else ""}</p>']
     for run in runs:
         body.append(f'<div class="ladder"><b>{_e(run["name"])}</b>: {_e(run["summary"]["ladder"]["text"])}</div>')
+    from maniladder_ms.levels import levels_note
+
+    evaluated = sorted({t for run in runs for t in run["summary"]["tasks"]})
+    body.append(f'<p class="small">Task levels: {_e(levels_note(default_catalog().get(t) for t in evaluated))}.</p>')
     body += ["<h2>Runs</h2>", _runs_html(runs)]
     body.append("<h2>Table 3: suite-mean success (%)</h2>")
     body.append('<p class="small">Rows: levels; columns: {rigid, deformable} × {SG single-arm gripper, SX single-arm hand, '
@@ -339,7 +358,9 @@ def write_report(paths, out=None, title: str = "ManiLadder evaluation report") -
     body += [imgs["grid"], "<h2>Level means</h2>", imgs["levels"], "<h2>Per-task success</h2>", imgs["tasks"],
              _tasks_html(runs), "<h2>Success vs task properties</h2>", imgs["properties"]]
     if len(runs) > 1:
-        body += ["<h2>Comparison</h2>", imgs["deltas"]]
+        body += ["<h2>Comparison</h2>"]
+        body += [f'<p class="warn">{_e(w)}</p>' for w in task_set_warnings(runs)]
+        body.append(imgs["deltas"])
     skipped = {k: v for run in runs for k, v in run["summary"]["skipped"].items()}
     if skipped:
         by_reason: dict = {}

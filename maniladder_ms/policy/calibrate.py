@@ -1,29 +1,37 @@
-"""`maniladder calibrate`: measure each task's level with the reference policy (LadderFlow, protocol v3).
+"""`maniladder calibrate`: measure each task's level with the reference policy (LadderFlow, protocol v4).
 
-Per task, five stages, each leaving its result in the task's work folder so that a killed run resumes
-where it stopped (a stage whose output exists is not run again; a half-written output never exists):
+Per task, in a work folder keyed by the task's version (`<work>/<task>/<task hash>/`, `provenance.task_hash`:
+catalog row, module sources, assets), so that a changed task recomputes everything and an unchanged one
+resumes where a killed run stopped (a stage whose output exists is not run again; a half-written output never
+exists):
 
 1. demos     `demos` (20) solver demonstrations, seeds from 0, in the mode the task's solver drives
              (`demo_control_mode_for`); an existing demo file of that task/mode in `--demos` is used as is.
 2. features  every `frame_stride`-th demo frame rendered from the policy's cameras (front, left, top;
              128x128 RGB) and encoded by the frozen encoder, cached as float16 (`features.npz`), with the
              demo's actions as absolute joint targets (`POLICY_CONTROL_MODE`, `demos.joint_targets`).
-3. train     one LadderFlow policy on those features; a checkpoint after every `train_steps / checkpoints`
-             steps (each holds the optimiser: training resumes from the last one).
-4. select    every checkpoint evaluated on `selection_episodes` episodes of the selection seed set
-             (`SELECTION_SEED_SET`); the best success rate wins, ties to the later checkpoint.
-5. evaluate  the selected checkpoint on `episodes` fresh episodes (seed set `EVALUATION_SEED_SET`,
-             disjoint from the selection seeds and from demo seeds): the success rate, its 95% Wilson
-             interval and the measured level. The best selection rate is reported too, labelled: it is
-             the paper's "best success during training" and biased upwards.
+3. train     per training seed (`seed_<k>/`), one LadderFlow policy on those features; a checkpoint after every
+             `train_steps / checkpoints` steps, holding the optimiser and the RNG state: a resumed training ends
+             where an uninterrupted one does.
+4. select    only with `checkpoints > 1`: every checkpoint on `selection_episodes` development episodes; the best
+             wins, ties to the later one. v4 drops it (one checkpoint: the end of the complete schedule).
+5. evaluate  the checkpoint on `episodes` episodes per training seed, a number declared before any is run (a
+             work folder never grows its count: no optional stopping), on the seed set of the run's purpose:
+             `development` (decisions: refining a task, choosing an instrument; 1 training seed) or `final`
+             (the numbers that place tasks; `training_seeds` seeds, pooled). Seed set 0 is retired: it chose the
+             randomisation pilot's scales. Seed sets never overlap demo seeds (< 1,000,000).
 
-The measured level places the rate on the catalog's intervals (L1 [60, 85] %, L2 [20, 60) %, L3 (0, 20) %,
-L4 0 %); above L1's interval it is 0, "easier than Level 1". It is compared with the task's catalog level and
-a disagreement is flagged, never tuned away here.
+Result per task: the pooled success rate with its 95 % Wilson interval, the per-seed rates (the spread over
+training seeds), the measured level (the band holding the pooled rate; above L1's band: 0, "easier than
+Level 1"), and a three-way verdict against the catalog level: the interval inside the catalog level's band,
+outside it, or straddling one of its edges. Plus provenance: task hash, commit, package versions, renderer,
+device, torch threads. Calibration runs one torch thread per process and renders on the CPU (lavapipe) unless
+`--renderer` says otherwise; both are recorded.
 
-Results: `<out>/<task>.json` per task, and `<out>/calibration.json` + `calibration.png` (success with its
-interval per task against the level bands, coloured by catalog level) over every task in `<out>`;
-`maniladder report <out>` renders them.
+Results: `<out>/<task>.json` per task, and `<out>/calibration.json` + `calibration.png` over every task in `<out>`
+of this protocol; `maniladder report <out>` renders them with older protocols' rows labelled. A result file of
+another protocol or task version is never overwritten without `--replace`; the default `--out` is
+`runs/calibration/results`, not the committed `docs/calibration`.
 """
 
 from __future__ import annotations
@@ -38,9 +46,11 @@ from maniladder_ms.catalog import default_catalog
 
 from .flow import PROTOCOL_VERSION, LadderFlowConfig
 
-SELECTION_SEED_SET = 1  # `maniladder eval --seed 1`: episode k resets with seed 1,010,000 + k
-EVALUATION_SEED_SET = 0  # the protocol's standard evaluation seeds: 1,000,000 + k
+# evaluation seed sets (`maniladder eval --seed s`: episode k resets with seed 1,000,000 + 10,000 s + k)
+SEED_SETS = {"development": 1, "final": 2}
+RETIRED_SEED_SETS = {0: "chose the randomisation pilot's layout scales (v3's evaluation set): no longer held out"}
 STAGES = ("demos", "features", "train", "select", "evaluate")
+VERDICTS = ("inside", "outside", "straddles")
 # the policy acts in absolute joint targets (protocol v2). Measured with v1's network on the same 20 demos
 # and features, 20 selection episodes each: end-effector deltas (protocol v1) LiftWideBox 2/10 -> absolute
 # joint targets 18/20, PickPlacePen ~1/10 both; deltas integrate their errors over an open-loop chunk, while
@@ -55,13 +65,31 @@ class CalibrationProtocol:
     demos: int = 20
     demo_seed: int = 0
     frame_stride: int = 2  # demo frames rendered for training: the policy sees every 8th step anyway
-    checkpoints: int = 2  # evaluated at train_steps * k / checkpoints, k = 1..checkpoints
+    # v4: one checkpoint, no selection stage (v3 evaluated 2 checkpoints on 10 episodes each and kept the
+    # better; its 4000-step checkpoint matched the 8000-step one in 11 of 16 runs, and 10 episodes could not
+    # tell them apart)
+    checkpoints: int = 1
     selection_episodes: int = 10
-    # 50 fresh episodes, not 20: 20 pin a rate to about +-20 points (LiftBottleHand: 10/10 on selection, 9/20 on
-    # evaluation), too wide to tell 55 % (L2) from 65 % (L1); 50 give about +-13. Evaluation is the cheap
-    # stage (2-8 s an episode against ~30 min of training), and a work folder evaluated on fewer episodes
-    # resumes by adding the missing ones (`TaskCalibration.GROWABLE`)
+    # per training seed, declared before any episode runs: 50 pin a rate to about +-13 points (20: +-20, too
+    # wide to tell 55 % (L2) from 65 % (L1))
     episodes: int = 50
+    training_seeds: int = 3  # final numbers pool 3 training seeds; development runs use the first alone
+    purpose: str = "final"  # "final" or "development": the seed set and the number of training seeds
+
+    def __post_init__(self):
+        if self.purpose not in SEED_SETS:
+            raise ValueError(f"purpose must be one of {sorted(SEED_SETS)}, got {self.purpose!r}")
+        if self.checkpoints < 1 or self.episodes < 1 or self.training_seeds < 1:
+            raise ValueError("checkpoints, episodes and training_seeds must be >= 1")
+
+    @property
+    def seed_set(self) -> int:
+        return SEED_SETS[self.purpose]
+
+    @property
+    def seeds(self) -> list[int]:
+        """The training seeds this run trains and pools."""
+        return list(range(1 if self.purpose == "development" else self.training_seeds))
 
     def as_dict(self) -> dict:
         return dataclasses.asdict(self)
@@ -96,23 +124,49 @@ def measured_level(rate: float, ranges: Optional[dict] = None) -> int:
     return max(lv for lv, (lo, hi) in ranges.items() if hi <= 0)
 
 
+def verdict(successes: int, episodes: int, level: int, ranges: Optional[dict] = None) -> str:
+    """Where the 95 % Wilson interval of `successes / episodes` lies against `level`'s band: "inside" it,
+    "outside" it, or "straddles" one of its edges. L4's band is the point 0: inside iff nothing succeeded (the
+    interval then reaches up from 0 and says how small the rate is), outside after any success (the rate is then
+    surely above 0); L3's (0, 20 %) needs a success to be inside."""
+    from maniladder_ms.evaluation.stats import wilson_interval
+
+    ranges = ranges or level_ranges()
+    band_lo, band_hi = ranges[level]
+    lo, hi = wilson_interval(successes, episodes)
+    if band_hi <= 0:  # the point 0
+        return "inside" if successes == 0 else "outside"
+    if band_lo <= 0:  # open at 0
+        if successes == 0:
+            return "straddles" if hi > 0 else "outside"
+        return "inside" if hi < band_hi else ("straddles" if lo < band_hi else "outside")
+    if lo >= band_lo and hi <= band_hi:
+        return "inside"
+    return "outside" if hi < band_lo or lo > band_hi else "straddles"
+
+
 def level_text(level: int) -> str:
     return "easier than L1 (above its band)" if level == 0 else f"L{level}"
 
 
 class TaskCalibration:
-    """The stages of one task in `work/<task>/`; `run()` does those not done yet and returns the result."""
+    """The stages of one task in `work/<task>/<task hash>/`; `run()` does those not done yet and returns the
+    result."""
 
     def __init__(self, task_id: str, work: Path, out: Path, demos_dir: Optional[Path] = None,
                  config: LadderFlowConfig = LadderFlowConfig(), protocol: CalibrationProtocol = CalibrationProtocol(),
-                 device: str = "cpu", progress: bool = True, log=print):
+                 device: str = "cpu", renderer: str = "cpu", replace: bool = False, progress: bool = True, log=print):
+        from maniladder_ms.provenance import task_hash
+
         self.spec = default_catalog().get(task_id)
         if not self.spec.implemented:
             import maniladder_ms
 
             raise maniladder_ms.TaskNotImplementedError(f"task {task_id} is not implemented yet; it cannot be calibrated")
         self.config, self.protocol, self.device, self.progress, self.log = config, protocol, device, progress, log
-        self.dir = Path(work) / task_id
+        self.renderer, self.replace = renderer, replace
+        self.task_hash = task_hash(task_id)
+        self.dir = Path(work) / task_id / self.task_hash
         self.out = Path(out)
         self.demos_dir = Path(demos_dir) if demos_dir else self.dir / "demos"
         self.control_mode = POLICY_CONTROL_MODE
@@ -131,28 +185,26 @@ class TaskCalibration:
         self.timings_path.write_text(json.dumps(timings, indent=1))
         return out
 
-    # protocol fields that may differ on a resumed work folder: more evaluation episodes only add episodes
-    # (the evaluation folder resumes); nothing trained or selected depends on them
-    GROWABLE = ("episodes",)
+    def settings(self) -> dict:
+        from maniladder_ms.provenance import package_versions
+
+        versions = package_versions()
+        return {"protocol": PROTOCOL_VERSION, "task_hash": self.task_hash, "config": self.config.as_dict(),
+                "calibration": self.protocol.as_dict(), "control_mode": self.control_mode,
+                "demo_control_mode": self.demo_control_mode, "renderer": self.renderer, "device": self.device,
+                "packages": {k: versions[k] for k in ("mani-skill", "sapien", "torch")}}
 
     def _check_settings(self):
-        """A work folder belongs to one configuration: resuming with another one would mix them."""
-        settings = {"protocol": PROTOCOL_VERSION, "config": self.config.as_dict(), "calibration": self.protocol.as_dict(),
-                    "control_mode": self.control_mode, "demo_control_mode": self.demo_control_mode}
+        """A work folder belongs to one configuration, declared episode count included: resuming with another
+        one would mix them (or grow the evaluation after its results were seen)."""
+        settings = self.settings()
         path = self.dir / "settings.json"
         if path.is_file():
             old = json.loads(path.read_text())
-            fixed = [{**s, "calibration": {k: v for k, v in s.get("calibration", {}).items() if k not in self.GROWABLE}}
-                     for s in (old, settings)]
-            if fixed[0] != fixed[1]:
-                raise ValueError(f"{self.dir} holds a calibration with other settings ({path}); "
-                                 "give another --work folder or delete that one")
-            before, now = (s.get("calibration", {}).get("episodes", 0) for s in (old, settings))
-            if now < before:  # the evaluation folder keeps all it has: the result would count `before` episodes
-                raise ValueError(f"{self.dir} was evaluated on {before} episodes; a calibration can add episodes, "
-                                 f"not drop them (asked for {now})")
             if old != settings:
-                path.write_text(json.dumps(settings, indent=1))
+                diff = sorted(k for k in set(old) | set(settings) if old.get(k) != settings.get(k))
+                raise ValueError(f"{self.dir} holds a calibration with other settings ({', '.join(diff)} differ; "
+                                 f"{path}); give another --work folder or delete that one")
         else:
             self.dir.mkdir(parents=True, exist_ok=True)
             path.write_text(json.dumps(settings, indent=1))
@@ -172,8 +224,11 @@ class TaskCalibration:
         n = self.protocol.checkpoints
         return [self.config.train_steps * k // n for k in range(1, n + 1)]
 
-    def checkpoint(self, step: int) -> Path:
-        return self.dir / f"checkpoint_{step}.pt"
+    def seed_dir(self, seed: int) -> Path:
+        return self.dir / f"seed_{seed}"
+
+    def checkpoint(self, step: int, seed: int = 0) -> Path:
+        return self.seed_dir(seed) / f"checkpoint_{step}.pt"
 
     # ---- stages ------------------------------------------------------------------------------------
     def stage_demos(self):
@@ -199,156 +254,224 @@ class TaskCalibration:
         cache_features(self.demo_h5, encoder, self.config.cameras, self.features_path, size=self.config.image_size,
                        progress=self.progress, stride=self.protocol.frame_stride, control_mode=self.control_mode)
 
-    def stage_train(self):
-        todo = [step for step in self.checkpoint_steps if not self.checkpoint(step).is_file()]
+    def stage_train(self, seed: int):
+        todo = [step for step in self.checkpoint_steps if not self.checkpoint(step, seed).is_file()]
         if not todo:
             return
         from .features import load_features
         from .flow import LadderFlowTrainer
 
         episodes = load_features(self.features_path)[: self.protocol.demos]
-        trainer = LadderFlowTrainer(self.config, episodes, device=self.device)
+        trainer = LadderFlowTrainer(dataclasses.replace(self.config, seed=seed), episodes, device=self.device)
         done = [step for step in self.checkpoint_steps if step not in todo]
         if done:
-            trainer.resume(self.checkpoint(max(done)))
-        meta = {"task": self.spec.id, "control_mode": self.control_mode}
+            trainer.resume(self.checkpoint(max(done), seed))
+        meta = {"task": self.spec.id, "control_mode": self.control_mode, "task_hash": self.task_hash}
         for step in todo:
             losses = trainer.train(step - trainer.step_count, progress=self.progress)
-            trainer.save(self.checkpoint(step), meta=dict(meta, final_loss=float(sum(losses[-100:]) / max(len(losses[-100:]), 1))))
+            trainer.save(self.checkpoint(step, seed),
+                         meta=dict(meta, final_loss=float(sum(losses[-100:]) / max(len(losses[-100:]), 1))))
 
-    def _evaluate(self, step: int, folder: str, episodes: int, seed_set: int) -> dict:
+    def _evaluate(self, step: int, seed: int, folder: str, episodes: int, seed_set: int) -> dict:
         from maniladder_ms.evaluation.runner import evaluate
 
         from .evaluate import LadderFlowEvalPolicy
 
-        policy = LadderFlowEvalPolicy(self.checkpoint(step))
-        summary = evaluate(policy, self.dir / folder, tasks=[self.spec.id], episodes=episodes, seed=seed_set,
-                           progress=self.progress, bootstrap=0)
+        policy = LadderFlowEvalPolicy(self.checkpoint(step, seed))
+        summary = evaluate(policy, self.seed_dir(seed) / folder, tasks=[self.spec.id], episodes=episodes,
+                           seed=seed_set, progress=self.progress, bootstrap=0)
         return summary["tasks"][self.spec.id]
 
-    def stage_select(self) -> dict:
-        path = self.dir / "selection.json"
+    def stage_select(self, seed: int) -> dict:
+        """The checkpoint that acts: the last one, or with several the best on development episodes."""
+        steps = self.checkpoint_steps
+        if len(steps) == 1:
+            return {"selected_step": steps[0]}
+        path = self.seed_dir(seed) / "selection.json"
         if path.is_file():
             return json.loads(path.read_text())
-        rates = {step: self._evaluate(step, f"select_{step}", self.protocol.selection_episodes, SELECTION_SEED_SET)["rate"]
-                 for step in self.checkpoint_steps}
+        rates = {step: self._evaluate(step, seed, f"select_{step}", self.protocol.selection_episodes,
+                                      SEED_SETS["development"])["rate"] for step in steps}
         best = max(rates, key=lambda step: (rates[step], step))
         sel = {"selection_rates": {str(s): r for s, r in rates.items()}, "selected_step": best}
         path.write_text(json.dumps(sel, indent=1))
         return sel
 
-    def stage_evaluate(self, sel: dict) -> dict:
-        return self._evaluate(sel["selected_step"], "evaluate", self.protocol.episodes, EVALUATION_SEED_SET)
+    def stage_evaluate(self, seed: int, sel: dict) -> dict:
+        return self._evaluate(sel["selected_step"], seed, self.protocol.purpose, self.protocol.episodes,
+                              self.protocol.seed_set)
 
     # ---- all of it ---------------------------------------------------------------------------------
     def run(self) -> dict:
         self._check_settings()
         self._timed("demos", self.stage_demos)
         self._timed("features", self.stage_features)
-        self._timed("train", self.stage_train)
-        sel = self._timed("select", self.stage_select)
-        return self.write_result(self._timed("evaluate", lambda: self.stage_evaluate(sel)), sel)
+        per_seed = {}
+        for seed in self.protocol.seeds:
+            self._timed("train", lambda: self.stage_train(seed))
+            sel = self._timed("select", lambda: self.stage_select(seed))
+            per_seed[seed] = (self._timed("evaluate", lambda: self.stage_evaluate(seed, sel)), sel)
+        return self.write_result(per_seed)
 
-    def write_result(self, task: dict, sel: dict) -> dict:
+    def write_result(self, per_seed: dict) -> dict:
+        import statistics
+
         from maniladder_ms.demos.files import load_demo_json
+        from maniladder_ms.evaluation.stats import wilson_interval
+        from maniladder_ms.provenance import environment
 
         ranges = level_ranges()
-        level = measured_level(task["rate"], ranges)
+        successes = sum(t["successes"] for t, _ in per_seed.values())
+        episodes = sum(t["episodes"] for t, _ in per_seed.values())
+        rate = successes / episodes
+        level = measured_level(rate, ranges)
+        rates = [t["rate"] for t, _ in per_seed.values()]
         demos = load_demo_json(self.demo_h5)["episodes"][: self.protocol.demos]
         result = {
             "task": self.spec.id, "suite": self.spec.suite, "catalog_level": self.spec.level,
-            "successes": task["successes"], "episodes": task["episodes"], "success": task["rate"],
-            "ci95": list(task["ci"]), "measured_level": level, "measured_level_text": level_text(level),
-            "agree": level == self.spec.level,
-            "best_selection_success": max(sel["selection_rates"].values()),
-            "best_selection_success_note": "best success over checkpoints on the selection seeds (the paper's "
-                                           "'best success during training'): biased upwards",
-            "selection": sel, "control_mode": self.control_mode, "demo_control_mode": self.demo_control_mode,
-            "horizon": self.spec.horizon,
+            "purpose": self.protocol.purpose, "seed_set": self.protocol.seed_set,
+            "successes": successes, "episodes": episodes, "success": rate, "ci95": list(wilson_interval(successes, episodes)),
+            "measured_level": level, "measured_level_text": level_text(level), "agree": level == self.spec.level,
+            "verdict": verdict(successes, episodes, self.spec.level, ranges),
+            "per_training_seed": {str(seed): {"successes": t["successes"], "episodes": t["episodes"], "success": t["rate"],
+                                              "selection": sel} for seed, (t, sel) in per_seed.items()},
+            "training_seed_spread": {"min": min(rates), "max": max(rates),
+                                     "sd": statistics.stdev(rates) if len(rates) > 1 else None},
+            "control_mode": self.control_mode, "demo_control_mode": self.demo_control_mode, "horizon": self.spec.horizon,
             "demo_mean_steps": sum(e["elapsed_steps"] for e in demos) / max(len(demos), 1),
-            "mean_steps": task["mean_steps"], "timings_s": self._timings(),
+            "mean_steps": statistics.mean(t["mean_steps"] for t, _ in per_seed.values()), "timings_s": self._timings(),
             "protocol": PROTOCOL_VERSION, "config": self.config.as_dict(), "calibration": self.protocol.as_dict(),
+            "task_hash": self.task_hash,
+            "environment": environment(renderer=self.renderer, device=self.device),
             "time": time.strftime("%Y-%m-%dT%H:%M:%S"),
         }
         path = self.out / f"{self.spec.id}.json"
-        if path.is_file():  # a resume of a finished task: the committed result stays as it is (no new time stamp)
+        if path.is_file():
             old = json.loads(path.read_text())
-            volatile = ("time", "timings_s")
+            volatile = ("time", "timings_s", "environment")
             if {k: v for k, v in old.items() if k not in volatile} == \
                     json.loads(json.dumps({k: v for k, v in result.items() if k not in volatile})):
-                return old
+                return old  # a resume of a finished task: the result stays as it is (no new time stamp to commit)
+            if not self.replace:
+                raise ResultExistsError(
+                    f"{path} holds another result ({_result_label(old)}; this run: {_result_label(result)}); "
+                    "nothing was overwritten. Give another --out, or --replace to overwrite it")
         self.out.mkdir(parents=True, exist_ok=True)
         path.write_text(json.dumps(result, indent=1))
         return result
 
 
-def _calibrate_one(task_id: str, kwargs: dict) -> dict:
-    import torch
+class ResultExistsError(ValueError):
+    """A calibration would overwrite a different result file without `replace`."""
 
-    torch.set_num_threads(1)  # one task per process and core
+
+def _result_label(r: dict) -> str:
+    return (f"protocol {r.get('protocol')}, task version {r.get('task_hash', 'not recorded')}, "
+            f"{r.get('successes')}/{r.get('episodes')} on {r.get('purpose', 'final')} seeds")
+
+
+def _calibrate_one(task_id: str, kwargs: dict) -> dict:
     return TaskCalibration(task_id, **kwargs).run()
 
 
 def calibrate(tasks: Sequence[str], work: Path, out: Path, demos_dir: Optional[Path] = None, device: str = "cpu",
               workers: int = 1, progress: bool = True, config: LadderFlowConfig = LadderFlowConfig(),
-              protocol: CalibrationProtocol = CalibrationProtocol(), log=print) -> dict:
-    """Calibrate `tasks` (resuming what `work` holds), then rewrite the summary of every result in `out`."""
+              protocol: CalibrationProtocol = CalibrationProtocol(), renderer: str = "cpu", replace: bool = False,
+              log=print) -> dict:
+    """Calibrate `tasks` (resuming what `work` holds), then rewrite the summary of every result in `out`.
+    Each process runs one torch thread and renders with `renderer` (the env var the envs read, inherited by
+    worker processes)."""
     import concurrent.futures as cf
     import multiprocessing as mp
+    import os
 
-    kwargs = dict(work=Path(work), out=Path(out), demos_dir=demos_dir, config=config, protocol=protocol, device=device)
+    import torch
+
+    kwargs = dict(work=Path(work), out=Path(out), demos_dir=demos_dir, config=config, protocol=protocol, device=device,
+                  renderer=renderer, replace=replace)
     for t in tasks:  # bad names and unbuilt tasks fail before any work starts
         TaskCalibration(t, **kwargs)
     failed = {}
-    if workers <= 1:
-        for t in tasks:
-            t0 = time.perf_counter()
-            r = TaskCalibration(t, progress=progress, log=log, **kwargs).run()
-            log(_result_line(r, time.perf_counter() - t0))
-    else:
-        with cf.ProcessPoolExecutor(workers, mp_context=mp.get_context("spawn")) as pool:
-            futures = {pool.submit(_calibrate_one, t, dict(kwargs, progress=False)): t for t in tasks}
-            for fut in cf.as_completed(futures):
-                try:
-                    log(_result_line(fut.result()))
-                except Exception as e:  # one task's failure leaves the others running
-                    failed[futures[fut]] = f"{type(e).__name__}: {e}"
-                    log(f"{futures[fut]}: FAILED {failed[futures[fut]]}")
+    previous = os.environ.get(RENDER_ENV), torch.get_num_threads()
+    os.environ[RENDER_ENV] = renderer
+    torch.set_num_threads(1)  # one task per process and core; worker processes inherit the env var, not this
+    try:
+        if workers <= 1:
+            for t in tasks:
+                t0 = time.perf_counter()
+                r = TaskCalibration(t, progress=progress, log=log, **kwargs).run()
+                log(_result_line(r, time.perf_counter() - t0))
+        else:
+            with cf.ProcessPoolExecutor(workers, mp_context=mp.get_context("spawn"), initializer=_one_thread) as pool:
+                futures = {pool.submit(_calibrate_one, t, dict(kwargs, progress=False)): t for t in tasks}
+                for fut in cf.as_completed(futures):
+                    try:
+                        log(_result_line(fut.result()))
+                    except Exception as e:  # one task's failure leaves the others running
+                        failed[futures[fut]] = f"{type(e).__name__}: {e}"
+                        log(f"{futures[fut]}: FAILED {failed[futures[fut]]}")
+    finally:
+        if previous[0] is None:
+            os.environ.pop(RENDER_ENV, None)
+        else:
+            os.environ[RENDER_ENV] = previous[0]
+        torch.set_num_threads(previous[1])
     summary = write_summary(out)
     if failed:
         raise RuntimeError("calibration failed for " + "; ".join(f"{t} ({why})" for t, why in failed.items()))
     return summary
 
 
+RENDER_ENV = "MANILADDER_RENDER_BACKEND"  # read by `envs.base.resolve_render_backend`
+
+
+def _one_thread():
+    import torch
+
+    torch.set_num_threads(1)
+
+
 def _result_line(r: dict, wall: Optional[float] = None) -> str:
     lo, hi = r["ci95"]
-    flag = "agrees" if r["agree"] else f"DISAGREES with catalog L{r['catalog_level']}"
     extra = f" ({wall / 60:.1f} min)" if wall else ""
     return (f"{r['task']}: {r['successes']}/{r['episodes']} = {100 * r['success']:.0f}% [{100 * lo:.0f}, {100 * hi:.0f}] "
-            f"-> {r['measured_level_text']}, {flag}{extra}")
+            f"-> {r['measured_level_text']}; interval {r['verdict']} catalog L{r['catalog_level']}'s band{extra}")
 
 
-def load_results(out: Path) -> list[dict]:
-    """The task results in `out` measured under this protocol (another protocol's numbers are not comparable)."""
+def load_results(out: Path, protocol: Optional[str] = PROTOCOL_VERSION) -> list[dict]:
+    """The task results in `out` measured under `protocol` (None: every protocol; numbers of different
+    protocols are not comparable, so only a report that labels them shows them together)."""
     rows = []
     for p in sorted(Path(out).glob("*.json")):
         if p.name == "calibration.json":
             continue
         r = json.loads(p.read_text())
-        if "measured_level" in r and r.get("protocol") == PROTOCOL_VERSION:
+        if "measured_level" in r and (protocol is None or r.get("protocol") == protocol):
             rows.append(r)
     return rows
 
 
+def stale_reason(r: dict) -> Optional[str]:
+    """Why a result no longer measures its task as built (None if it still does, or nobody can tell)."""
+    from maniladder_ms.provenance import task_hash
+
+    if r.get("stale"):
+        return r["stale"]
+    if r.get("task_hash") and default_catalog().get(r["task"]).implemented and r["task_hash"] != task_hash(r["task"]):
+        return f"the task changed since (version {r['task_hash']} measured, {task_hash(r['task'])} now)"
+    return None
+
+
 def write_summary(out: Path) -> dict:
-    """`calibration.json` (the table) and `calibration.png` (the plot) over every task result in `out`."""
+    """`calibration.json` (the table) and `calibration.png` (the plot) over every task result in `out` of this
+    protocol."""
     out = Path(out)
     rows = load_results(out)
-    cols = ("task", "suite", "catalog_level", "successes", "episodes", "success", "ci95", "measured_level",
-            "measured_level_text", "agree", "best_selection_success", "demo_mean_steps", "timings_s")
-    table = [{c: r[c] for c in cols} for r in rows]
-    agree = sum(r["agree"] for r in rows)
-    summary = {"protocol": PROTOCOL_VERSION, "tasks": table, "n_tasks": len(rows), "n_agree": agree,
+    cols = ("task", "suite", "catalog_level", "purpose", "successes", "episodes", "success", "ci95", "measured_level",
+            "measured_level_text", "agree", "verdict", "training_seed_spread", "demo_mean_steps", "timings_s", "task_hash")
+    table = [{c: r.get(c) for c in cols} for r in rows]
+    summary = {"protocol": PROTOCOL_VERSION, "tasks": table, "n_tasks": len(rows),
+               "n_agree": sum(r["agree"] for r in rows), "n_inside": sum(r.get("verdict") == "inside" for r in rows),
                "level_ranges": {str(k): v for k, v in level_ranges().items()}}
     if rows:
         out.mkdir(parents=True, exist_ok=True)
@@ -377,12 +500,17 @@ def plot_calibration(rows: list[dict], path: Path) -> Path:
         c = colours[r["catalog_level"]]
         ax.errorbar(i, 100 * r["success"], yerr=[[100 * (r["success"] - lo)], [100 * (hi - r["success"])]],
                     fmt="o" if r["agree"] else "X", color=c, ms=7, capsize=3)
+        for seed_rate in (x["success"] for x in r.get("per_training_seed", {}).values()):
+            if len(r.get("per_training_seed", {})) > 1:  # the spread over training seeds
+                ax.plot(i + 0.18, 100 * seed_rate, "_", color=c, ms=8)
     ax.set_xticks(range(len(rows)))
     ax.set_xticklabels([r["task"] for r in rows], rotation=60, ha="right", fontsize=8)
     ax.set_ylabel("success on fresh seeds (%), 95% Wilson")
     ax.set_ylim(-3, 103)
     ax.set_xlim(-0.6, len(rows) - 0.4)
-    ax.set_title(f"LadderFlow {PROTOCOL_VERSION} calibration: colour = catalog level, x = level disagrees", fontsize=10)
+    protocols = ", ".join(sorted({str(r.get("protocol")) for r in rows}))
+    ax.set_title(f"LadderFlow {protocols} calibration: colour = catalog level, x = level disagrees, "
+                 "dashes = training seeds", fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
@@ -396,28 +524,41 @@ def print_calibration(summary: dict, file=None) -> None:
     rows = []
     for r in sorted(summary["tasks"], key=lambda r: (r["catalog_level"], r["suite"], r["task"])):
         lo, hi = r["ci95"]
+        spread = r.get("training_seed_spread") or {}
+        seeds = f"{100 * spread['min']:.0f}-{100 * spread['max']:.0f}%" if spread.get("sd") is not None else "1 seed"
         rows.append((r["task"], r["suite"], f"L{r['catalog_level']}", f"{100 * r['success']:.0f}% ({r['successes']}/{r['episodes']})",
-                     f"[{100 * lo:.0f}, {100 * hi:.0f}]", r["measured_level_text"], "yes" if r["agree"] else "NO",
-                     f"{100 * r['best_selection_success']:.0f}%"))
-    print_table(("task", "suite", "catalog", "success", "95% Wilson", "measured", "agree?", "best sel.*"), rows, file)
-    print(f"\n{summary['n_agree']}/{summary['n_tasks']} tasks measured at their catalog level. *best success over "
-          "checkpoints on the selection seeds (the paper's 'best during training'): biased upwards.", file=file)
+                     f"[{100 * lo:.0f}, {100 * hi:.0f}]", seeds, r["measured_level_text"], r.get("verdict", "?"),
+                     r.get("purpose", "final")))
+    print_table(("task", "suite", "catalog", "success", "95% Wilson", "training seeds", "measured", "interval vs band",
+                 "seeds"), rows, file)
+    print(f"\n{summary['n_inside']}/{summary['n_tasks']} tasks with their interval inside their catalog level's band "
+          f"(LadderFlow {summary['protocol']}); {summary['n_agree']} with the point estimate in it.", file=file)
 
 
 def add_parser(sub) -> None:
     cp = sub.add_parser(
         "calibrate", help="measure tasks' levels with the reference policy (LadderFlow): demos -> features -> train "
-                          "-> select -> evaluate",
+                          "-> evaluate",
         description=__doc__.split("\n\n")[0])
     sel = cp.add_mutually_exclusive_group(required=True)
     sel.add_argument("--level", type=int, choices=(1, 2, 3, 4))
     sel.add_argument("--suite", help="e.g. L1-rigid-SG")
     sel.add_argument("--tasks", help="comma-separated task ids")
-    cp.add_argument("--work", type=Path, default=Path("runs/calibration"),
-                    help="work folder: demos, features, checkpoints, episodes; a re-run resumes it (default runs/calibration)")
-    cp.add_argument("--out", type=Path, default=Path("docs/calibration"), help="results folder (default docs/calibration)")
+    cp.add_argument("--purpose", choices=sorted(SEED_SETS), default="final",
+                    help="final: the numbers that place tasks (3 training seeds, final seed set); development: for "
+                         "decisions while refining (1 training seed, development seed set)")
+    cp.add_argument("--work", type=Path, default=Path("runs/calibration/work"),
+                    help="work folder: demos, features, checkpoints, episodes, per task version; a re-run resumes it "
+                         "(default runs/calibration/work)")
+    cp.add_argument("--out", type=Path, default=Path("runs/calibration/results"),
+                    help="results folder (default runs/calibration/results; the committed results are docs/calibration)")
+    cp.add_argument("--replace", action="store_true",
+                    help="overwrite a result file in --out that holds another protocol's or task version's result")
     cp.add_argument("--demos", type=Path, help="folder of existing demos (<task>/trajectory.none.<mode>...h5) to use")
-    cp.add_argument("--device", default="cpu", help="torch device for encoding and training (cpu, cuda)")
+    cp.add_argument("--device", default="cpu", help="torch device for encoding and training (cpu, cuda); recorded")
+    cp.add_argument("--renderer", choices=("cpu", "gpu"), default="cpu",
+                    help="render backend of the demo frames and evaluation episodes (default cpu, lavapipe: the same "
+                         "pixels on every machine); recorded")
     cp.add_argument("--workers", type=int, default=1, help="tasks calibrated in parallel processes")
     cp.add_argument("--quiet", action="store_true", help="no progress bars")
     cp.set_defaults(func=cmd_calibrate)
@@ -441,7 +582,8 @@ def cmd_calibrate(args) -> int:
         if not torch.cuda.is_available():
             raise ValueError(f"--device {args.device}: torch sees no CUDA device here")
     summary = calibrate(tasks, args.work, args.out, demos_dir=args.demos, device=args.device, workers=args.workers,
-                        progress=not args.quiet)
+                        progress=not args.quiet, protocol=CalibrationProtocol(purpose=args.purpose),
+                        renderer=args.renderer, replace=args.replace)
     print()
     print_calibration(summary)
     print(f"\nresults in {args.out}/ (<task>.json, calibration.json, calibration.png); `maniladder report {args.out}`")
@@ -449,25 +591,41 @@ def cmd_calibrate(args) -> int:
 
 
 def write_calibration_report(folder: Path, out: Optional[Path] = None) -> Path:
-    """`maniladder report <calibration folder>`: the table and the plot as one HTML page (`report/report.html`)."""
+    """`maniladder report <calibration folder>`: per protocol in the folder (newest first), the table and the plot
+    as one HTML page (`report/report.html`); rows that no longer measure their task as built are marked stale."""
     import base64
     import html
     import io
 
     folder = Path(folder)
-    summary = write_summary(folder)
-    if not summary["n_tasks"]:
+    rows = load_results(folder, protocol=None)
+    if not rows:
         raise ValueError(f"{folder} holds no calibration results (<task>.json)")
+    write_summary(folder)
     out = Path(out) if out else folder / "report"
     out.mkdir(parents=True, exist_ok=True)
-    buf = io.StringIO()
-    print_calibration(summary, buf)
-    png = base64.b64encode((folder / "calibration.png").read_bytes()).decode()
+    sections, text = [], io.StringIO()
+    for protocol in sorted({str(r.get("protocol")) for r in rows}, reverse=True):
+        mine = [r for r in rows if str(r.get("protocol")) == protocol]
+        summary = {"protocol": protocol, "tasks": mine, "n_tasks": len(mine), "n_agree": sum(r["agree"] for r in mine),
+                   "n_inside": sum(r.get("verdict") == "inside" for r in mine)}
+        buf = io.StringIO()
+        label = "current protocol" if protocol == PROTOCOL_VERSION else f"superseded by {PROTOCOL_VERSION}: not comparable"
+        print(f"LadderFlow {protocol} ({label})", file=buf)
+        print_calibration(summary, buf)
+        stale = [(r["task"], why) for r in mine if (why := stale_reason(r))]
+        for task, why in stale:
+            print(f"STALE {task}: {why}", file=buf)
+        png_path = out / f"calibration_{protocol}.png"
+        plot_calibration(mine, png_path)
+        png = base64.b64encode(png_path.read_bytes()).decode()
+        sections.append(f"<h2>LadderFlow {html.escape(protocol)} ({html.escape(label)})</h2>"
+                        f'<img alt="success per task against the level bands" src="data:image/png;base64,{png}">'
+                        f"<pre>{html.escape(buf.getvalue())}</pre>")
+        text.write(buf.getvalue() + "\n")
     page = (f'<!DOCTYPE html><html><head><meta charset="utf-8"><title>ManiLadder calibration</title></head><body>'
-            f"<h1>ManiLadder calibration (LadderFlow {PROTOCOL_VERSION})</h1>"
-            f'<img alt="success per task against the level bands" src="data:image/png;base64,{png}">'
-            f"<pre>{html.escape(buf.getvalue())}</pre></body></html>")
+            f"<h1>ManiLadder calibration</h1>{''.join(sections)}</body></html>")
     path = out / "report.html"
     path.write_text(page, encoding="utf-8")
-    print(buf.getvalue())
+    print(text.getvalue())
     return path

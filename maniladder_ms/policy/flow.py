@@ -1,4 +1,4 @@
-"""LadderFlow: the reference policy's network and its training (protocol v3).
+"""LadderFlow: the reference policy's network and its training (protocol v4).
 
 A small transformer encoder-decoder that denoises action chunks with flow matching (rectified flow):
 - observation: frozen encoder tokens of the front, left and top cameras (no proprioception, no privileged
@@ -27,7 +27,10 @@ from typing import Optional
 import torch
 from torch import nn
 
-PROTOCOL_VERSION = "v3"  # v3: v2 trained 8000 steps, not 3000; v2: absolute joint-target actions (v1: end-effector deltas)
+# v4: order-independent evaluation episodes, work keyed by task version, 3 pooled training seeds, one checkpoint
+# (no selection), development/final seed sets (`policy.calibrate`); the network is v3's. v3: v2 trained 8000
+# steps, not 3000; v2: absolute joint-target actions (v1: end-effector deltas)
+PROTOCOL_VERSION = "v4"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -40,8 +43,8 @@ class LadderFlowConfig:
     chunk: int = 16  # actions predicted per call
     execute: int = 8  # of which the first ones are executed open loop
     integration_steps: int = 10
-    # sized for a CPU (measured, one core: ~0.15-0.25 s a step); a GPU runs the same configuration, so both give
-    # the same policy
+    # sized for a CPU (measured, one core: ~0.15-0.25 s a step). A GPU runs the same configuration, but its
+    # arithmetic differs from the CPU's, so it trains another policy: results record the device
     d_model: int = 128
     heads: int = 4
     encoder_layers: int = 2
@@ -253,6 +256,8 @@ class LadderFlowTrainer:
             "feature_dim": self.features.shape[-1], "action_dim": self.targets.shape[-1], "n_tokens": self.features.shape[1],
             "normalizer": self.normalizer.state_dict(), "net": self.net.state_dict(), "ema": self.ema.state_dict(),
             "optimizer": self.opt.state_dict(), "scheduler": self.sched.state_dict(),
+            "rng": torch.get_rng_state(),
+            "cuda_rng": torch.cuda.get_rng_state_all() if str(self.device).startswith("cuda") else None,
         }, tmp)
         tmp.replace(path)
         return path
@@ -267,7 +272,11 @@ class LadderFlowTrainer:
         self.opt.load_state_dict(ckpt["optimizer"])
         self.sched.load_state_dict(ckpt["scheduler"])
         self.step_count = int(ckpt["step"])
-        torch.manual_seed(self.config.seed + self.step_count)  # minibatches after a resume: reproducible too
+        # the RNG where the saved run was: the minibatches, flow times and noise after a resume are the ones an
+        # uninterrupted run draws, so both end in the same weights
+        torch.set_rng_state(ckpt["rng"].cpu())
+        if ckpt.get("cuda_rng") is not None and str(self.device).startswith("cuda"):
+            torch.cuda.set_rng_state_all(ckpt["cuda_rng"])
         return self.step_count
 
 
