@@ -485,3 +485,10 @@ def test_report_warns_when_level_means_cover_different_tasks(tmp_path):
     assert warning.startswith(f"L{level} means are over different task sets")
     page = write_report([tmp_path / "a", tmp_path / "c"], out=tmp_path / "rep").read_text()
     assert "over different task sets" in page and "design target" in page
+
+
+def test_replay_policy_reads_the_committed_samples():
+    """The committed samples name their env `maniladder_ms:ManiLadder-<Task>-v1` (for replay_trajectory)."""
+    repo = Path(__file__).resolve().parents[1]
+    pol = load_policy(f"replay:{repo / 'demos' / PEN}")
+    assert pol.supports(maniladder_ms.default_catalog().get(PEN)) is True and pol.max_episodes(maniladder_ms.default_catalog().get(PEN)) >= 1

@@ -148,7 +148,8 @@ class ReplayPolicy:
                 raise PolicyError(f"replay: {h5} has no {meta_path.name} beside it (ManiSkill demos are h5 + json pairs)")
             meta = json.loads(meta_path.read_text())
             try:
-                env_id = meta["env_info"]["env_id"]
+                # "maniladder_ms:ManiLadder-X-v1" in demos made for replay_trajectory (gym imports the module first)
+                env_id = meta["env_info"]["env_id"].rpartition(":")[2]
                 episodes = list(meta["episodes"])
             except (KeyError, TypeError) as e:
                 raise PolicyError(f"replay: {meta_path} is not a ManiSkill trajectory json (missing {e})") from None
