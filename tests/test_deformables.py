@@ -464,6 +464,35 @@ def test_hanging_fractions_of_a_towel_draped_over_a_bar_and_lying_flat():
     assert torch.allclose(swapped[:, [1, 0]], sides)
 
 
+def test_towel_loop_built_round_a_hook_is_on_it_and_one_beside_it_is_not():
+    """`cloth.towel_with_loop`'s corner loop, its ring turned upright across a wall hook (a shaft along -x out of a
+    wall, 6 cm long, tip at the origin) and centred on the shaft 1.5 cm behind the tip: `cloth.loop_on_hook` and
+    a winding of one turn; the same loop 5 cm beside the shaft (no turn), 3 cm in front of the tip (one turn
+    round the shaft's line, but off the hook) and lying flat on the table under it (no turn): not on the hook;
+    batched over the four."""
+    layout = cloth.towel_with_loop(10, 8, 7)
+    ring = layout.named["loop"]
+    assert len(ring) == 8 and layout.named["loop"][0] == layout.named["corners"][3]
+    # every link, ring ones too, one spacing long at rest
+    lengths = [np.linalg.norm(layout.positions[a] - layout.positions[b]) for a, b in layout.links]
+    assert np.allclose(lengths, 0.025)
+    local = layout.positions - layout.positions[ring].mean(axis=0)  # the ring's centre at the origin
+
+    def turned(rotation, centre):
+        return local @ np.asarray(rotation, dtype=float).T + np.asarray(centre)
+
+    upright = [[0, 0, 1], [0, 1, 0], [-1, 0, 0]]  # the sheet's z (the ring's normal) along the shaft (x)
+    shapes = [turned(upright, [0.015, 0, 0]), turned(upright, [0.015, 0.05, 0]), turned(upright, [-0.03, 0, 0]),
+              local + np.array([0.0, 0.0, -0.15])]
+    points = torch.tensor(np.stack(shapes), dtype=torch.float32)
+    tip, axis = torch.zeros(4, 3), torch.tensor([-1.0, 0.0, 0.0])
+    winding = cloth.loop_winding(points, ring, tip, axis)
+    assert winding[0].abs().item() == pytest.approx(1.0, abs=1e-4)
+    assert winding[1].abs().item() == pytest.approx(0.0, abs=1e-4)
+    assert winding[2].abs().item() == pytest.approx(1.0, abs=1e-4)
+    assert cloth.loop_on_hook(points, ring, tip, axis, 0.06).tolist() == [True, False, False, False]
+
+
 def test_top_down_fold_distance_of_a_towel_folded_in_half_along_its_short_axis():
     """`cloth.fold_distance(..., top_down=True)` on a 10 x 6 towel (FoldTowelInHalf's) folded in half by
     construction (`cloth.fold_edge` at its middle row, the folded rows shifted to lie right over their

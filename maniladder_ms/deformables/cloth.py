@@ -251,6 +251,31 @@ def shirt(body_rows: int = 8, body_cols: int = 6, sleeve_rows: int = 3, sleeve_c
     return ClothLayout(positions, links, border, named)
 
 
+def towel_with_loop(rows: int = 10, cols: int = 8, loop_particles: int = 7,
+                    spacing: float = ClothConfig.spacing) -> ClothLayout:
+    """A rectangular towel (`towel`) with a hanging loop at its (+x,+y) corner: a closed ring of
+    `loop_particles` particles lying flat beyond the corner, a regular polygon of `loop_particles + 1`
+    sides (one link each) through the corner, its centre on the corner's outward diagonal.
+
+    Named: `corners` (as `towel`), `loop` (the ring in order round it, the corner first: a closed polygon,
+    `loop_winding`'s ring); the ring's own particles are `cords` (drawn as beads of a cord)."""
+    layout = towel(rows, cols, spacing)
+    corner = layout.named["corners"][3]
+    sides = loop_particles + 1
+    radius = spacing / (2 * np.sin(np.pi / sides))  # a regular polygon with sides one link long
+    outward = np.array([1.0, 1.0, 0.0]) / np.sqrt(2)
+    centre = layout.positions[corner] + radius * outward
+    start = np.arctan2(-outward[1], -outward[0])  # the corner's angle about the centre
+    angles = start + 2 * np.pi * np.arange(1, sides) / sides
+    ring = centre + radius * np.stack([np.cos(angles), np.sin(angles), np.zeros(loop_particles)], axis=1)
+    n = len(layout.positions)
+    ids = list(range(n, n + loop_particles))
+    chain = [corner] + ids + [corner]
+    links = layout.links + list(zip(chain[:-1], chain[1:]))
+    named = dict(layout.named, loop=[corner] + ids)
+    return ClothLayout(np.concatenate([layout.positions, ring]), links, layout.border, named, cords=set(ids))
+
+
 def bag(rows: int = 6, cols: int = 6, handle_length: int = 5, spacing: float = ClothConfig.spacing,
         radius: float = ClothConfig.radius) -> ClothLayout:
     """A tote bag lying flat: back panel on the table, front panel on top of it (2.2 radii higher),
@@ -436,6 +461,37 @@ def hanging_fractions(points: torch.Tensor, bar_point: torch.Tensor, bar_axis: t
     below = points[..., 2] < (top[:, None] if top.dim() else top)
     return torch.stack([((signed < 0) & below).float().mean(dim=1), ((signed > 0) & below).float().mean(dim=1)],
                        dim=1)
+
+
+def loop_winding(points: torch.Tensor, ring: list[int], point: torch.Tensor, axis: torch.Tensor) -> torch.Tensor:
+    """How many times the closed polygon of particles `ring` (in order round it) winds about the line through
+    `point` [B, 3] along `axis` [B, 3] or [3], [B] (signed; ~0 for a ring beside the line, +-1 for a ring
+    round it): the sum of the turns between consecutive ring particles seen along the axis, over 2 pi.
+    `points` [B, N, 3]."""
+    axis = torch.nn.functional.normalize(
+        torch.as_tensor(axis, dtype=points.dtype, device=points.device).expand(points.shape[0], 3), dim=1)
+    # a basis (u, v) of the plane across the axis
+    helper = torch.where(axis[:, 2:].abs() < 0.9, torch.tensor([0.0, 0.0, 1.0], device=points.device),
+                         torch.tensor([1.0, 0.0, 0.0], device=points.device))
+    u = torch.nn.functional.normalize(torch.linalg.cross(axis, helper), dim=1)
+    v = torch.linalg.cross(axis, u)
+    rel = points[:, ring] - point[:, None]
+    angle = torch.atan2((rel * v[:, None]).sum(-1), (rel * u[:, None]).sum(-1))  # [B, K]
+    turn = torch.diff(torch.cat([angle, angle[:, :1]], dim=1), dim=1)
+    turn = torch.remainder(turn + torch.pi, 2 * torch.pi) - torch.pi
+    return turn.sum(dim=1) / (2 * torch.pi)
+
+
+def loop_on_hook(points: torch.Tensor, ring: list[int], tip: torch.Tensor, axis: torch.Tensor,
+                 length: float | torch.Tensor) -> torch.Tensor:
+    """Whether the loop `ring` (`loop_winding`'s) hangs on a straight hook of `length` m whose shaft points
+    along `axis` [B, 3] or [3] (out of its wall) to its `tip` [B, 3], [B] bool: the ring winds once round
+    the shaft's line (|winding| > 1/2) and the ring's centre (mean of its particles) lies along the shaft,
+    between the wall (`length` behind the tip) and the tip: encircling the tip, not beyond it."""
+    axis = torch.nn.functional.normalize(
+        torch.as_tensor(axis, dtype=points.dtype, device=points.device).expand(points.shape[0], 3), dim=1)
+    along = ((points[:, ring].mean(dim=1) - tip) * axis).sum(dim=1)  # <= 0: behind the tip
+    return (loop_winding(points, ring, tip, axis).abs() > 0.5) & (along <= 0) & (along >= -torch.as_tensor(length))
 
 
 def grid_yaw(points: torch.Tensor, links: list[tuple[int, int]]) -> torch.Tensor:

@@ -2,10 +2,16 @@
 
 from __future__ import annotations
 
+from typing import Any
+
+import numpy as np
 import torch
+
+from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.deformables import cloth
 from maniladder_ms.envs import ManiLadderEnv
+from maniladder_ms.geometry import yaw_quat
 
 
 class FoldTowelTask(ManiLadderEnv):
@@ -58,3 +64,48 @@ class FoldTowelTask(ManiLadderEnv):
         towel's rows times twice the spacing), 1 at `fold_tol`."""
         start = self.GRID[0] // 2 * self.cloth_config.spacing * 2
         return ((start - info["fold_error"]) / (start - self.fold_tol)).clamp(0, 1)
+
+
+class TowelInHalfTask(FoldTowelTask):
+    """A rectangular towel (`cloth.towel(10, 6)`, 25 x 15 cm) folded in half along its short axis (short edge onto
+    short edge): the scene, start ranges, fold, observations and reward its variants (one per agent) share. The
+    towel lies flat, centred at x uniform in [`TOWEL_X_LOW`, `TOWEL_X_LOW` + `TOWEL_X_SPAN`], y uniform in
+    +-`TOWEL_Y`, its long axis turned by a yaw uniform in [-`TOWEL_YAW_SPAN` / 2, `TOWEL_YAW_SPAN` / 2)."""
+
+    max_dense_reward = 5
+    TASK_REGION = (-0.28, 0.14, -0.22, 0.22)  # towel centres plus the towel's half diagonal (14.6 cm) and a radius
+    GRID = (10, 6)  # rows along the towel's long axis (its local x), columns along its short axis
+    TOWEL_X_LOW, TOWEL_X_SPAN = -0.12, 0.1  # the towel's centre x: uniform in [low, low + span]
+    TOWEL_Y = 0.06  # the towel's centre y: uniform in +-this
+    TOWEL_YAW_SPAN = np.pi / 2  # the towel's yaw: uniform in [-span / 2, span / 2)
+
+    def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
+        super()._initialize_episode(env_idx, options)
+        with torch.device(self.device):
+            b = len(env_idx)
+            yaw = (torch.rand(b) - 0.5) * self.TOWEL_YAW_SPAN
+            xyz = torch.stack([torch.rand(b) * self.TOWEL_X_SPAN + self.TOWEL_X_LOW,
+                               (torch.rand(b) * 2 - 1) * self.TOWEL_Y,
+                               torch.full((b,), self.cloth_config.radius)], dim=1)
+            self.towel.set_rest_shape(Pose.create_from_pq(xyz, yaw_quat(yaw)))
+
+    def fold_pair_sets(self) -> list:
+        """The short-axis fold: rows mirrored about the middle, the two short edges together."""
+        return [cloth.fold_pairs(*self.GRID, axis=0)]
+
+    def _get_obs_extra(self, info: dict):
+        obs = dict(tcp_pose=self.ee.tcp().raw_pose)
+        if "state" in self.obs_mode:
+            obs.update(towel_points=self.towel.positions().flatten(1), fold_error=info["fold_error"])
+        return obs
+
+    def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
+        points = self.towel.positions()
+        # reach the nearest short-edge corner, then bring the paired rows together, lay it down and let go
+        corners = points[:, self.towel.layout.named["corners"]]
+        reach = torch.linalg.norm(corners - self.ee.tcp().p[:, None], dim=-1).amin(dim=1)
+        reward = 1 - torch.tanh(5 * reach)
+        reward += 3 * self.fold_progress(info)
+        reward += (info["folded"] & info["on_table"] & ~info["is_touching"]).float()
+        reward[info["success"]] = self.max_dense_reward
+        return reward

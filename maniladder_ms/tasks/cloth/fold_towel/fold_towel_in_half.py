@@ -2,21 +2,12 @@
 
 from __future__ import annotations
 
-from typing import Any
-
-import numpy as np
-import torch
-
-from mani_skill.utils.structs.pose import Pose
-
-from maniladder_ms.deformables import cloth
 from maniladder_ms.envs import register_task
-from maniladder_ms.geometry import yaw_quat
-from .base import FoldTowelTask
+from .base import TowelInHalfTask
 
 
 @register_task("FoldTowelInHalf")
-class FoldTowelInHalfEnv(FoldTowelTask):
+class FoldTowelInHalfEnv(TowelInHalfTask):
     """**Task:** a rectangular towel lies flat on the table; fold it in half along its short axis: take
     one short edge, lift it and lay it onto the other short edge, so the towel lies doubled, half its
     length, and let go.
@@ -43,41 +34,3 @@ class FoldTowelInHalfEnv(FoldTowelTask):
     cap; demos take ~200 steps of a 300-step horizon, 4 stages (pinch and carry, twice):
     T = 10 log10 200 + 4 = 27 against FlattenTowelCorner's 10 log10 84 + 2 = 21.
     """
-
-    max_dense_reward = 5
-    TASK_REGION = (-0.28, 0.14, -0.22, 0.22)  # towel centres plus the towel's half diagonal (14.6 cm) and a radius
-    GRID = (10, 6)  # rows along the towel's long axis (its local x), columns along its short axis
-    TOWEL_X_LOW, TOWEL_X_SPAN = -0.12, 0.1  # the towel's centre x: uniform in [low, low + span]
-    TOWEL_Y = 0.06  # the towel's centre y: uniform in +-this
-    TOWEL_YAW_SPAN = np.pi / 2  # the towel's yaw: uniform in [-span / 2, span / 2)
-
-    def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
-        super()._initialize_episode(env_idx, options)
-        with torch.device(self.device):
-            b = len(env_idx)
-            yaw = (torch.rand(b) - 0.5) * self.TOWEL_YAW_SPAN
-            xyz = torch.stack([torch.rand(b) * self.TOWEL_X_SPAN + self.TOWEL_X_LOW,
-                               (torch.rand(b) * 2 - 1) * self.TOWEL_Y,
-                               torch.full((b,), self.cloth_config.radius)], dim=1)
-            self.towel.set_rest_shape(Pose.create_from_pq(xyz, yaw_quat(yaw)))
-
-    def fold_pair_sets(self) -> list:
-        """The short-axis fold: rows mirrored about the middle, the two short edges together."""
-        return [cloth.fold_pairs(*self.GRID, axis=0)]
-
-    def _get_obs_extra(self, info: dict):
-        obs = dict(tcp_pose=self.ee.tcp().raw_pose)
-        if "state" in self.obs_mode:
-            obs.update(towel_points=self.towel.positions().flatten(1), fold_error=info["fold_error"])
-        return obs
-
-    def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
-        points = self.towel.positions()
-        # reach the nearest short-edge corner, then bring the paired rows together, lay it down and let go
-        corners = points[:, self.towel.layout.named["corners"]]
-        reach = torch.linalg.norm(corners - self.ee.tcp().p[:, None], dim=-1).amin(dim=1)
-        reward = 1 - torch.tanh(5 * reach)
-        reward += 3 * self.fold_progress(info)
-        reward += (info["folded"] & info["on_table"] & ~info["is_touching"]).float()
-        reward[info["success"]] = self.max_dense_reward
-        return reward
