@@ -64,9 +64,9 @@ class PickThinCardHandEnv(PickThinCardTask):
 
     **Randomisation:** the card (`card_length` x `card_width` x `card_thickness`, ~14 g) lies with its centre
     uniform in x in [-0.27, -0.21] (`CARD_X`) and y in [-0.08, 0.08] (`CARD_Y`), yawed uniform in [-15, 15]
-    degrees (`CARD_YAW`); the block (a 30 cm wide ramp at `BLOCK_SLOPE` to the table, its top `PAD_LENGTH` rubber) stands square to the robot
-    with the foot of its ramp 1.5-3.5 cm (uniform, `BLOCK_GAP`) beyond the card's far end, its centre's y within
-    +-4 cm (`BLOCK_Y`) of the card's.
+    degrees (`CARD_YAW`); the block (a 30 cm wide ramp at `BLOCK_SLOPE` to the table, its top `PAD_LENGTH`
+    rubber) stands square to the robot with the foot of its ramp 1.5-3.5 cm (uniform, `BLOCK_GAP`) beyond the
+    card's far end, its centre's y within +-4 cm (`BLOCK_Y`) of the card's.
 
     **Success:** (the PickThinCard family rule, `PickThinCardTask`) the card's lowest point is at least
     `lift_height` above the table, higher than the block's edge (`block_height`), and the hand holds it
@@ -106,7 +106,8 @@ class PickThinCardHandEnv(PickThinCardTask):
             x = self.CARD_X[0] + torch.rand(b) * self.CARD_X[1]
             y = (torch.rand(b) * 2 - 1) * self.CARD_Y
             card = torch.stack([x, y, torch.full((b,), self.card_thickness / 2)], dim=1)
-            self.card.set_pose(Pose.create_from_pq(card, yaw_quat((torch.rand(b) * 2 - 1) * np.deg2rad(self.CARD_YAW))))
+            yaw = (torch.rand(b) * 2 - 1) * np.deg2rad(self.CARD_YAW)
+            self.card.set_pose(Pose.create_from_pq(card, yaw_quat(yaw)))
             edge_x = x + self.card_length / 2 + self.BLOCK_GAP[0] + torch.rand(b) * self.BLOCK_GAP[1] \
                 + self.block_height / np.tan(BLOCK_SLOPE)
             # the slab's centre from its top far edge (local (+a, 0, +c), pitched by BLOCK_SLOPE about -y)
