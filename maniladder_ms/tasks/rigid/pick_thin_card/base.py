@@ -1,4 +1,4 @@
-"""The PickThinCard family's base (SlideCardToEdgeHand; later PickThinCardHand, Level 3): a thin card lies flat,
+"""The PickThinCard family's base (SlideCardToEdgeHand, Level 2; PickThinCardHand, Level 3): a thin card lies flat,
 too thin for any hand to get under it where it lies, and must end up lifted in the hand.
 
 The family base `PickThinCardTask` builds the card from the catalog params and holds the rule, `evaluate`,
