@@ -42,8 +42,8 @@ class PlugUSBEnv(ManiLadderEnv):
     side, any of four yaws, three stages, ~110 steps) the 12 x 5 mm connector must enter a slot with 0.5 mm of
     play on each side (1 mm in all) and only one of its yaws fits: the keyed plug, its rib facing any way at
     reset, has to be turned in the hand by up to half a turn to meet the groove (4 stages: grasp, turn,
-    line up, insert, ~170 steps); a plug pushed in half a turn off is stopped by 1 mm of the rib on the top
-    face.
+    line up, insert, ~130 steps, at most ~210); a plug pushed in half a turn off is stopped by 1 mm of the
+    rib on the top face.
     """
 
     max_dense_reward = 7
