@@ -34,7 +34,8 @@ class PlugUSBEnv(ManiLadderEnv):
       `SOCKET_ABS_Y` = [0.06, 0.18], its yaw uniform in +-`SOCKET_MAX_YAW` = +-pi/4.
 
     **Success:** the plug is in the socket: the centre of its tip, in the socket's frame, lies at least
-    `insert_depth` below the socket's top face and inside the slot's opening; the plug's yaw is within
+    `insert_depth` below the socket's top face and inside the slot's opening (half sizes `shell_half_x` and
+    `shell_half_y`, each plus half the `clearance`); the plug's yaw is within
     `max_yaw_error` of the socket's (its rib in the groove); and the gripper does not hold the plug
     (`ee.holds`: it stays plugged in on its own).
 
