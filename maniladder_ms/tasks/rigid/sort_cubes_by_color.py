@@ -13,7 +13,7 @@ from mani_skill.utils.geometry.rotation_conversions import quaternion_to_matrix
 from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.envs import ManiLadderEnv, register_task
-from maniladder_ms.geometry import yaw_quat
+from maniladder_ms.geometry import spaced_xy, yaw_quat
 from maniladder_ms.objects import build_tray
 
 # the colours of the cubes to sort, each with a bin of its own colour (red, green, blue, yellow)
@@ -103,25 +103,11 @@ class SortCubesByColorEnv(ManiLadderEnv):
             for i, bin_ in enumerate(self.bins):
                 xy = centre + slots[order[:, i]]
                 bin_.set_pose(Pose.create_from_pq(torch.cat([xy, torch.zeros(b, 1)], dim=1)))
-            xy = self._sample_spaced_xy(b, len(self.all_cubes))
+            xy = spaced_xy(b, len(self.all_cubes), (self.CUBE_X[0], self.CUBE_Y[0]), (self.CUBE_X[1], self.CUBE_Y[1]),
+                           self.CUBE_SPACING)
             for i, cube in enumerate(self.all_cubes):
                 xyz = torch.cat([xy[:, i], torch.full((b, 1), self.half_size)], dim=1)
                 cube.set_pose(Pose.create_from_pq(xyz, yaw_quat(torch.rand(b) * np.pi / 2)))
-
-    def _sample_spaced_xy(self, b: int, n: int, tries: int = 1000) -> torch.Tensor:
-        """(b, n, 2) cube positions in the cube region, pairwise at least `CUBE_SPACING` apart (rejection, per env)."""
-        lo = torch.tensor([self.CUBE_X[0], self.CUBE_Y[0]])
-        hi = torch.tensor([self.CUBE_X[1], self.CUBE_Y[1]])
-        xy = lo + torch.rand(b, n, 2) * (hi - lo)
-        for _ in range(tries):
-            d = torch.cdist(xy, xy) + torch.eye(n) * 1e3
-            bad = (d < self.CUBE_SPACING).any(dim=2)
-            if not bad.any():
-                return xy
-            first_bad = bad.float().argmax(dim=1)  # re-draw one offending cube per env
-            rows = bad.any(dim=1).nonzero(as_tuple=True)[0]
-            xy[rows, first_bad[rows]] = lo + torch.rand(len(rows), 2) * (hi - lo)
-        raise RuntimeError("could not place the cubes apart; the cube region is too small")
 
     def _inside(self) -> torch.Tensor:
         """(b, cubes, bins) whether each cube's centre lies within each bin's inner footprint and below its
