@@ -58,3 +58,19 @@ def tcp_quat(pointing: torch.Tensor, closing: torch.Tensor) -> torch.Tensor:
     z = torch.nn.functional.normalize(pointing, dim=1)
     y = torch.nn.functional.normalize(closing - (closing * z).sum(1, keepdim=True) * z, dim=1)
     return matrix_to_quaternion(torch.stack([torch.cross(y, z, dim=1), y, z], dim=2))
+
+
+def spaced_xy(b: int, n: int, lo, hi, spacing: float, tries: int = 1000) -> torch.Tensor:
+    """(b, n, 2) points uniform in the box [lo, hi] (two (x, y) corners), pairwise at least `spacing` apart:
+    rejection sampling, re-drawing one offending point per env and try."""
+    lo, hi = torch.tensor(lo), torch.tensor(hi)
+    xy = lo + torch.rand(b, n, 2) * (hi - lo)
+    for _ in range(tries):
+        d = torch.cdist(xy, xy) + torch.eye(n) * 1e3
+        bad = (d < spacing).any(dim=2)  # (b, n) points too close to another
+        if not bad.any():
+            return xy
+        first_bad = bad.float().argmax(dim=1)
+        rows = bad.any(dim=1).nonzero(as_tuple=True)[0]
+        xy[rows, first_bad[rows]] = lo + torch.rand(len(rows), 2) * (hi - lo)
+    raise RuntimeError("could not place the points apart; the region is too small")

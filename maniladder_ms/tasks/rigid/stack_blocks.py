@@ -11,7 +11,7 @@ from mani_skill.utils.building import actors
 from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.envs import ManiLadderEnv, register_task
-from maniladder_ms.geometry import yaw_quat
+from maniladder_ms.geometry import spaced_xy, yaw_quat
 
 # metres from the TCP: a block the gripper (hand or fingers) touches has its centre within this; the
 # Panda hand is about 20 cm wide and its fingers 5 cm long
@@ -74,19 +74,9 @@ class StackBlocksEnv(ManiLadderEnv):
                 xyz = torch.cat([xy[:, i], torch.full((b, 1), self.half_size)], dim=1)
                 block.set_pose(Pose.create_from_pq(xyz, yaw_quat(torch.rand(b) * np.pi / 2)))
 
-    def _sample_spaced_xy(self, b: int, tries: int = 1000) -> torch.Tensor:
-        """(b, num_blocks, 2) positions, pairwise at least `min_spacing` apart (rejection, per env)."""
-        lo, hi = torch.tensor(self.BLOCK_XY_LOW), torch.tensor(self.BLOCK_XY_HIGH)
-        xy = lo + torch.rand(b, self.num_blocks, 2) * (hi - lo)
-        for _ in range(tries):
-            d = torch.cdist(xy, xy) + torch.eye(self.num_blocks) * 1e3
-            bad = (d < self.min_spacing).any(dim=2)  # (b, n) blocks too close to another
-            if not bad.any():
-                return xy
-            first_bad = bad.float().argmax(dim=1)  # re-draw one offending block per env
-            rows = bad.any(dim=1).nonzero(as_tuple=True)[0]
-            xy[rows, first_bad[rows]] = lo + torch.rand(len(rows), 2) * (hi - lo)
-        raise RuntimeError("could not place blocks apart; the spawn region is too small")
+    def _sample_spaced_xy(self, b: int) -> torch.Tensor:
+        """(b, num_blocks, 2) positions, pairwise at least `min_spacing` apart."""
+        return spaced_xy(b, self.num_blocks, self.BLOCK_XY_LOW, self.BLOCK_XY_HIGH, self.min_spacing)
 
     def _block_positions(self) -> torch.Tensor:
         return torch.stack([blk.pose.p for blk in self.blocks], dim=1)  # (b, n, 3)
