@@ -11,7 +11,9 @@ taut and straight between the two ends.
    reaches `PULL_LIMIT` from the laid end's place along the axis); let go. If the rope is not straight then (the
    end slipped out of the fingers), take that end again and pull on (`REGRASPS` times at most).
 4. Take the laid end again, drag it sideways onto the axis and back along it to `ANCHOR_AT` (the pull dragged it
-   along, and dragging the whole rope back straightens what bow is left); let go, lift away; hold still until
+   along, and dragging the whole rope back straightens what bow is left); let go, lift away.
+5. If the pulled end now lies more than `OFF_AXIS` off the axis (the rope straight but slanted across the strip),
+   take it again, put it onto the axis sideways and pull it along until straight; let go; hold still until
    success.
 """
 
@@ -37,6 +39,7 @@ PULL_STEP = 0.005  # metres a control step while pulling the rope taut
 TAUT = 0.993  # stop pulling at this straightness
 PULL_LIMIT = 0.44  # ... or when the pulled capsule is this far from the laid one along the axis
 REGRASPS = 1  # times the pulled end is taken again when the rope is not yet straight after the pull
+OFF_AXIS = 0.012  # the pulled end is set straight again when it lies this far off the strip's axis
 RETREAT_HEIGHT = 0.04  # the open gripper lifts this far off the laid rope
 RELEASE_STEPS = 6  # control steps the gripper takes to open
 
@@ -88,12 +91,13 @@ def solve_straighten_rope(env, seed: int) -> dict:
             start = s.tcp("arm").p[:, :2]
             end_yaw = yaw if turn_to is None else nearest(turn_to, yaw)
             steps = int(np.ceil(float(torch.linalg.norm(goal_xy - start, dim=1).max()) / step))
+            yaw_k = yaw
             for k in range(1, steps + 1):
                 if stop is not None and stop():
                     break
                 yaw_k = yaw + (end_yaw - yaw) * k / steps
                 s.step({"arm": (at(start + (goal_xy - start) * k / steps, z), quat(yaw_k))})
-            return yaw_k if steps else yaw
+            return yaw_k
 
         def put_down(yaw: torch.Tensor):
             here = s.tcp("arm").p.clone()
@@ -155,5 +159,15 @@ def solve_straighten_rope(env, seed: int) -> dict:
         yaw = drag(on_axis, yaw, PULL_STEP, z=cfg.radius + GRASP_CLEARANCE, turn_to=axis_yaw)
         yaw = drag(anchor, yaw, PULL_STEP, z=cfg.radius + GRASP_CLEARANCE)
         put_down(yaw)
+        # 5. the pulled end, if it trails off the axis: onto the axis sideways, then along it until straight
+        end = task.rope.links[pulled].pose.p[:, :2]
+        across = ((end - centre) * torch.stack([-axis[:, 1], axis[:, 0]], dim=1)).sum(dim=1)
+        if bool((across.abs() > OFF_AXIS).any()):
+            yaw = grasp_end(pulled)
+            here = s.tcp("arm").p[:, :2]
+            on_axis = centre + ((here - centre) * axis).sum(dim=1, keepdim=True) * axis
+            yaw = drag(on_axis, yaw, PULL_STEP, z=cfg.radius + GRASP_CLEARANCE, turn_to=axis_yaw)
+            drag(centre + ANCHOR_AT * axis, yaw, PULL_STEP, z=cfg.radius + GRASP_CLEARANCE, stop=straight)
+            put_down(yaw)
         s.hold_until_success()
         return s.info
