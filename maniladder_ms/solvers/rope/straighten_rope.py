@@ -39,7 +39,9 @@ PULL_STEP = 0.005  # metres a control step while pulling the rope taut
 TAUT = 0.993  # stop pulling at this straightness
 PULL_LIMIT = 0.44  # ... or when the pulled capsule is this far from the laid one along the axis
 REGRASPS = 1  # times the pulled end is taken again when the rope is not yet straight after the pull
-OFF_AXIS = 0.012  # the pulled end is set straight again when it lies this far off the strip's axis
+# the pulled end is set straight again when it lies this far off the strip's axis (half the strip is 2.5 cm; at
+# 1.2 cm ropes that were already inside got the extra ~200 steps too, past the horizon on one sweep seed)
+OFF_AXIS = 0.02
 RETREAT_HEIGHT = 0.04  # the open gripper lifts this far off the laid rope
 RELEASE_STEPS = 6  # control steps the gripper takes to open
 
