@@ -86,6 +86,47 @@ def test_rope_metrics_on_constructed_shapes():
     assert not rope.is_knotted(straight[0].numpy())
 
 
+def test_flat_layout_helpers_on_constructed_shapes():
+    """`flat_centres`: no turns lay the capsules one segment apart along the heading; a constant turn lays them
+    on a circle; `min_self_distance` of a straight rope is two segments (the nearest pair it compares), of a
+    hairpin (folded back beside itself) the fold's width."""
+    cfg = rope.RopeConfig()
+    n, seg = cfg.segments, cfg.segment_length
+    straight = rope.flat_centres(torch.zeros(1, n - 1), torch.tensor([np.pi / 2]), seg)
+    assert straight[0, :, 0].abs().max() < 1e-6
+    assert straight[0, :, 1].tolist() == pytest.approx([k * seg for k in range(n)], abs=1e-5)
+    assert rope.min_self_distance(straight)[0] == pytest.approx(2 * seg, abs=1e-5)
+    turn = 2 * np.pi / n  # a full circle: the capsule centres on a regular n-gon
+    ring = rope.flat_centres(torch.full((1, n - 1), turn), torch.zeros(1), seg)
+    radius = seg / 2 / np.sin(turn / 2)  # the circle through the joints; the centres lie cos(turn / 2) of it in
+    dist = torch.linalg.norm(ring[0] - ring[0].mean(dim=0), dim=1)
+    assert dist.tolist() == pytest.approx([radius * np.cos(turn / 2)] * n, abs=1e-5)
+    gap = 0.03
+    hairpin = torch.tensor([[[k * seg, 0.0] for k in range(10)]
+                            + [[(9 - k) * seg, gap] for k in range(10)]])
+    assert rope.min_self_distance(hairpin)[0] == pytest.approx(gap, abs=1e-6)
+
+
+def test_crumpled_turns_are_crumpled_and_never_overlap():
+    """Every crumpled layout (`crumpled_turns`) is at most the asked straightness tip to tip and keeps its
+    capsules apart; laid out it spans far less than the rope's length."""
+    cfg = rope.RopeConfig()
+    torch.manual_seed(0)
+    turns = rope.crumpled_turns(200, cfg, 0.6, 0.004)
+    assert turns.shape == (200, cfg.segments - 1)
+    assert turns.abs().max() <= cfg.max_bend
+    points = rope.flat_points(turns, torch.zeros(200), cfg)
+    assert (rope.min_self_distance(points[:, 1:-1]) >= 2 * cfg.radius + 0.004).all()
+    assert (rope.straightness(points) <= 0.6).all()
+    # the polyline's tips lie half a capsule beyond the end capsules' centres, along the end capsules
+    assert torch.linalg.norm(points[:, 1] - points[:, 0], dim=1).tolist() == pytest.approx(
+        [cfg.segment_length / 2] * 200, abs=1e-5)
+    extent = (points[..., :2].amax(dim=1) - points[..., :2].amin(dim=1)).amax(dim=1)
+    assert (extent < 0.8 * cfg.length).all()
+    with pytest.raises(RuntimeError):
+        rope.crumpled_turns(4, cfg, 0.0, 0.004, tries=2)  # nothing is crumpled to a point
+
+
 def test_winding_number_of_a_rope_laid_once_around_a_post():
     """A rope tied down 11 cm from a post, running straight to the post, once round it (radius 2.3 cm: post
     plus rope radius) and out again beside its standing part: winding number 1 about the post, -1 laid the

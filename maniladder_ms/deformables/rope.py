@@ -124,15 +124,22 @@ class Rope:
         Returns the laid capsule centres, [B, segments, 3] (on the GPU backend the links' poses show them only
         after the next physics update)."""
         b, n = turns.shape[0], self.config.segments
-        yaw = heading[:, None] + torch.cat([torch.zeros(b, 1, device=turns.device), turns.cumsum(dim=1)], dim=1)
-        step = torch.stack([torch.cos(yaw), torch.sin(yaw)], dim=-1) * (self.config.segment_length / 2)
-        centres = torch.cat([torch.zeros(b, 1, 2, device=turns.device), (step[:, :-1] + step[:, 1:]).cumsum(dim=1)], dim=1)
-        first = middle[:, :2] + (step[:, 0] if from_tip else -centres.mean(dim=1))
+        centres = flat_centres(turns, heading, self.config.segment_length)
+        first_step = torch.stack([torch.cos(heading), torch.sin(heading)], dim=-1) * (self.config.segment_length / 2)
+        first = middle[:, :2] + (first_step if from_tip else -centres.mean(dim=1))
         root = torch.cat([first, torch.full((b, 1), self.config.radius, device=turns.device)], dim=1)
         bend = torch.zeros(b, 2 * (n - 1), device=turns.device)
         bend[:, 0::2] = turns
         self.set_shape(Pose.create_from_pq(root, yaw_quat(heading)), bend)
         return torch.cat([first[:, None] + centres, root[:, None, 2:].expand(b, n, 1)], dim=2)
+
+
+# `crumpled_turns`: the curl (rad of turn per joint, either sense), the meander's amplitude (rad), its number of
+# periods along the rope and the per-joint noise (rad)
+CRUMPLE_CURL = 0.15
+CRUMPLE_AMP = (0.35, 0.6)
+CRUMPLE_CYCLES = (1.0, 2.0)
+CRUMPLE_NOISE = 0.1
 
 
 def wavy_turns(batch: int, segments: int, max_amp: float) -> torch.Tensor:
@@ -142,6 +149,66 @@ def wavy_turns(batch: int, segments: int, max_amp: float) -> torch.Tensor:
     k = torch.arange(1, segments)
     amp = torch.rand(batch, 1) * max_amp
     return amp * torch.sin(2 * np.pi * k / segments + torch.rand(batch, 1) * 2 * np.pi)
+
+
+def flat_centres(turns: torch.Tensor, heading: torch.Tensor, segment_length: float) -> torch.Tensor:
+    """Top-down capsule centres [B, segments, 2] of a rope laid flat (`Rope.lay_flat`) with in-plane `turns`
+    [B, segments - 1] and first-capsule yaw `heading` [B], its first capsule centre at the origin."""
+    b = turns.shape[0]
+    yaw = heading[:, None] + torch.cat([torch.zeros(b, 1, device=turns.device), turns.cumsum(dim=1)], dim=1)
+    step = torch.stack([torch.cos(yaw), torch.sin(yaw)], dim=-1) * (segment_length / 2)
+    return torch.cat([torch.zeros(b, 1, 2, device=turns.device), (step[:, :-1] + step[:, 1:]).cumsum(dim=1)], dim=1)
+
+
+def flat_points(turns: torch.Tensor, heading: torch.Tensor, config: RopeConfig) -> torch.Tensor:
+    """The polyline (`Rope.points`: first tip, capsule centres, last tip; z = 0) [B, segments + 2, 3] of a rope
+    laid flat with `turns` and `heading` (`flat_centres`), its first capsule centre at the origin."""
+    centres = flat_centres(turns, heading, config.segment_length)
+    yaw = torch.stack([heading, heading + turns.sum(dim=1)], dim=1)
+    half = config.segment_length / 2 * torch.stack([torch.cos(yaw), torch.sin(yaw)], dim=-1)
+    points = torch.cat([centres[:, :1] - half[:, :1], centres, centres[:, -1:] + half[:, 1:]], dim=1)
+    return torch.nn.functional.pad(points, (0, 1))
+
+
+def min_self_distance(centres: torch.Tensor, skip: int = 2) -> torch.Tensor:
+    """Smallest distance between the centres [B, N, 2 or 3] of two capsules at least `skip` apart along the
+    chain, [B] (capsules that close lie side by side: the distance between their axes; 2 * radius or less
+    means they overlap)."""
+    n = centres.shape[1]
+    d = torch.cdist(centres, centres)
+    k = torch.arange(n, device=centres.device)
+    near = (k[:, None] - k[None, :]).abs() < skip
+    return d.masked_fill(near, float("inf")).flatten(1).amin(dim=1)
+
+
+def crumpled_turns(batch: int, config: RopeConfig, max_straightness: float, clearance: float,
+                   tries: int = 64) -> torch.Tensor:
+    """In-plane turns [batch, segments - 1] (for `Rope.lay_flat`) of a rope crumpled flat on the table: a
+    meander with a curl, the turn after capsule k being curl + amp * sin(2 pi cycles (k + 1) / segments +
+    phase) + noise, curl uniform in +-`CRUMPLE_CURL`, amp uniform in `CRUMPLE_AMP`, cycles uniform in
+    `CRUMPLE_CYCLES`, phase uniform, noise uniform in +-`CRUMPLE_NOISE` (rad); drawn `tries` times per rope
+    and the first kept whose `straightness` (of its `flat_points`) is at most `max_straightness` and whose
+    capsules at least two apart along the chain keep at least 2 radius + `clearance` between their axes (no
+    capsule laid into another). On torch's default device; raises if a rope gets no draw that passes."""
+    n = config.segments
+    shape = (batch, tries, 1)
+    k = torch.arange(1, n)
+    curl = (torch.rand(shape) * 2 - 1) * CRUMPLE_CURL
+    amp = CRUMPLE_AMP[0] + torch.rand(shape) * (CRUMPLE_AMP[1] - CRUMPLE_AMP[0])
+    cycles = CRUMPLE_CYCLES[0] + torch.rand(shape) * (CRUMPLE_CYCLES[1] - CRUMPLE_CYCLES[0])
+    phase = torch.rand(shape) * 2 * np.pi
+    noise = (torch.rand(batch, tries, n - 1) * 2 - 1) * CRUMPLE_NOISE
+    turns = curl + amp * torch.sin(2 * np.pi * cycles * k / n + phase) + noise
+    turns = turns.clamp(-config.max_bend, config.max_bend)
+    flat = turns.reshape(batch * tries, n - 1)
+    points = flat_points(flat, torch.zeros(batch * tries), config)
+    ok = ((straightness(points) <= max_straightness)
+          & (min_self_distance(points[:, 1:-1]) >= 2 * config.radius + clearance))
+    ok = ok.reshape(batch, tries)
+    if not bool(ok.any(dim=1).all()):
+        raise RuntimeError(f"no crumpled layout passed in {tries} draws")
+    first = ok.float().argmax(dim=1)
+    return turns[torch.arange(batch), first]
 
 
 def segment_axis(q: torch.Tensor) -> torch.Tensor:
