@@ -4,10 +4,10 @@ spout carried over the cup, a metered tilt stopped by counting the water that le
 1. line up beside the pitcher, pointing a quarter turn left of its spout (a roll about the pointing axis then
    tips the spout down), move in, close and lift LIFT;
 2. carry the spout tip to SPOUT_BACK short of the cup's axis, SPOUT_ABOVE over its rim;
-3. tilt: roll about the pointing axis by FAST_RATE a step until the first particle leaves the pitcher, then by
-   SLOW_RATE while none leaves, turning back SURGE_BACK on a surge (the pile slides out in clumps), the spout tip
-   held in place; stop once the particles poured (in the cup or on their way) reach the
-   band's middle less STOP_LEAD (the stream runs on while the pitcher turns back);
+3. tilt: roll about the pointing axis by FAST_RATE a step up to FAST_UNTIL, then by SLOW_RATE whenever no particle
+   has left for FLOW_WAIT steps, turning back SURGE_BACK on a surge (the water leaves in clumps), the spout tip held
+   in place; stop once the particles poured (in the cup or on their way) reach the band's middle less STOP_LEAD
+   (the stream runs on while the pitcher turns back), or after POUR_STEPS steps of tilting in all;
 4. turn back PAUSE_BACK and wait LAND_STEPS for the stream to land; if the cup holds more than TOP_UP_BELOW
    short of the band's middle, go on, else pour again from 3 (at most POURS pours), the particles poured but not
    landed taken off the count;
@@ -39,7 +39,7 @@ SLOW_RATE = 0.01  # rad a step of creep whenever no particle has left for FLOW_W
 FLOW_WAIT = 2
 SURGE, SURGE_BACK = 3, 0.05  # particles poured in one step that count as a surge; rad turned back on one
 MAX_TILT = 2.2  # rad: the tilt stops here whatever the count
-POUR_STEPS = 200
+POUR_STEPS = 260  # control steps of tilting in all pours: a top-up on seed 102 ran out at 200
 STOP_LEAD = 3  # particles: the pour is stopped this many short of the band's middle
 PAUSE_BACK = 0.3  # rad turned back to stop the stream and count what landed
 LAND_STEPS = 8  # control steps the stream in the air takes to land
