@@ -24,21 +24,37 @@ def failed_seeds(rows):
     return [r["seed"] for r in rows if not r["success"]]
 
 
-@pytest.mark.parametrize("task_id", sampled_tasks(TASKS))
+# built tasks whose solver is still below the 90 % bar (issues 39 / 40 track them): {task: (what was measured, the
+# tests expected to fail)}. Episodes are deterministic per seed, so the failures are strict: a solver that reaches the
+# bar turns the expected failure into a test failure that asks to remove the entry
+BELOW_BAR = {
+    "PickThinCardHand": ("40/50 over seeds 100-149 (docs/tasks/PickThinCardHand.md)", ("sweep",)),
+    "FillCupToLine": ("44/50 over seeds 100-149; seeds 100 and 102 overfill (docs/tasks/FillCupToLine.md)",
+                      ("short", "sweep")),
+}
+
+
+def below_bar(params, test: str) -> list:
+    """`params` (task ids, or pytest params of one task id) with the BELOW_BAR tasks of `test` marked strict xfail."""
+    out = []
+    for p in params:
+        task, marks = (p, ()) if isinstance(p, str) else (p.values[0], tuple(p.marks))
+        if task in BELOW_BAR and test in BELOW_BAR[task][1]:
+            xfail = pytest.mark.xfail(strict=True, reason=f"solver below the bar: {BELOW_BAR[task][0]}")
+            p = pytest.param(task, marks=(*marks, xfail))
+        out.append(p)
+    return out
+
+
+@pytest.mark.parametrize("task_id", below_bar(sampled_tasks(TASKS), "short"))
 def test_solver_short_run(task_id):
     rows = sweep(task_id, SHORT_SEEDS)
     assert [r["seed"] for r in rows] == list(SHORT_SEEDS)
     assert len(failed_seeds(rows)) <= 1, f"{task_id}: failed seeds {failed_seeds(rows)} of {list(SHORT_SEEDS)}; {rows}"
 
 
-# built tasks whose solver is still below the 90 % bar (issue 39 / 40 track them): the sweep is expected to fail,
-# strictly, so a solver that reaches the bar turns this into a failure that asks to remove the entry
-BELOW_BAR = {"PickThinCardHand": "40/50 over seeds 100-149 (docs/tasks/PickThinCardHand.md)"}
-
-
 @pytest.mark.slow
-@pytest.mark.parametrize("task_id", [pytest.param(t, marks=pytest.mark.xfail(strict=True, reason=f"solver below the bar: {BELOW_BAR[t]}"))
-                                     if t in BELOW_BAR else t for t in TASKS])
+@pytest.mark.parametrize("task_id", below_bar(TASKS, "sweep"))
 def test_solver_success_over_50_seeds(task_id):
     rows = sweep(task_id, SWEEP_SEEDS)
     rate = 1 - len(failed_seeds(rows)) / len(rows)
