@@ -252,3 +252,50 @@ def test_randomisation_pilot_shrinks_every_uniform_layout_draw_about_its_middle(
     finally:
         HangMugEnv._initialize_episode = registered
     assert maniladder_ms.make("HangMug", obs_mode="state").unwrapped._initialize_episode.__func__ is registered
+
+
+def test_training_killed_between_resume_points_ends_in_the_same_weights(tmp_path, monkeypatch):
+    """Training saves a resume point every RESUME_EVERY steps; killed after two of them and run again, it ends in
+    the weights of an uninterrupted run, and the resume point is gone once the checkpoint exists."""
+    import torch
+
+    import maniladder_ms.policy.calibrate as cal
+    from maniladder_ms.policy.flow import LadderFlowPolicy, LadderFlowTrainer
+
+    monkeypatch.setattr(cal, "RESUME_EVERY", 2)
+    protocol = CalibrationProtocol(demos=2, checkpoints=1, training_seeds=1, purpose="development")
+    rng = np.random.default_rng(0)
+    arrays = {}
+    for i in range(2):  # features (F, 3 cameras x 2x2 cells, 16), all actions (T, 8), the frames they were taken at
+        arrays[f"features_{i}"] = rng.normal(size=(10, 12, 16)).astype(np.float16)
+        arrays[f"frames_{i}"] = np.arange(0, 20, 2)
+        arrays[f"actions_{i}"] = rng.normal(size=(20, 8)).astype(np.float32)
+
+    def calibration(name):
+        tc = TaskCalibration("PickPlacePen", tmp_path / name, tmp_path / "out", config=TINY, protocol=protocol,
+                             progress=False)
+        tc.features_path.parent.mkdir(parents=True)
+        np.savez(tc.features_path, seeds=np.arange(2), **arrays)
+        return tc
+
+    whole = calibration("whole")
+    whole.stage_train(0)
+    killed = calibration("killed")
+    train = LadderFlowTrainer.train
+    calls = []
+
+    def dies_on_third_chunk(self, steps, progress=False):
+        calls.append(steps)
+        if len(calls) == 3:
+            raise KeyboardInterrupt
+        return train(self, steps, progress)
+
+    monkeypatch.setattr(LadderFlowTrainer, "train", dies_on_third_chunk)
+    with pytest.raises(KeyboardInterrupt):
+        killed.stage_train(0)
+    assert cal.torch_step(killed.seed_dir(0) / "resume.pt") == 4 and not killed.checkpoint(6).exists()
+    monkeypatch.setattr(LadderFlowTrainer, "train", train)
+    killed.stage_train(0)
+    assert not (killed.seed_dir(0) / "resume.pt").exists()
+    a, b = (LadderFlowPolicy.load(tc.checkpoint(6)).net.state_dict() for tc in (whole, killed))
+    assert all(torch.equal(a[k], b[k]) for k in a)

@@ -263,14 +263,23 @@ class TaskCalibration:
 
         episodes = load_features(self.features_path)[: self.protocol.demos]
         trainer = LadderFlowTrainer(dataclasses.replace(self.config, seed=seed), episodes, device=self.device)
+        resume = self.seed_dir(seed) / "resume.pt"  # the latest of every RESUME_EVERY steps: a kill loses fewer
         done = [step for step in self.checkpoint_steps if step not in todo]
-        if done:
-            trainer.resume(self.checkpoint(max(done), seed))
+        start = max(done, default=0)
+        if resume.is_file() and torch_step(resume) > start:
+            trainer.resume(resume)
+        elif done:
+            trainer.resume(self.checkpoint(start, seed))
         meta = {"task": self.spec.id, "control_mode": self.control_mode, "task_hash": self.task_hash}
         for step in todo:
-            losses = trainer.train(step - trainer.step_count, progress=self.progress)
+            losses = []
+            while trainer.step_count < step:
+                losses += trainer.train(min(RESUME_EVERY, step - trainer.step_count), progress=self.progress)
+                if trainer.step_count < step:
+                    trainer.save(resume, meta=meta)
             trainer.save(self.checkpoint(step, seed),
                          meta=dict(meta, final_loss=float(sum(losses[-100:]) / max(len(losses[-100:]), 1))))
+        resume.unlink(missing_ok=True)
 
     def _evaluate(self, step: int, seed: int, folder: str, episodes: int, seed_set: int) -> dict:
         from maniladder_ms.evaluation.runner import evaluate
@@ -359,6 +368,17 @@ class TaskCalibration:
         self.out.mkdir(parents=True, exist_ok=True)
         path.write_text(json.dumps(result, indent=1))
         return result
+
+
+# training saves a resume point this often (steps; ~1-2 min of training on one core, ~4 MB): a killed run loses
+# at most that much, and resumes exactly (the checkpoint holds the RNG state)
+RESUME_EVERY = 500
+
+
+def torch_step(path: Path) -> int:
+    import torch
+
+    return int(torch.load(path, map_location="cpu", weights_only=False)["step"])
 
 
 class ResultExistsError(ValueError):
