@@ -188,6 +188,19 @@ def sampled_tasks(tasks, k: int = SAMPLE_SIZE) -> list:
     return [t if t in sample else pytest.param(t, marks=pytest.mark.slow) for t in tasks]
 
 
+def expected_to_fail(params, reasons: dict) -> list:
+    """`params` (task ids, or pytest params of one task id, as `sampled_tasks` gives) with the tasks in `reasons`
+    ({task: why}) marked as strictly expected failures: a known shortfall that an issue tracks stays visible, and a
+    fix turns it into a test failure that asks to remove the entry (episodes are deterministic per seed)."""
+    out = []
+    for p in params:
+        task, marks = (p, ()) if isinstance(p, str) else (p.values[0], tuple(p.marks))
+        if task in reasons:
+            p = pytest.param(task, marks=(*marks, pytest.mark.xfail(strict=True, reason=reasons[task])))
+        out.append(p)
+    return out
+
+
 def pytest_report_header(config):
     tasks = [t.id for t in maniladder_ms.default_catalog().filter(implemented=True)]
     how = (f"{TASKS_ENV}={os.environ[TASKS_ENV]}" if os.environ.get(TASKS_ENV, "").strip()

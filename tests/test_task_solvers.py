@@ -13,7 +13,7 @@ import pytest
 import maniladder_ms
 from maniladder_ms.solvers import sweep
 
-from conftest import sampled_tasks
+from conftest import expected_to_fail, sampled_tasks
 
 TASKS = [t.id for t in maniladder_ms.default_catalog().filter(implemented=True)]
 SHORT_SEEDS = range(100, 103)
@@ -24,29 +24,15 @@ def failed_seeds(rows):
     return [r["seed"] for r in rows if not r["success"]]
 
 
-# built tasks whose solver is still below the 90 % bar (issues 39 / 40 track them): {task: (what was measured, the
-# tests expected to fail)}. Episodes are deterministic per seed, so the failures are strict: a solver that reaches the
-# bar turns the expected failure into a test failure that asks to remove the entry
-BELOW_BAR = {
-    "PickThinCardHand": ("40/50 over seeds 100-149 (docs/tasks/PickThinCardHand.md)", ("sweep",)),
-    "FillCupToLine": ("44/50 over seeds 100-149; seeds 100 and 102 overfill (docs/tasks/FillCupToLine.md)",
-                      ("short", "sweep")),
+# built tasks whose solver is still below the 90 % bar (issues 39 / 40 track them; `expected_to_fail`)
+BELOW_BAR_SWEEP = {
+    "PickThinCardHand": "solver below the bar: 40/50 over seeds 100-149 (docs/tasks/PickThinCardHand.md)",
+    "FillCupToLine": "solver below the bar: 44/50 over seeds 100-149, all overfill (docs/tasks/FillCupToLine.md)",
 }
+BELOW_BAR_SHORT = {"FillCupToLine": "solver below the bar: seeds 100 and 102 overfill"}
 
 
-def below_bar(params, test: str) -> list:
-    """`params` (task ids, or pytest params of one task id) with the BELOW_BAR tasks of `test` marked strict xfail."""
-    out = []
-    for p in params:
-        task, marks = (p, ()) if isinstance(p, str) else (p.values[0], tuple(p.marks))
-        if task in BELOW_BAR and test in BELOW_BAR[task][1]:
-            xfail = pytest.mark.xfail(strict=True, reason=f"solver below the bar: {BELOW_BAR[task][0]}")
-            p = pytest.param(task, marks=(*marks, xfail))
-        out.append(p)
-    return out
-
-
-@pytest.mark.parametrize("task_id", below_bar(sampled_tasks(TASKS), "short"))
+@pytest.mark.parametrize("task_id", expected_to_fail(sampled_tasks(TASKS), BELOW_BAR_SHORT))
 def test_solver_short_run(task_id):
     rows = sweep(task_id, SHORT_SEEDS)
     assert [r["seed"] for r in rows] == list(SHORT_SEEDS)
@@ -54,7 +40,7 @@ def test_solver_short_run(task_id):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("task_id", below_bar(TASKS, "sweep"))
+@pytest.mark.parametrize("task_id", expected_to_fail(TASKS, BELOW_BAR_SWEEP))
 def test_solver_success_over_50_seeds(task_id):
     rows = sweep(task_id, SWEEP_SEEDS)
     rate = 1 - len(failed_seeds(rows)) / len(rows)
