@@ -65,9 +65,6 @@ class FlattenClayWithRollerEnv(FlattenClayTask):
         super()._load_scene(options)
         self.pin = build_rolling_pin(self.scene, "pin", self.pin_shape, PIN_DENSITY, color=PIN_COLOR,
                                      handle_color=PIN_HANDLE_COLOR)
-        # PressClayFlat's flag, never set here: it keeps the env state's layout (1914 values) that the committed demos'
-        # states were recorded in, so they replay from states
-        self.memory.flag("pressed_flat")
         self.memory.value("rolled")  # the pin's travel along x while both grippers held it on the clay
         self.memory.value("pin_last")  # the pin's x after the previous control step
 
