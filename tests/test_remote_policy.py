@@ -1,6 +1,6 @@
 """Remote policies (`--policy openpi://HOST:PORT`) against our own server (`maniladder serve`) on the loopback:
-the same episodes as in process, digest for digest; a killed server, a timeout and a wrong action shape give clear
-errors naming task, seed and step; a resumed run completes."""
+the same episodes as in process, digest for digest; a killed server, a timeout, a wrong action shape and a failing
+server policy give clear errors naming task, seed and step; a resumed run completes."""
 
 import dataclasses
 import json
@@ -16,7 +16,7 @@ import pytest
 
 import maniladder_ms
 from maniladder_ms.evaluation import eval_seed
-from maniladder_ms.evaluation.policies import PolicyError, load_policy, policy_label
+from maniladder_ms.evaluation.policies import PolicyError, load_policy, policy_identity, policy_label
 from maniladder_ms.evaluation.remote import RemotePolicyError, parse_spec
 from maniladder_ms.evaluation.results import read_episodes
 from maniladder_ms.evaluation.runner import evaluate
@@ -55,6 +55,8 @@ class Bright:
             time.sleep(4)
         if self._trouble("shape"):
             return np.zeros((4, 3), dtype=np.float32)
+        if self._trouble("raise"):
+            raise RuntimeError("the model is not loaded")
         b = sum(float(np.asarray(cams[c]["rgb"], dtype=np.float64).mean()) for c in sorted(cams)) / 255.0
         a = self.rng.uniform(self.low, self.high, size=(4, len(self.low))) * 0.5 + (b - 0.5) * 0.2
         return np.clip(a, self.low, self.high).astype(np.float32)
@@ -178,30 +180,54 @@ def test_killed_server_is_a_clear_error_and_the_run_resumes(server, local_run, p
         if server.proc.poll() is not None:
             server.start()  # same address: the same run (the address is its policy)
         _seen(policy_file)
-    evaluate(server.url, out, tasks=TASKS[:1], episodes=2, cameras=CAMERAS, progress=False)
+    # the resume may give the calls more time: the timeout is no part of the run's identity
+    evaluate(server.url + "?timeout=30", out, tasks=TASKS[:1], episodes=2, cameras=CAMERAS, progress=False)
+    assert json.loads((out / "manifest.json").read_text())["policy"] == server.url
     assert (out / "episodes.jsonl").read_text().startswith(before)
     local = {k: v for k, v in local_run["outcomes"].items() if k[0] == TASKS[0]}
     assert _outcomes(out) == local  # episode 1 re-ran from its seed and ended as in process
 
 
-def test_timeout_and_wrong_shape_are_clear_errors(server, short_tasks, policy_file, tmp_path):
-    trouble = policy_file.parent / "trouble"
+def _one_call(url, action_dim=8):
+    """One remote call outside an env (episode 3 of PickPlacePen, a black front camera)."""
+    import gymnasium as gym
+    import numpy as np
+
+    from maniladder_ms.evaluation.policies import EpisodeContext
+
+    spec = maniladder_ms.default_catalog().get(TASKS[0])
+    policy = load_policy(url)
+    policy.reset(EpisodeContext(spec=spec, seed=eval_seed(0, 3), episode=3, horizon=HORIZON, obs_mode="rgb",
+                                action_space=gym.spaces.Box(-1, 1, (action_dim,), np.float32),
+                                control_mode="pd_joint_delta_pos", instruction=spec.instruction))
     try:
+        return policy({"sensor_data": {"front_camera": {"rgb": np.zeros((1, 64, 64, 3), np.uint8)}}}, spec)
+    finally:
+        policy.close()
+
+
+def test_timeout_wrong_shape_and_server_errors_are_clear(server, policy_file):
+    trouble = policy_file.parent / "trouble"
+    where = rf"task {TASKS[0]}, step 1 \(seed {eval_seed(0, 3)}\): remote policy ws://127\.0\.0\.1:{server.port}: "
+    try:
+        assert _one_call(server.url).shape == (4, 8)
         (trouble / "slow").touch()
-        with pytest.raises(RemotePolicyError, match=rf"task {TASKS[0]}, step 1 \(seed {eval_seed(0, 0)}\): remote policy "
-                                                    r"ws://127\.0\.0\.1:\d+: no reply within 1 s \(timeout"):
-            evaluate(server.url + "?timeout=1", tmp_path / "slow", tasks=TASKS[:1], episodes=1, cameras=CAMERAS,
-                     progress=False)
+        with pytest.raises(RemotePolicyError, match=where + r"no reply within 1 s \(timeout"):
+            _one_call(server.url + "?timeout=1")
         (trouble / "slow").unlink()
         (trouble / "shape").touch()
-        with pytest.raises(RemotePolicyError, match=r"step 1 .*returned actions of shape \(4, 3\); the env's action space "
-                                                    r"in control mode pd_joint_delta_pos is 8-D.*control_mode"):
-            evaluate(server.url, tmp_path / "shape", tasks=TASKS[:1], episodes=1, cameras=CAMERAS, progress=False)
+        with pytest.raises(RemotePolicyError, match=where + r"the server returned actions of shape \(4, 3\); the env's "
+                                                    r"action space in control mode pd_joint_delta_pos is 8-D.*control_mode"):
+            _one_call(server.url)
+        (trouble / "shape").unlink()
+        (trouble / "raise").touch()  # the server's policy fails: its traceback comes back in the error
+        with pytest.raises(RemotePolicyError, match=where + r"the server failed:\nTraceback(.|\n)*RuntimeError: the "
+                                                    r"model is not loaded"):
+            _one_call(server.url)
     finally:
-        for name in ("slow", "shape"):
+        for name in ("slow", "shape", "raise"):
             (trouble / name).unlink(missing_ok=True)
         _seen(policy_file)
-    assert read_episodes(tmp_path / "shape") == []
 
 
 def test_spec_parsing_and_missing_pieces(monkeypatch):
@@ -217,6 +243,9 @@ def test_spec_parsing_and_missing_pieces(monkeypatch):
     with pytest.raises(RemotePolicyError, match=r"no policy server at ws://127\.0\.0\.1:\d+.*maniladder serve"):
         load_policy(f"openpi://127.0.0.1:{_free_port()}")
     assert policy_label("openpi://gpu-box:8000?state=1") == "openpi-gpu-box-8000"
+    assert policy_identity("openpi://gpu-box:8000?timeout=5&state=1&cameras=front_camera,hand_camera") == \
+        "openpi://gpu-box:8000?cameras=front_camera,hand_camera&state=1"
+    assert policy_identity("openpi://gpu-box:8000?timeout=5") == "openpi://gpu-box:8000"
     monkeypatch.setitem(sys.modules, "openpi_client", None)  # the extra not installed
     with pytest.raises(PolicyError, match=r"pip install 'maniladder-ms\[remote\]'"):
         load_policy("openpi://127.0.0.1:8000")

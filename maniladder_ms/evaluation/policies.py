@@ -284,6 +284,16 @@ def load_policy(spec: str):
     return obj
 
 
+def policy_identity(spec: str) -> str:
+    """The policy string a results folder records and a resume must match: `spec`, less the options that change
+    no episode (a remote policy's call `timeout`)."""
+    if spec.startswith("openpi://"):
+        from .remote import spec_identity
+
+        return spec_identity(spec)
+    return spec
+
+
 def policy_label(spec: str) -> str:
     """A file-system friendly short name of a policy string (the default results folder name)."""
     if spec.startswith("replay:"):

@@ -108,6 +108,14 @@ def parse_spec(spec: str) -> tuple[str, int, dict, float]:
     return url.hostname, port, read_declared(query, f"{spec!r}"), timeout
 
 
+def spec_identity(spec: str) -> str:
+    """`spec` as a results folder records it: without the client's `timeout`, which changes no episode (a run
+    stopped by a timeout resumes with a longer one); the declarations, which do, stay (sorted)."""
+    base, _, query = spec.partition("?")
+    kept = sorted((k, v) for k, v in urllib.parse.parse_qsl(query, keep_blank_values=True) if k != "timeout")
+    return base + ("?" + urllib.parse.urlencode(kept, safe=",") if kept else "")
+
+
 def _client_class():
     """openpi-client's `WebsocketClientPolicy`, connecting without keepalive pings: a call's time limit is the
     client's `timeout`, and an evaluation process busy building a scene for a while (GIL held) must not lose the
@@ -214,6 +222,7 @@ class RemotePolicy:
                 reply = ws.recv(timeout=self.timeout)
                 break
             except TimeoutError:
+                ws.close()  # a late reply must not answer the next call
                 raise RemotePolicyError(f"{where}: no reply within {self.timeout:g} s (timeout; raise it with "
                                         f"{SCHEME}{self.host}:{self.port}?timeout=SECONDS)") from None
             except ConnectionClosed as e:

@@ -44,7 +44,7 @@ import numpy as np
 from maniladder_ms.catalog import check_instruction_mode, default_catalog
 
 from . import EVAL_SEED_BASE, EVAL_SEED_STRIDE, PROTOCOL_VERSION, eval_seed
-from .policies import EpisodeContext, PolicyError, load_policy, policy_env_kwargs, policy_supports
+from .policies import EpisodeContext, PolicyError, load_policy, policy_env_kwargs, policy_identity, policy_supports
 from .results import ALL_CAMERAS, EpisodeLog, open_run, read_episodes, read_manifest, write_summary
 
 DEFAULT_OBS_MODE = "rgb"
@@ -387,7 +387,7 @@ def evaluate(
             runner.close()
             raise
     manifest = {
-        "protocol_version": PROTOCOL_VERSION, "policy": policy_spec, "obs_mode": obs_mode, "seed": seed,
+        "protocol_version": PROTOCOL_VERSION, "policy": policy_identity(policy_spec), "obs_mode": obs_mode, "seed": seed,
         "instructions": instructions, "cameras": list(cameras) if cameras else ALL_CAMERAS,
         "episodes": episodes, "tasks": [s.id for s in runnable], "skipped": skipped, "task_env": task_env,
         "seed_scheme": f"{EVAL_SEED_BASE} + {EVAL_SEED_STRIDE} * seed + episode",
