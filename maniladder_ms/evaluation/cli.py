@@ -12,7 +12,7 @@ from maniladder_ms.catalog import EMBODIMENTS, INSTRUCTION_MODES, LEVELS, OBJECT
 from maniladder_ms.table import print_table
 
 from .policies import PolicyError, policy_label
-from .results import ResultsError
+from .results import ALL_CAMERAS, ResultsError, run_cameras
 
 ERRORS = (PolicyError, ResultsError, CatalogError, UnknownTaskError, ValueError, NotImplementedError)
 
@@ -64,6 +64,8 @@ def cmd_eval(args) -> int:
                        seed=args.seed, obs_mode=args.obs_mode, workers=args.workers, progress=not args.quiet,
                        instructions=args.instructions, cameras=args.cameras)
     print_summary(summary)
+    if run_cameras(summary["manifest"]) != ALL_CAMERAS:
+        print(f"\ncameras the policy could see (--cameras): {run_cameras(summary['manifest'])}")
     print(f"\nresults in {out}/ (episodes.jsonl, summary.json); `maniladder report {out}` renders the report")
     return 0
 

@@ -152,6 +152,8 @@ def cmd_serve(args) -> int:
         asyncio.run(server.serve(ready))
     except KeyboardInterrupt:
         pass
+    except OSError as e:  # the port is taken, the address is not this machine's
+        raise PolicyError(f"cannot listen on {args.host}:{args.port} ({e}); pick another --port or --host") from None
     return 0
 
 
