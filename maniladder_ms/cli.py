@@ -12,6 +12,7 @@ from maniladder_ms.catalog import EMBODIMENTS, LEVELS, OBJECT_CLASSES, OBJECT_PR
 from maniladder_ms.demos.cli import add_parser as add_demos_parser
 from maniladder_ms.demos.files import DemoFileError
 from maniladder_ms.evaluation.cli import add_parsers as add_eval_parsers
+from maniladder_ms.evaluation.serve import add_parser as add_serve_parser
 from maniladder_ms.policy.calibrate import add_parser as add_calibrate_parser
 from maniladder_ms.table import print_table
 
@@ -251,6 +252,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     add_demos_parser(sub)
     add_eval_parsers(sub)
+    add_serve_parser(sub)
     add_calibrate_parser(sub)
     return p
 

@@ -7,6 +7,8 @@
 - `results`: the results folder (manifest with the protocol version, episodes.jsonl, summary.json).
 - `stats`: Wilson intervals, suite / level means (Table 3 layout), the ladder level with a bootstrap.
 - `report`: the self-contained HTML report with its PNG figures, comparing several result folders.
+- `remote`: policies served over a websocket in the openpi protocol (`--policy openpi://HOST:PORT`).
+- `serve`: `maniladder serve`, our own server of that protocol for any of our policies.
 """
 
 from __future__ import annotations

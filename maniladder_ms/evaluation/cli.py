@@ -12,7 +12,7 @@ from maniladder_ms.catalog import EMBODIMENTS, INSTRUCTION_MODES, LEVELS, OBJECT
 from maniladder_ms.table import print_table
 
 from .policies import PolicyError, policy_label
-from .results import ResultsError
+from .results import ALL_CAMERAS, ResultsError, run_cameras
 
 ERRORS = (PolicyError, ResultsError, CatalogError, UnknownTaskError, ValueError, NotImplementedError)
 
@@ -62,8 +62,10 @@ def cmd_eval(args) -> int:
     out = args.out or Path("results") / policy_label(args.policy)
     summary = evaluate(args.policy, out, tasks=tasks, level=args.level, suite=args.suite, episodes=args.episodes,
                        seed=args.seed, obs_mode=args.obs_mode, workers=args.workers, progress=not args.quiet,
-                       instructions=args.instructions)
+                       instructions=args.instructions, cameras=args.cameras)
     print_summary(summary)
+    if run_cameras(summary["manifest"]) != ALL_CAMERAS:
+        print(f"\ncameras the policy could see (--cameras): {run_cameras(summary['manifest'])}")
     print(f"\nresults in {out}/ (episodes.jsonl, summary.json); `maniladder report {out}` renders the report")
     return 0
 
@@ -76,7 +78,7 @@ def cmd_report(args) -> int:
     if len(args.results) == 1 and args.results[0].is_dir() and load_results(args.results[0], protocol=None):  # `maniladder calibrate` results
         html = write_calibration_report(args.results[0], out=args.out)
     else:
-        html = write_report(args.results, out=args.out, title=args.title)
+        html = write_report(args.results, out=args.out, title=args.title, mixed_cameras=args.mixed_cameras)
     print(f"wrote {html}")
     return 0
 
@@ -88,7 +90,8 @@ def add_parsers(subparsers) -> None:
         description="Evaluate a policy: per-task success with 95% Wilson intervals, Table 3 suite means, the ladder level.",
     )
     ev.add_argument("--policy", required=True,
-                    help="random | solver | replay:<demo.h5 or folder> | module:attr | path/to/file.py:attr")
+                    help="random | solver | replay:<demo.h5 or folder> | module:attr | path/to/file.py:attr | "
+                         "openpi://HOST:PORT (a served policy, docs/remote-policies.md)")
     sel = ev.add_mutually_exclusive_group()
     sel.add_argument("--level", type=int, choices=LEVELS)
     sel.add_argument("--suite", help="e.g. L1-rigid-SG")
@@ -102,6 +105,8 @@ def add_parsers(subparsers) -> None:
     ev.add_argument("--instructions", choices=INSTRUCTION_MODES, default="canonical",
                     help="the language instruction the policy gets (ctx.instruction): the task's canonical one "
                          "(default), or per episode one of it and its paraphrases drawn from the episode seed")
+    ev.add_argument("--cameras", help="the cameras the policy may see, comma-separated (e.g. front_camera, or "
+                                      "front_camera,hand_camera); default all of each task's; recorded in the manifest")
     ev.add_argument("--quiet", action="store_true", help="no progress bar")
     ev.set_defaults(func=_guarded(cmd_eval))
 
@@ -113,6 +118,8 @@ def add_parsers(subparsers) -> None:
                          "or one `maniladder calibrate` folder (docs/calibration)")
     rp.add_argument("--out", type=Path, help="report folder (default <first results>/report)")
     rp.add_argument("--title", default="ManiLadder evaluation report")
+    rp.add_argument("--mixed-cameras", action="store_true",
+                    help="compare runs whose policies saw different camera subsets (refused otherwise)")
     rp.set_defaults(func=_guarded(cmd_report))
 
 

@@ -69,7 +69,7 @@ class EpisodeContext:
     instruction: str = ""  # the episode's language instruction (`TaskSpec.instruction_for`)
 
 
-BUILTIN_NAMES = ("random", "solver", "replay:<demo.h5 or folder>")
+BUILTIN_NAMES = ("random", "solver", "replay:<demo.h5 or folder>", "openpi://HOST:PORT")
 
 
 class RandomPolicy:
@@ -227,7 +227,7 @@ class CallablePolicy:
 
 def load_policy(spec: str):
     """A policy object from a `--policy` string: `random`, `solver`, `replay:<path>`, `module:attr`,
-    `path/to/file.py:attr`. The object gets a `name` (the string) if it has none."""
+    `path/to/file.py:attr`, `openpi://HOST:PORT` (served remotely, `remote`). The object gets a `name` (the string) if it has none."""
     if not isinstance(spec, str) or not spec.strip():
         raise PolicyError("empty --policy; give random, solver, replay:<demos>, module:attr or file.py:attr")
     spec = spec.strip()
@@ -237,6 +237,10 @@ def load_policy(spec: str):
         return SolverPolicy()
     if spec.startswith("replay:"):
         return ReplayPolicy(spec[len("replay:"):])
+    if spec.startswith("openpi://"):  # a policy served over a websocket (`remote`)
+        from .remote import RemotePolicy
+
+        return RemotePolicy(spec)
     if ":" not in spec:
         raise PolicyError(
             f"unknown policy {spec!r}: built-ins are {', '.join(BUILTIN_NAMES)}; "
@@ -280,10 +284,22 @@ def load_policy(spec: str):
     return obj
 
 
+def policy_identity(spec: str) -> str:
+    """The policy string a results folder records and a resume must match: `spec`, less the options that change
+    no episode (a remote policy's call `timeout`)."""
+    if spec.startswith("openpi://"):
+        from .remote import spec_identity
+
+        return spec_identity(spec)
+    return spec
+
+
 def policy_label(spec: str) -> str:
     """A file-system friendly short name of a policy string (the default results folder name)."""
     if spec.startswith("replay:"):
         return "replay-" + (Path(spec[7:]).stem or "demos")
+    if spec.startswith("openpi://"):
+        return re.sub(r"[^A-Za-z0-9_.-]+", "-", "openpi-" + spec[len("openpi://"):].split("?")[0])
     if ":" in spec:
         target, attr = spec.rsplit(":", 1)
         spec = f"{Path(target).stem if target.endswith('.py') else target.split('.')[-1]}-{attr}"

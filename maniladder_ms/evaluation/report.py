@@ -21,7 +21,7 @@ from maniladder_ms.catalog import EMBODIMENTS, LEVELS, OBJECT_PROPERTIES, SCORE_
 
 from . import PROTOCOL_VERSION
 from .policies import policy_label
-from .results import find_result_dirs, load_results
+from .results import ResultsError, find_result_dirs, load_results, run_cameras
 from .stats import grid, summarize
 
 LEVEL_COLORS = {1: "#4c9f70", 2: "#e0a030", 3: "#d0603a", 4: "#8a3a8f"}
@@ -45,6 +45,17 @@ def load_runs(paths) -> list[dict]:
     if not runs:
         raise ValueError(f"no finished episodes in {', '.join(map(str, paths))}; nothing to report")
     return runs
+
+
+def check_camera_subsets(runs, mixed_cameras: bool = False) -> None:
+    """ResultsError when the runs' policies saw different camera subsets, unless `mixed_cameras` (then the
+    subsets stand in the runs table and a warning)."""
+    subsets = {run_cameras(run["manifest"]) for run in runs}
+    if len(subsets) > 1 and not mixed_cameras:
+        each = "; ".join(f"{run['name']} ({run['dir']}): {run_cameras(run['manifest'])}" for run in runs)
+        raise ResultsError(f"these runs saw different camera subsets ({each}); their rates are not measured under "
+                           "one protocol. Report them apart, or pass --mixed-cameras to compare them with the "
+                           "subsets shown")
 
 
 # ---- figures ------------------------------------------------------------------------------------
@@ -288,7 +299,7 @@ def _obs_modes(manifest) -> str:
 
 
 def _runs_html(runs) -> str:
-    out = ["<table><tr><th>run</th><th>policy</th><th>obs mode</th><th>seed set</th><th>episodes/task</th>"
+    out = ["<table><tr><th>run</th><th>policy</th><th>obs mode</th><th>cameras</th><th>seed set</th><th>episodes/task</th>"
            "<th>tasks evaluated</th><th>skipped</th><th>episodes</th><th>ladder level</th><th>folder</th></tr>"]
     base_level = runs[0]["summary"]["ladder"]["level"]
     for k, run in enumerate(runs):
@@ -298,7 +309,7 @@ def _runs_html(runs) -> str:
         delta = "" if k == 0 or d == 0 else f' <span class="{"up" if d > 0 else "down"}">{"▲" if d > 0 else "▼"}{abs(d)}</span>'
         out.append(
             f'<tr><td class="l"><b>{_e(run["name"])}</b>{" (baseline A)" if k == 0 and len(runs) > 1 else ""}</td>'
-            f'<td class="l">{_e(m.get("policy"))}</td><td>{_e(_obs_modes(m))}</td><td>{_e(m.get("seed"))}</td>'
+            f'<td class="l">{_e(m.get("policy"))}</td><td>{_e(_obs_modes(m))}</td><td>{_e(run_cameras(m))}</td><td>{_e(m.get("seed"))}</td>'
             f'<td>{_e(m.get("episodes"))}</td><td>{s["evaluated_tasks"]}/{s["catalog_tasks"]}</td><td>{len(s["skipped"])}</td>'
             f'<td>{s["episodes"]}</td><td>{"&ge; " if not lad["exact"] else ""}{lad["level"]}{delta}</td>'
             f'<td class="l small">{_e(run["dir"])}</td></tr>')
@@ -320,10 +331,12 @@ def task_set_warnings(runs) -> list[str]:
     return out
 
 
-def write_report(paths, out=None, title: str = "ManiLadder evaluation report") -> Path:
-    """Write `report.html` and its PNGs into `out` (default <first results folder>/report); returns the HTML path."""
+def write_report(paths, out=None, title: str = "ManiLadder evaluation report", mixed_cameras: bool = False) -> Path:
+    """Write `report.html` and its PNGs into `out` (default <first results folder>/report); returns the HTML path.
+    Runs under different camera subsets are refused unless `mixed_cameras` (`check_camera_subsets`)."""
     paths = [Path(p) for p in (paths if isinstance(paths, (list, tuple)) else [paths])]
     runs = load_runs(paths)
+    check_camera_subsets(runs, mixed_cameras)
     out = Path(out) if out else runs[0]["dir"] / "report"
     out.mkdir(parents=True, exist_ok=True)
     figures = [("grid", "Table 3: suite-mean success", fig_grid(runs)),
@@ -360,6 +373,9 @@ def write_report(paths, out=None, title: str = "ManiLadder evaluation report") -
     if len(runs) > 1:
         body += ["<h2>Comparison</h2>"]
         body += [f'<p class="warn">{_e(w)}</p>' for w in task_set_warnings(runs)]
+        if len({run_cameras(run["manifest"]) for run in runs}) > 1:
+            body.append('<p class="warn">The runs saw different camera subsets (runs table, cameras): a delta mixes '
+                        'the policies with what they were shown.</p>')
         body.append(imgs["deltas"])
     skipped = {k: v for run in runs for k, v in run["summary"]["skipped"].items()}
     if skipped:

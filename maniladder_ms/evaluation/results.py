@@ -5,8 +5,8 @@
     <out>/episodes.jsonl   one JSON object per finished episode, appended (and fsynced) as it ends
     <out>/summary.json     the statistics (`stats.summarize`), rewritten at the end of every run
 
-A folder written under another protocol version, or by another policy / obs mode / base seed, is
-refused rather than mixed. A kill loses at most the episodes that were running: every finished one is
+A folder written under another protocol version, or by another policy / obs mode / base seed / instruction mode /
+camera subset (`--cameras`; a folder from before that key holds "all"), is refused rather than mixed. A kill loses at most the episodes that were running: every finished one is
 on disk, and a torn last line (a kill mid-write) is dropped on resume.
 """
 
@@ -25,8 +25,15 @@ EPISODES = "episodes.jsonl"
 SUMMARY = "summary.json"
 # manifest keys that must match for a resume to add to a folder, with the value a folder written before the
 # key existed ran under
-IDENTITY_KEYS = ("protocol_version", "policy", "obs_mode", "seed", "instructions")
-IDENTITY_DEFAULTS = {"instructions": "canonical"}
+IDENTITY_KEYS = ("protocol_version", "policy", "obs_mode", "seed", "instructions", "cameras")
+ALL_CAMERAS = "all"  # the `cameras` of a run whose policy could see every camera of each task
+IDENTITY_DEFAULTS = {"instructions": "canonical", "cameras": ALL_CAMERAS}
+
+
+def run_cameras(manifest: dict) -> str:
+    """The camera subset a run's policy could see, as text: `all`, or the uids comma-separated."""
+    cams = manifest.get("cameras", ALL_CAMERAS)
+    return cams if isinstance(cams, str) else ",".join(cams)
 
 
 class ResultsError(ValueError):

@@ -13,6 +13,9 @@ Protocol:
   `fresh_physics_per_seed`), so an episode's outcome depends on the policy, the task and its seed alone, not
   on the episodes before it, the worker that ran it or a resume. Each record carries `state_digest`, a hash of
   the env state at the episode's end, so two runs can be compared episode by episode.
+- Cameras: `cameras` (`--cameras front_camera,...`) is the subset of each task's cameras a policy may see (in
+  process or remote); only those are rendered and returned. It is part of a run's identity in the manifest (`all`
+  by default), so runs under different subsets are never mixed. A name a task lacks is an error listing its cameras.
 - Success: the task's success rule holds at some control step <= the horizon. ManiSkill ends an episode
   at its first success (terminated), so this is also the state at the end of the episode.
 - Instructions: each episode's `EpisodeContext.instruction` is the task's canonical instruction, or with
@@ -41,10 +44,11 @@ import numpy as np
 from maniladder_ms.catalog import check_instruction_mode, default_catalog
 
 from . import EVAL_SEED_BASE, EVAL_SEED_STRIDE, PROTOCOL_VERSION, eval_seed
-from .policies import EpisodeContext, PolicyError, load_policy, policy_env_kwargs, policy_supports
-from .results import EpisodeLog, open_run, read_episodes, write_summary
+from .policies import EpisodeContext, PolicyError, load_policy, policy_env_kwargs, policy_identity, policy_supports
+from .results import ALL_CAMERAS, EpisodeLog, open_run, read_episodes, read_manifest, write_summary
 
 DEFAULT_OBS_MODE = "rgb"
+IMAGELESS_OBS_MODES = ("none", "state", "state_dict")  # obs modes without camera images
 STATE_KEYS = ("agent", "extra")  # the parts of ManiSkill's visual observations the default mode removes
 
 
@@ -178,7 +182,12 @@ class EpisodeRunner:
                 kw["cameras"] = env_kwargs["cameras"]
             if env_kwargs.get("image_size"):
                 kw["sensor_configs"] = dict(width=env_kwargs["image_size"], height=env_kwargs["image_size"])
-            env = maniladder_ms.make(spec.id, **kw)
+            try:
+                env = maniladder_ms.make(spec.id, **kw)
+            except ValueError as e:
+                if not str(e).startswith("unknown camera"):
+                    raise
+                raise ValueError(f"task {spec.id}: {e} (asked by --cameras or the policy's cameras)") from None
             self._env = EpisodeMonitor(env, spec, int(env.unwrapped.single_action_space.shape[0]))
             self._key = key
         return self._env
@@ -249,6 +258,36 @@ class EpisodeRunner:
         return rec
 
 
+def camera_subset(cameras) -> Optional[tuple[str, ...]]:
+    """`--cameras` as sorted unique camera uids, or None (every camera of each task): a list, or a comma-separated
+    string; None, "" and "all" mean every camera."""
+    if cameras is None or (isinstance(cameras, str) and cameras.strip() in ("", ALL_CAMERAS)):
+        return None
+    names = cameras.split(",") if isinstance(cameras, str) else list(cameras)
+    subset = tuple(sorted({str(c).strip() for c in names if str(c).strip()}))
+    if not subset:
+        raise ValueError(f"--cameras {cameras!r} names no camera; give camera uids such as front_camera,hand_camera")
+    return subset
+
+
+def restrict_cameras(env_kwargs: dict, cameras: Optional[tuple], spec) -> dict:
+    """A task's env kwargs under the camera subset: the policy's own cameras (which must lie in the subset), or
+    the subset."""
+    if cameras is None:
+        return env_kwargs
+    if env_kwargs.get("obs_mode") in IMAGELESS_OBS_MODES:
+        raise ValueError(f"--cameras restricts the camera images a policy sees, but the policy runs {spec.id} under obs "
+                         f"mode {env_kwargs.get('obs_mode')!r}, which has none; leave --cameras out for it")
+    own = env_kwargs.get("cameras")
+    if own:
+        outside = sorted(set(own) - set(cameras))
+        if outside:
+            raise PolicyError(f"task {spec.id}: the policy looks at {', '.join(outside)}, outside --cameras "
+                              f"{','.join(cameras)}")
+        return env_kwargs
+    return dict(env_kwargs, cameras=cameras)
+
+
 def select_tasks(catalog, tasks=None, level=None, suite=None):
     """(specs to run, {task id: why skipped}) for a selection; see the module doc."""
     import maniladder_ms
@@ -296,10 +335,12 @@ def evaluate(
     progress: bool = True,
     bootstrap: int = 2000,
     instructions: str = "canonical",
+    cameras=None,
 ) -> dict:
     """Evaluate `policy` (a `--policy` string, or a policy object with workers=1) into folder `out`;
-    resumes what is there. `instructions`: "canonical" or "paraphrase" (see the module doc). Returns the
-    summary (also written to `out/summary.json`)."""
+    resumes what is there. `instructions`: "canonical" or "paraphrase" (see the module doc). `cameras`: the
+    camera subset the policy may see (`camera_subset`; default every camera), part of the run's identity. Returns
+    the summary (also written to `out/summary.json`)."""
     import maniladder_ms  # noqa: F401
     from tqdm import tqdm
 
@@ -310,6 +351,7 @@ def evaluate(
     if workers < 1:
         raise ValueError(f"--workers must be >= 1, got {workers}")
     check_instruction_mode(instructions)
+    cameras = camera_subset(cameras)
     if isinstance(policy, str):
         policy_spec, policy_obj = policy, load_policy(policy)
     else:
@@ -331,20 +373,31 @@ def evaluate(
             n = n if cap is None else min(n, int(cap))
         runnable.append(spec)
         per_task_n[spec.id] = n
-        task_env[spec.id] = policy_env_kwargs(policy_obj, spec, obs_mode)
+        task_env[spec.id] = restrict_cameras(policy_env_kwargs(policy_obj, spec, obs_mode), cameras, spec)
     if not runnable:
         reasons = "; ".join(f"{k}: {v}" for k, v in list(skipped.items())[:5])
         raise ValueError(f"nothing to evaluate: no implemented task the policy supports in the selection ({reasons})")
 
     out = Path(out)
+    runner = EpisodeRunner(policy_obj, obs_mode, instructions)
+    if cameras is not None and read_manifest(out) is None:  # unknown cameras fail before a new folder is written
+        try:
+            runner.env_for(runnable[0], task_env[runnable[0].id])
+        except BaseException:
+            runner.close()
+            raise
     manifest = {
-        "protocol_version": PROTOCOL_VERSION, "policy": policy_spec, "obs_mode": obs_mode, "seed": seed,
-        "instructions": instructions,
+        "protocol_version": PROTOCOL_VERSION, "policy": policy_identity(policy_spec), "obs_mode": obs_mode, "seed": seed,
+        "instructions": instructions, "cameras": list(cameras) if cameras else ALL_CAMERAS,
         "episodes": episodes, "tasks": [s.id for s in runnable], "skipped": skipped, "task_env": task_env,
         "seed_scheme": f"{EVAL_SEED_BASE} + {EVAL_SEED_STRIDE} * seed + episode",
         "maniladder_version": maniladder_ms.__version__, "catalog_version": catalog.version,
     }
-    manifest = open_run(out, manifest)
+    try:
+        manifest = open_run(out, manifest)
+    except BaseException:
+        runner.close()
+        raise
     done = {(r["task"], r["episode"]) for r in read_episodes(out, repair=True)}
     jobs = [(spec, k, eval_seed(seed, k)) for spec in runnable for k in range(per_task_n[spec.id])
             if (spec.id, k) not in done]
@@ -362,13 +415,10 @@ def evaluate(
 
     try:
         if workers == 1 or len(jobs) <= 1:
-            runner = EpisodeRunner(policy_obj, obs_mode, instructions)
-            try:
-                for spec, k, s in jobs:
-                    record(runner.run(spec, k, s, task_env[spec.id]))
-            finally:
-                runner.close()
+            for spec, k, s in jobs:
+                record(runner.run(spec, k, s, task_env[spec.id]))
         else:
+            runner.close()
             ctx = mp.get_context("spawn")
             with cf.ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_worker_init,
                                         initargs=(policy_spec, obs_mode, instructions)) as pool:
@@ -381,6 +431,7 @@ def evaluate(
                         f.cancel()
                     raise
     finally:
+        runner.close()
         bar.close()
         log.close()
 
