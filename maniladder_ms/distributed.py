@@ -55,6 +55,13 @@ def import_ray():
     return ray
 
 
+def check_ray_option(workers: int = 1) -> None:
+    """A command given `--ray`: not with `--workers K`, and ray importable, before anything is written."""
+    if workers > 1:
+        raise ValueError("give --workers (processes of this machine) or --ray (a cluster's workers), not both")
+    import_ray()
+
+
 def add_ray_argument(parser) -> None:
     """`--ray [ADDRESS]` on a command's parser (`args.ray`: None without the option, `LOCAL` without an address)."""
     parser.add_argument(
@@ -204,6 +211,10 @@ def evaluate_episodes(jobs, policy_spec: str, obs_mode: str, instructions: str, 
     function); `record` files each finished episode on the driver."""
     from maniladder_ms.evaluation.runner import run_episode_in_worker
 
+    # a policy file named relative to the driver's folder is named absolutely for the workers (their folder differs)
+    target, sep, attr = policy_spec.rpartition(":")
+    if sep and target.endswith(".py") and Path(target).is_file():
+        policy_spec = f"{Path(target).resolve()}:{attr}"
     with RayPool(address, worker_env()) as pool:
         for spec, k, seed in jobs:
             pool.submit(run_episode_in_worker, (policy_spec, obs_mode, instructions, spec.id, k, seed, task_env[spec.id]),

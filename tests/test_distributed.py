@@ -61,7 +61,7 @@ def ray_cluster():
     ray.shutdown()
 
 
-def test_eval_on_ray_matches_the_local_run_retries_a_lost_worker_and_resumes(tmp_path, ray_cluster):
+def test_eval_on_ray_matches_the_local_run_retries_a_lost_worker_and_resumes(tmp_path, ray_cluster, monkeypatch):
     evaluate(_policy(tmp_path), tmp_path / "local", tasks=TASKS, episodes=2, progress=False, bootstrap=0)
     local = _outcomes(tmp_path / "local")
     assert len(local) == 4 and len({d for _, d in local.values()}) == 4  # four different end states to compare
@@ -69,7 +69,9 @@ def test_eval_on_ray_matches_the_local_run_retries_a_lost_worker_and_resumes(tmp
     # one episode per task, the worker of PickPlacePen's dying once (Ray runs it again), then the same command
     # with two episodes: only the missing ones run
     crash = tmp_path / "crashed_once"
-    pol = _policy(tmp_path, name="crashing.py", fail_seed=eval_seed(0, 0) - 1, crash_once=str(crash))
+    _policy(tmp_path, name="crashing.py", fail_seed=eval_seed(0, 0) - 1, crash_once=str(crash))
+    monkeypatch.chdir(tmp_path)
+    pol = "crashing.py:OpenLoop"  # a policy file named relative to the driver's folder, which the workers lack
     evaluate(pol, tmp_path / "ray", tasks=TASKS, episodes=1, progress=False, bootstrap=0, ray_address="auto")
     assert crash.exists()  # a worker did die
     first = (tmp_path / "ray" / "episodes.jsonl").read_text()
@@ -143,3 +145,32 @@ def test_ray_is_imported_only_in_the_distributed_module_and_only_inside_function
             if imports_ray(node):
                 where.setdefault(f.relative_to(REPO).as_posix(), []).append("module level" if id(node) in top else "function")
     assert where == {"maniladder_ms/distributed.py": ["function"]}
+
+
+@pytest.mark.slow
+def test_calibration_on_ray_matches_the_local_run(tmp_path, ray_cluster):
+    """Both training seeds of a tiny calibration (committed demos, 6 training steps, 1 episode a seed) on the
+    cluster end in the local run's weights and result (~5 min here: the episodes render three cameras)."""
+    import dataclasses
+
+    import torch
+
+    from maniladder_ms.policy.calibrate import calibrate
+    from test_calibrate import TINY, TINY_PROTOCOL
+
+    protocol = dataclasses.replace(TINY_PROTOCOL, checkpoints=1)
+    for where, address in (("local", None), ("ray", "auto")):
+        calibrate(["PickPlacePen"], tmp_path / where / "work", tmp_path / where / "out", demos_dir=REPO / "demos",
+                  config=TINY, protocol=protocol, progress=False, ray_address=address)
+    volatile = ("time", "timings_s", "environment")
+    local, ray = (json.loads((tmp_path / w / "out" / "PickPlacePen.json").read_text()) for w in ("local", "ray"))
+    assert {k: v for k, v in ray.items() if k not in volatile} == {k: v for k, v in local.items() if k not in volatile}
+    checkpoints = sorted((tmp_path / "local" / "work").rglob("checkpoint_*.pt"))
+    assert len(checkpoints) == 2  # one per training seed
+    for path in checkpoints:
+        a = torch.load(path, weights_only=False)
+        b = torch.load(tmp_path / "ray" / "work" / path.relative_to(tmp_path / "local" / "work"), weights_only=False)
+        for part in ("net", "ema"):
+            assert a[part].keys() == b[part].keys()
+            assert all(torch.equal(a[part][k], b[part][k]) for k in a[part])
+    assert not list((tmp_path / "ray" / "work").glob(".cluster-probe-*"))  # the run's probe file is gone

@@ -129,11 +129,9 @@ def generate(
     spec = default_catalog().get(task_id)
     check_instruction_mode(instructions)
     if ray_address is not None:
-        from maniladder_ms.distributed import import_ray
+        from maniladder_ms.distributed import check_ray_option
 
-        if workers > 1:
-            raise ValueError("give --workers (processes of this machine) or --ray (a cluster's workers), not both")
-        import_ray()  # a missing extra is an error before anything is written
+        check_ray_option(workers)
     if not (0 <= seed and seed + max_attempts_for(num, max_attempts) <= MAX_DEMO_SEED):
         raise ValueError(f"demo seeds must stay in [0, {MAX_DEMO_SEED}): evaluation seeds start there")
     modes = solver_for(spec.id).control_modes

@@ -325,11 +325,9 @@ def evaluate(
     if workers < 1:
         raise ValueError(f"--workers must be >= 1, got {workers}")
     if ray_address is not None:
-        from maniladder_ms.distributed import import_ray
+        from maniladder_ms.distributed import check_ray_option
 
-        if workers > 1:
-            raise ValueError("give --workers (processes of this machine) or --ray (a cluster's workers), not both")
-        import_ray()  # a missing extra is an error before anything is written
+        check_ray_option(workers)
     check_instruction_mode(instructions)
     if isinstance(policy, str):
         policy_spec, policy_obj = policy, load_policy(policy)

@@ -514,11 +514,9 @@ def calibrate(tasks: Sequence[str], work: Path, out: Path, demos_dir: Optional[P
     for t in tasks:  # bad names and unbuilt tasks fail before any work starts
         TaskCalibration(t, **kwargs)
     if ray_address is not None:
-        from maniladder_ms.distributed import import_ray
+        from maniladder_ms.distributed import check_ray_option
 
-        if workers > 1:
-            raise ValueError("give --workers (processes of this machine) or --ray (a cluster's workers), not both")
-        import_ray()  # a missing extra is an error before anything is written
+        check_ray_option(workers)
     failed = {}
     previous = os.environ.get(RENDER_ENV), torch.get_num_threads()
     os.environ[RENDER_ENV] = renderer
