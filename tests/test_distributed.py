@@ -174,3 +174,22 @@ def test_calibration_on_ray_matches_the_local_run(tmp_path, ray_cluster):
             assert a[part].keys() == b[part].keys()
             assert all(torch.equal(a[part][k], b[part][k]) for k in a[part])
     assert not list((tmp_path / "ray" / "work").glob(".cluster-probe-*"))  # the run's probe file is gone
+
+
+def test_a_worker_with_other_sources_or_without_the_work_folder_refuses_to_run(tmp_path):
+    """What a unit checks on its worker before it runs (called here in-process, as a Ray worker would)."""
+    import torch
+
+    from maniladder_ms.distributed import run_unit, source_digest
+    from maniladder_ms.policy.calibrate import _check_work_visible
+
+    threads = torch.get_num_threads()
+    try:
+        assert run_unit(sorted, ([2, 1],), {}, source_digest()) == [1, 2]
+        assert torch.get_num_threads() == 1  # one torch thread per unit
+    finally:
+        torch.set_num_threads(threads)
+    with pytest.raises(DistributedError, match="install the same commit on every node"):
+        run_unit(sorted, ([2, 1],), {}, "0" * 16)
+    with pytest.raises(DistributedError, match="a file system every node mounts at the same path"):
+        _check_work_visible({"work": tmp_path / "elsewhere"}, "token")
