@@ -11,6 +11,7 @@ from pathlib import Path
 from maniladder_ms.catalog import EMBODIMENTS, LEVELS, OBJECT_CLASSES, OBJECT_PROPERTIES, SKILLS, CatalogError, UnknownTaskError
 from maniladder_ms.demos.cli import add_parser as add_demos_parser
 from maniladder_ms.demos.files import DemoFileError
+from maniladder_ms.distributed import DistributedError
 from maniladder_ms.evaluation.cli import add_parsers as add_eval_parsers
 from maniladder_ms.evaluation.serve import add_parser as add_serve_parser
 from maniladder_ms.policy.calibrate import add_parser as add_calibrate_parser
@@ -261,7 +262,8 @@ def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)
-    except (UnknownTaskError, CatalogError, DemoFileError, FileExistsError, ValueError, NotImplementedError) as e:
+    except (UnknownTaskError, CatalogError, DemoFileError, FileExistsError, ValueError, NotImplementedError,
+            DistributedError) as e:
         print(f"maniladder: error: {e}", file=sys.stderr)
         return 2
 

@@ -8,6 +8,7 @@ from dataclasses import asdict
 from pathlib import Path
 
 from maniladder_ms.catalog import INSTRUCTION_MODES
+from maniladder_ms.distributed import add_ray_argument
 from maniladder_ms.solvers import JOINT_TARGET_MODES
 
 from .lerobot import DEFAULT_FPS
@@ -37,7 +38,8 @@ def cmd_generate(args) -> int:
     for spec in _selected_tasks(args):
         for mode in args.control_mode or default_control_modes(spec.id):
             r = generate(spec.id, args.num, args.out, seed=args.seed, control_mode=mode, obs_mode=args.obs_mode,
-                         workers=args.workers, overwrite=args.overwrite, instructions=args.instructions)
+                         workers=args.workers, overwrite=args.overwrite, instructions=args.instructions,
+                         ray_address=args.ray)
             print(f"{r.task_id} [{mode}]: {r.kept} demos -> {r.path}  "
                   f"(solver success {r.success_rate:.0%} over {len(r.attempts)} seeds)")
     return 0
@@ -148,6 +150,7 @@ def add_parser(sub):
                      help="repeatable, one dataset file per mode; default the task's solver's own (first) mode "
                           "(`maniladder show TASK` names it)")
     gen.add_argument("--workers", type=int, default=1, help="processes")
+    add_ray_argument(gen)
     gen.add_argument("--overwrite", action="store_true", help="replace an existing dataset file")
     gen.add_argument("--instructions", choices=INSTRUCTION_MODES, default="canonical",
                      help="the language instruction each episode records: the task's canonical one (default), "

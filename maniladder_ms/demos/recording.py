@@ -83,6 +83,29 @@ def record_chunk(task_id: str, control_mode: str, obs_mode: str, seeds: list[int
     return attempts
 
 
+def record_chunk_files(task_id: str, control_mode: str, obs_mode: str, seeds: list[int]) -> dict[str, bytes]:
+    """`record_chunk` in a scratch folder of the worker's own machine; its part files as {name: bytes}, for the
+    driver to write (`write_chunk_files`): a worker on another node need not see the driver's folder."""
+    import tempfile
+
+    with tempfile.TemporaryDirectory(prefix="maniladder-chunk-") as tmp:
+        record_chunk(task_id, control_mode, obs_mode, seeds, tmp)
+        return {f.name: f.read_bytes() for f in Path(tmp).iterdir() if f.is_file()}
+
+
+def write_chunk_files(parts_dir: Path, files: dict[str, bytes]) -> list[dict]:
+    """Write a chunk's part files into `parts_dir`, its attempts last (their presence marks the chunk finished,
+    `_finished_chunks`); returns the attempts."""
+    names = sorted(files, key=lambda n: n.endswith(".attempts.json"))
+    if not names or not names[-1].endswith(".attempts.json"):
+        raise DemoFileError(f"a recorded chunk came back without its attempts file (got {', '.join(names)})")
+    for name in names:
+        tmp = parts_dir / f"{name}.incoming"
+        tmp.write_bytes(files[name])
+        tmp.replace(parts_dir / name)
+    return json.loads(files[names[-1]])
+
+
 def _finished_chunks(parts_dir: Path) -> dict[int, list[dict]]:
     """{first seed: attempts} of the chunks a previous run completed."""
     done = {}
@@ -95,15 +118,20 @@ def _finished_chunks(parts_dir: Path) -> dict[int, list[dict]]:
 def generate(
     task_id: str, num: int, out_dir: Path, seed: int = 0, control_mode: str | None = None,
     obs_mode: str = "none", workers: int = 1, overwrite: bool = False, progress: bool = True,
-    max_attempts: int | None = None, instructions: str = "canonical",
+    max_attempts: int | None = None, instructions: str = "canonical", ray_address: str | None = None,
 ) -> GenerateReport:
     """Record `num` successful solver episodes of `task_id` (seeds from `seed` on) into one h5/json pair, in
     `control_mode` (default the solver's own, first, mode); `instructions` ("canonical" or "paraphrase") picks the
-    instruction each episode records."""
+    instruction each episode records. `ray_address` ("local", "auto", "ray://host:10001"): the seed chunks run on
+    a Ray cluster's workers (`maniladder_ms.distributed`) instead of `workers` processes."""
     from maniladder_ms.catalog import check_instruction_mode, default_catalog
 
     spec = default_catalog().get(task_id)
     check_instruction_mode(instructions)
+    if ray_address is not None:
+        from maniladder_ms.distributed import check_ray_option
+
+        check_ray_option(workers)
     if not (0 <= seed and seed + max_attempts_for(num, max_attempts) <= MAX_DEMO_SEED):
         raise ValueError(f"demo seeds must stay in [0, {MAX_DEMO_SEED}): evaluation seeds start there")
     modes = solver_for(spec.id).control_modes
@@ -138,7 +166,24 @@ def generate(
         done[start] = attempts
         bar.update(min(successes(), num) - min(before, num))
 
-    if workers <= 1:
+    if ray_address is not None:
+        from maniladder_ms.distributed import RayPool, worker_env
+
+        with RayPool(ray_address, worker_env()) as pool:
+            while True:
+                # as below: count every running seed as a success, so no chunk starts that cannot be needed
+                while len(pool) < pool.cpus and successes() + CHUNK_SIZE * len(pool) < num:
+                    start = next(todo, None)
+                    if start is None:
+                        break
+                    seeds = chunk_seeds(start)
+                    pool.submit(record_chunk_files, (spec.id, control_mode, obs_mode, seeds), key=start,
+                                label=f"task {spec.id}, demo seeds {seeds[0]}-{seeds[-1]} [{control_mode}]")
+                if not len(pool):
+                    break
+                unit, files = pool.next_done()
+                record(unit.key, write_chunk_files(parts_dir, files))
+    elif workers <= 1:
         for start in todo:
             if successes() >= num:
                 break

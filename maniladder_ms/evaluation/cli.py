@@ -9,12 +9,13 @@ from pathlib import Path
 
 from maniladder_ms.catalog import EMBODIMENTS, INSTRUCTION_MODES, LEVELS, OBJECT_PROPERTIES, CatalogError, UnknownTaskError
 
+from maniladder_ms.distributed import DistributedError, add_ray_argument
 from maniladder_ms.table import print_table
 
 from .policies import PolicyError, policy_label
 from .results import ALL_CAMERAS, ResultsError, run_cameras
 
-ERRORS = (PolicyError, ResultsError, CatalogError, UnknownTaskError, ValueError, NotImplementedError)
+ERRORS = (PolicyError, ResultsError, CatalogError, UnknownTaskError, ValueError, NotImplementedError, DistributedError)
 
 
 def _pct(x) -> str:
@@ -62,7 +63,7 @@ def cmd_eval(args) -> int:
     out = args.out or Path("results") / policy_label(args.policy)
     summary = evaluate(args.policy, out, tasks=tasks, level=args.level, suite=args.suite, episodes=args.episodes,
                        seed=args.seed, obs_mode=args.obs_mode, workers=args.workers, progress=not args.quiet,
-                       instructions=args.instructions, cameras=args.cameras)
+                       instructions=args.instructions, cameras=args.cameras, ray_address=args.ray)
     print_summary(summary)
     if run_cameras(summary["manifest"]) != ALL_CAMERAS:
         print(f"\ncameras the policy could see (--cameras): {run_cameras(summary['manifest'])}")
@@ -102,6 +103,7 @@ def add_parsers(subparsers) -> None:
                     help="rgb (default: 4 RGB cameras, no state) | rgb+state | any ManiSkill obs mode")
     ev.add_argument("--out", type=Path, help="results folder (default results/<policy>); re-running resumes it")
     ev.add_argument("--workers", type=int, default=1, help="worker processes (default 1)")
+    add_ray_argument(ev)
     ev.add_argument("--instructions", choices=INSTRUCTION_MODES, default="canonical",
                     help="the language instruction the policy gets (ctx.instruction): the task's canonical one "
                          "(default), or per episode one of it and its paraphrases drawn from the episode seed")

@@ -322,6 +322,19 @@ def _worker_run(task_id: str, episode: int, seed: int, env_kwargs: dict) -> dict
     return _WORKER["runner"].run(default_catalog().get(task_id), episode, seed, env_kwargs)
 
 
+def run_episode_in_worker(policy_spec: str, obs_mode: str, instructions: str, task_id: str, episode: int, seed: int,
+                          env_kwargs: dict) -> dict:
+    """One episode in a long-lived worker process that was not set up for one run (a Ray worker): the runner
+    (policy loaded, env kept open) is made on first use and kept while the run stays the same."""
+    key = (policy_spec, obs_mode, instructions)
+    if _WORKER.get("key") != key:
+        if "runner" in _WORKER:
+            _WORKER.pop("runner").close()
+        _worker_init(policy_spec, obs_mode, instructions)
+        _WORKER["key"] = key
+    return _worker_run(task_id, episode, seed, env_kwargs)
+
+
 def evaluate(
     policy,
     out,
@@ -336,11 +349,13 @@ def evaluate(
     bootstrap: int = 2000,
     instructions: str = "canonical",
     cameras=None,
+    ray_address: Optional[str] = None,
 ) -> dict:
     """Evaluate `policy` (a `--policy` string, or a policy object with workers=1) into folder `out`;
     resumes what is there. `instructions`: "canonical" or "paraphrase" (see the module doc). `cameras`: the
-    camera subset the policy may see (`camera_subset`; default every camera), part of the run's identity. Returns
-    the summary (also written to `out/summary.json`)."""
+    camera subset the policy may see (`camera_subset`; default every camera), part of the run's identity.
+    `ray_address` ("local", "auto", "ray://host:10001"): episodes run on a Ray cluster instead
+    (`maniladder_ms.distributed`). Returns the summary (also written to `out/summary.json`)."""
     import maniladder_ms  # noqa: F401
     from tqdm import tqdm
 
@@ -350,13 +365,18 @@ def evaluate(
         raise ValueError(f"--episodes must be in [1, {EVAL_SEED_STRIDE}], got {episodes}")
     if workers < 1:
         raise ValueError(f"--workers must be >= 1, got {workers}")
+    if ray_address is not None:
+        from maniladder_ms.distributed import check_ray_option
+
+        check_ray_option(workers)
     check_instruction_mode(instructions)
     cameras = camera_subset(cameras)
     if isinstance(policy, str):
         policy_spec, policy_obj = policy, load_policy(policy)
     else:
-        if workers > 1:
-            raise ValueError("workers > 1 need the policy as a string (module:attr), which each worker process loads")
+        if workers > 1 or ray_address is not None:
+            raise ValueError("workers > 1 and Ray need the policy as a string (module:attr), which each worker "
+                             "process loads")
         policy_obj = policy
         policy_spec = getattr(policy, "name", None) or f"{type(policy).__module__}:{type(policy).__qualname__}"
     catalog = default_catalog()
@@ -414,7 +434,12 @@ def evaluate(
         bar.set_postfix_str(f"{rec['task']} {counts[rec['task']][0]}/{counts[rec['task']][1]}")
 
     try:
-        if workers == 1 or len(jobs) <= 1:
+        if ray_address is not None and jobs:
+            runner.close()
+            from maniladder_ms.distributed import evaluate_episodes
+
+            evaluate_episodes(jobs, policy_spec, obs_mode, instructions, task_env, ray_address, record)
+        elif workers == 1 or len(jobs) <= 1:
             for spec, k, s in jobs:
                 record(runner.run(spec, k, s, task_env[spec.id]))
         else:

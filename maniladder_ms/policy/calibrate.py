@@ -36,6 +36,7 @@ another protocol or task version is never overwritten without `--replace`; the d
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import json
 import time
@@ -178,11 +179,19 @@ class TaskCalibration:
         return json.loads(self.timings_path.read_text()) if self.timings_path.is_file() else {}
 
     def _timed(self, stage: str, fn):
+        import fcntl
+        import os
+
         t0 = time.perf_counter()
         out = fn()
-        timings = self._timings()
-        timings[stage] = round(timings.get(stage, 0.0) + time.perf_counter() - t0, 1)
-        self.timings_path.write_text(json.dumps(timings, indent=1))
+        # training seeds of a task may run in parallel (`--ray`): one read-add-write at a time, written whole
+        with open(self.dir / ".timings.lock", "w") as lock:
+            fcntl.flock(lock, fcntl.LOCK_EX)
+            timings = self._timings()
+            timings[stage] = round(timings.get(stage, 0.0) + time.perf_counter() - t0, 1)
+            tmp = self.timings_path.with_suffix(f".{os.getpid()}.tmp")
+            tmp.write_text(json.dumps(timings, indent=1))
+            tmp.replace(self.timings_path)
         return out
 
     def settings(self) -> dict:
@@ -312,15 +321,20 @@ class TaskCalibration:
 
     # ---- all of it ---------------------------------------------------------------------------------
     def run(self) -> dict:
+        self.prepare()
+        return self.write_result({seed: self.run_seed(seed) for seed in self.protocol.seeds})
+
+    def prepare(self) -> None:
+        """The stages every training seed shares: settings checked, demos, features."""
         self._check_settings()
         self._timed("demos", self.stage_demos)
         self._timed("features", self.stage_features)
-        per_seed = {}
-        for seed in self.protocol.seeds:
-            self._timed("train", lambda: self.stage_train(seed))
-            sel = self._timed("select", lambda: self.stage_select(seed))
-            per_seed[seed] = (self._timed("evaluate", lambda: self.stage_evaluate(seed, sel)), sel)
-        return self.write_result(per_seed)
+
+    def run_seed(self, seed: int) -> tuple[dict, dict]:
+        """One training seed after `prepare`: (its evaluation's task summary, the selection)."""
+        self._timed("train", lambda: self.stage_train(seed))
+        sel = self._timed("select", lambda: self.stage_select(seed))
+        return self._timed("evaluate", lambda: self.stage_evaluate(seed, sel)), sel
 
     def write_result(self, per_seed: dict) -> dict:
         import statistics
@@ -394,13 +408,101 @@ def _calibrate_one(task_id: str, kwargs: dict) -> dict:
     return TaskCalibration(task_id, **kwargs).run()
 
 
+# ---- `--ray`: a task's demos and features, then each training seed, as units on a cluster's workers ---------------
+CLUSTER_PROBE = ".cluster-probe-{token}"  # written into the work folder by the driver for a run; every unit must see it
+
+
+def _check_work_visible(kwargs: dict, token: str) -> None:
+    import platform
+
+    from maniladder_ms.distributed import DistributedError
+
+    probe = Path(kwargs["work"]) / CLUSTER_PROBE.format(token=token)
+    demos = kwargs.get("demos_dir")
+    if not probe.is_file() or (demos and not Path(demos).is_dir()):
+        raise DistributedError(
+            f"the Ray worker on {platform.node()} does not see the driver's work folder {kwargs['work']}"
+            + (f" or demos folder {demos}" if demos else "") + ": `calibrate --ray` on several machines needs them on "
+            "a file system every node mounts at the same path")
+
+
+def _prepare_unit(task_id: str, kwargs: dict, token: str) -> None:
+    _check_work_visible(kwargs, token)
+    TaskCalibration(task_id, progress=False, **kwargs).prepare()
+
+
+def _seed_unit(task_id: str, seed: int, kwargs: dict, token: str) -> tuple[dict, dict]:
+    _check_work_visible(kwargs, token)
+    return TaskCalibration(task_id, progress=False, **kwargs).run_seed(seed)
+
+
+@contextlib.contextmanager
+def _removed_after(path: Path):
+    try:
+        yield path
+    finally:
+        path.unlink(missing_ok=True)
+
+
+def _calibrate_on_ray(tasks: Sequence[str], kwargs: dict, address: str, progress: bool, log) -> dict:
+    """Every task's `prepare` as a unit, then, as each finishes, one unit per training seed; the driver writes a
+    task's result when its last seed is in. Returns {task: why} of the tasks that failed (the others go on)."""
+    import secrets
+
+    from tqdm import tqdm
+
+    from maniladder_ms.distributed import RayPool, UnitFailed, worker_env
+
+    work = Path(kwargs["work"])
+    work.mkdir(parents=True, exist_ok=True)
+    token = secrets.token_hex(8)
+    probe = work / CLUSTER_PROBE.format(token=token)
+    probe.write_text("the driver of a `calibrate --ray` run wrote this; its workers check that they see it\n")
+    seeds = kwargs["protocol"].seeds
+    per_seed: dict = {t: {} for t in tasks}
+    failed: dict = {}
+    bar = tqdm(total=len(tasks) * (1 + len(seeds)), desc="calibrate", unit="unit", disable=not progress)
+    with RayPool(address, worker_env(kwargs["renderer"])) as pool, _removed_after(probe):
+        for t in tasks:
+            pool.submit(_prepare_unit, (t, kwargs, token), key=(t, None), label=f"task {t}: demos and features")
+        while len(pool):
+            try:
+                unit, out = pool.next_done()
+            except UnitFailed as e:  # one task's failure leaves the others running
+                t = e.unit.key[0]
+                failed.setdefault(t, str(e))
+                log(f"{t}: FAILED {e}")
+                bar.update(1 + (len(seeds) if e.unit.key[1] is None else 0))  # a failed prepare: no seeds follow
+                continue
+            bar.update(1)
+            t, seed = unit.key
+            if t in failed:
+                continue
+            if seed is None:
+                for k in seeds:
+                    pool.submit(_seed_unit, (t, k, kwargs, token), key=(t, k),
+                                label=f"task {t}, training seed {k}")
+                continue
+            per_seed[t][seed] = out
+            if len(per_seed[t]) == len(seeds):
+                try:
+                    r = TaskCalibration(t, **kwargs).write_result(dict(sorted(per_seed[t].items())))
+                    log(_result_line(r))
+                except ValueError as e:
+                    failed[t] = f"{type(e).__name__}: {e}"
+                    log(f"{t}: FAILED {failed[t]}")
+    bar.close()
+    return failed
+
+
 def calibrate(tasks: Sequence[str], work: Path, out: Path, demos_dir: Optional[Path] = None, device: str = "cpu",
               workers: int = 1, progress: bool = True, config: LadderFlowConfig = LadderFlowConfig(),
               protocol: CalibrationProtocol = CalibrationProtocol(), renderer: str = "cpu", replace: bool = False,
-              log=print) -> dict:
+              log=print, ray_address: Optional[str] = None) -> dict:
     """Calibrate `tasks` (resuming what `work` holds), then rewrite the summary of every result in `out`.
     Each process runs one torch thread and renders with `renderer` (the env var the envs read, inherited by
-    worker processes)."""
+    worker processes). `ray_address` ("local", "auto", "ray://host:10001"): tasks and training seeds run on a Ray
+    cluster's workers instead (`_calibrate_on_ray`), which must see `work` (and `demos_dir`) at the same path."""
     import concurrent.futures as cf
     import multiprocessing as mp
     import os
@@ -411,12 +513,18 @@ def calibrate(tasks: Sequence[str], work: Path, out: Path, demos_dir: Optional[P
                   renderer=renderer, replace=replace)
     for t in tasks:  # bad names and unbuilt tasks fail before any work starts
         TaskCalibration(t, **kwargs)
+    if ray_address is not None:
+        from maniladder_ms.distributed import check_ray_option
+
+        check_ray_option(workers)
     failed = {}
     previous = os.environ.get(RENDER_ENV), torch.get_num_threads()
     os.environ[RENDER_ENV] = renderer
     torch.set_num_threads(1)  # one task per process and core; worker processes inherit the env var, not this
     try:
-        if workers <= 1:
+        if ray_address is not None:
+            failed = _calibrate_on_ray(tasks, kwargs, ray_address, progress, log)
+        elif workers <= 1:
             for t in tasks:
                 t0 = time.perf_counter()
                 r = TaskCalibration(t, progress=progress, log=log, **kwargs).run()
@@ -556,6 +664,8 @@ def print_calibration(summary: dict, file=None) -> None:
 
 
 def add_parser(sub) -> None:
+    from maniladder_ms.distributed import add_ray_argument
+
     cp = sub.add_parser(
         "calibrate", help="measure tasks' levels with the reference policy (LadderFlow): demos -> features -> train "
                           "-> evaluate",
@@ -580,6 +690,7 @@ def add_parser(sub) -> None:
                     help="render backend of the demo frames and evaluation episodes (default cpu, lavapipe: the same "
                          "pixels on every machine); recorded")
     cp.add_argument("--workers", type=int, default=1, help="tasks calibrated in parallel processes")
+    add_ray_argument(cp)
     cp.add_argument("--quiet", action="store_true", help="no progress bars")
     cp.set_defaults(func=cmd_calibrate)
 
@@ -603,7 +714,7 @@ def cmd_calibrate(args) -> int:
             raise ValueError(f"--device {args.device}: torch sees no CUDA device here")
     summary = calibrate(tasks, args.work, args.out, demos_dir=args.demos, device=args.device, workers=args.workers,
                         progress=not args.quiet, protocol=CalibrationProtocol(purpose=args.purpose),
-                        renderer=args.renderer, replace=args.replace)
+                        renderer=args.renderer, replace=args.replace, ray_address=args.ray)
     print()
     print_calibration(summary)
     print(f"\nresults in {args.out}/ (<task>.json, calibration.json, calibration.png); `maniladder report {args.out}`")
