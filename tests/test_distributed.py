@@ -16,6 +16,8 @@ from maniladder_ms.evaluation.results import read_episodes
 from maniladder_ms.evaluation.runner import evaluate
 
 REPO = Path(__file__).resolve().parents[1]
+# one pytest worker runs this module (scripts/test.sh runs two): one local cluster, not one per worker
+pytestmark = pytest.mark.xdist_group("ray")
 TASKS = ["PickPlacePen", "LiftWideBox"]  # a single Panda and two: quick to build and to step
 
 # 20 random actions seeded by the episode seed (state obs: nothing rendered); with `FAIL_SEED` it raises on that
