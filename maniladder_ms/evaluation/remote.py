@@ -191,7 +191,7 @@ class RemotePolicy:
                 f"no policy server at {self.uri} ({type(e).__name__}: {e}); start one (`maniladder serve --policy P "
                 f"--port {self.port}`, or an openpi policy server) and check the host and port") from None
         except Exception as e:  # a handshake refused (not a websocket server), a bad first frame
-            raise RemotePolicyError(f"{self.uri} did not open an openpi policy session ({type(e).__name__}: {e})") from None
+            raise RemotePolicyError(f"{self.uri} did not answer as an openpi policy server ({type(e).__name__}: {e})") from None
 
     def close(self):
         ws = getattr(self._client, "_ws", None)
@@ -228,7 +228,7 @@ class RemotePolicy:
             except ConnectionClosed as e:
                 if attempt == 1 and self._step == 0:
                     # closed before an episode's first call (e.g. a server's keepalive ran out while this process
-                    # built a scene): no episode state is lost, so a new session takes the call
+                    # built a scene): no episode state is lost, so a new connection takes the call
                     try:
                         self._client = self._connect()
                         continue
