@@ -21,23 +21,30 @@ from maniladder_ms.solvers.bimanual import HandoverSolver
 from maniladder_ms.solvers.driven import APPROACH_HEIGHT, SCISSOR_RAMP_STEPS, DrivenSolver
 from maniladder_ms.tasks.rigid.handover.handover_pen_hands import HandoverPenHandsEnv
 
-# scissor_pose's `around`: each hand's yaw nearest this, which puts its TCP on the pen's centre side of its pinch
+# scissor_pose's `around`: the way each arm points across the table; HAND_TURN turns each hand half a turn from
+# there, its TCP (the palm) outwards of its pinch and its pinching fingers towards the pen's centre: the TCPs
+# 12 cm apart instead of 4 (facing palms at pinches 7 cm apart stopped the right 10 cm from the left, seed 100)
 ARM_YAW = {"left": np.pi / 2, "right": -np.pi / 2}
-OPEN, PINCH = "scissor_open_ring_tucked", "scissor_ring_tucked"  # the ring finger tucked under the palm
-# 1. pick
 HAND_TURN = {"left": np.pi, "right": np.pi}
-GRASP_OFFSET = 0.055  # m: each hand pinches this far from the pen's centre along its axis (left +y, right -y)
-GIVER_LIFT = 0.2  # m the left lifts the pen straight up
-LIFT_STEPS = 30  # ... over this many control steps
-TAKER_WAIT = (-0.05, -0.25, 0.4)  # where the right waits top-down during the pick
+# the scissor postures with the ring finger tucked under the palm: "scissor"'s flat ring reaches past the knuckles,
+# where the two hands' rings met (seed 100)
+OPEN, PINCH = "scissor_open_ring_tucked", "scissor_ring_tucked"
+# 1. pick
+# m: each hand pinches this far from the pen's centre along its axis (left +y, right -y), 1.5 cm from the pen's
+# ends: at 0.035 and 0.045 the right hand's knuckles met the left's coming down (seed 100), at 0.055 they clear
+GRASP_OFFSET = 0.055
+GIVER_LIFT = 0.2  # m the left lifts the pen straight up (clear of the table by 19 cm before it moves sideways)
+LIFT_STEPS = 30  # ... over this many control steps (6.7 mm a step; LiftRopeHand lifts its rope at 6 mm)
+TAKER_WAIT = (-0.05, -0.25, 0.4)  # where the right waits top-down during the pick: turning on its way to the
+# take from its rest pose it swept its fingers through the held pen (seed 100)
 # 2. carry
-MEET = (-0.05, 0.0, 0.25)  # the pen's centre while the right takes it
+MEET = (-0.05, 0.0, 0.25)  # the pen's centre while the right takes it: in front of the robot's middle, 25 cm up
 # 3. take
 TAKER_ABOVE = 0.1  # m: the right comes over its pinch this far above it, then straight down
 TAKER_SIDE = 0.08  # m: ... and before that this far out towards -y along the pen
 # 4. swap
 GIVER_RISE = 0.1  # m the left rises after swinging its fingers apart
-GIVER_OPEN_STEPS = 10
+GIVER_OPEN_STEPS = 10  # control steps the left's fingers swing apart before it rises
 GIVER_ASIDE = (0.0, 0.15, 0.05)  # then moves this far aside
 TAKER_LIFT = 0.03  # m the right lifts the pen once alone
 

@@ -39,9 +39,11 @@ class HandoverPenHandsEnv(HandoverTask):
     **Level 3:** (against Level 2's HandoverMugHands, an 8.4 cm mug passed between two power grasps) the object is a
     1.6 cm thick pen, taken and held only between two straight fingers (the index / middle "scissor" pinch, whose
     tips reach to within 8 mm of the table: a 1.6 cm object lying flat is at the limit of what a LEAP hand picks
-    up); the two pinches share one 14 cm object, so the hands work a few centimetres apart; the pass has three
-    ordered holding stages (left alone, both, right alone) and a pen dropped or set on the table at any time after
-    the pick fails the episode (no regrasp from the table).
+    up; no thumb-index pinch takes it); both pinches share one 14 cm pen, 11 cm apart, so the two hands' knuckles
+    work within a few centimetres of each other (at 7-9 cm apart the hands collide and push the pen out of the
+    giver's pinch); the pass has three ordered holding stages (left alone, both, right alone) and a pen dropped or
+    set on the table at any time after the pick fails the episode (no regrasp from the table). The scripted pass
+    takes 174-207 control steps (mean 190).
     """
 
     SUPPORTED_ROBOTS = ["ml_dual_panda_leap"]
