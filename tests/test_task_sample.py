@@ -40,7 +40,7 @@ def test_a_change_to_a_task_module_or_its_demos_samples_that_task():
 
 def test_a_change_to_a_family_base_samples_its_tasks():
     assert sorted(tasks_for_changes(["maniladder_ms/tasks/rigid/handover/base.py"])) == \
-        ["HandoverBallHands", "HandoverCube", "HandoverMugHands"]
+        ["HandoverBallHands", "HandoverCube", "HandoverMugHands", "HandoverPenHands"]
 
 
 def test_a_change_to_a_shared_solver_module_samples_tasks_that_import_it():
@@ -62,7 +62,7 @@ def test_a_core_module_samples_a_few_tasks_and_a_changed_task_comes_first():
     assert picked[0] == "PickPlacePen" and len(picked) == 1 + SHARED_CAP and len(set(picked)) == len(picked)
     # the narrower module is served first: a family base next to a core module keeps all its tasks
     picked = tasks_for_changes(["maniladder_ms/envs/base.py", "maniladder_ms/tasks/rigid/handover/base.py"], "k")
-    assert sorted(picked[:3]) == ["HandoverBallHands", "HandoverCube", "HandoverMugHands"]
+    assert sorted(picked[:4]) == ["HandoverBallHands", "HandoverCube", "HandoverMugHands", "HandoverPenHands"]
     assert len(picked) == SHARED_CAP
 
 

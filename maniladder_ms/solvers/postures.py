@@ -30,6 +30,11 @@ LEAP_SYNERGIES = {
     # drifts sideways as one, the rope's beads ratchet through it and 2 of 5 seeds dropped the rope after
     # 20-40 hold steps; at 0.02 (and 0.0) 10/10 held 80 steps
     "scissor": np.array([0.02, 1.57, 0.0, 0.0, -0.02, 1.57, 0.0, 0.0, 0.0, 0.0, 1.6, 1.6, 0.0, 0.0, 0.0, 0.0]),
+    # "scissor_open" and "scissor" with the ring finger bent down at its knuckle too and curled back under the palm:
+    # the flat ring of "scissor" sticks out ~5 cm past the knuckles, where two hands pinching one pen a few
+    # centimetres apart, fingers towards each other, meet ring on ring (HandoverPenHands)
+    "scissor_open_ring_tucked": np.array([-0.25, 1.57, 0.0, 0.0, 0.25, 1.57, 0.0, 0.0, 0.0, 1.57, 1.6, 1.6, 0.0, 0.0, 0.0, 0.0]),
+    "scissor_ring_tucked": np.array([0.02, 1.57, 0.0, 0.0, -0.02, 1.57, 0.0, 0.0, 0.0, 1.57, 1.6, 1.6, 0.0, 0.0, 0.0, 0.0]),
     # index bent 90 degrees at its knuckle, straight (points down from a top-down hand), middle/ring curled
     # at PIP/DIP, thumb flat: the index tip is the lowest point by 9 cm, for pressing buttons
     "point": np.array([0.0, 1.57, 0.0, 0.0, 0.0, 0.0, 1.6, 1.6, 0.0, 0.0, 1.6, 1.6, 0.0, 0.0, 0.0, 0.0]),

@@ -1,4 +1,4 @@
-"""The Handover family's base (HandoverCube, HandoverBallHands, HandoverMugHands; later HandoverPenHands): one end
+"""The Handover family's base (HandoverCube, HandoverBallHands, HandoverMugHands, HandoverPenHands): one end
 effector (the giver, the left) passes an object to the other (the taker, the right) in mid-air.
 
 The family base `HandoverTask` holds the rule, `evaluate`, once for every embodiment; the task classes build
@@ -23,7 +23,8 @@ class HandoverTask(ManiLadderEnv):
     `on_table_tol` above its resting height) touched by neither end effector; without one, the taker holds
     it, the giver does not touch it and it is at least `lift_height` above the table. A `HAND_TO_HAND` task
     further asks that both end effectors held the object at once, at least `lift_height` above the table,
-    before the taker held it alone (episode memory `both_held`).
+    before the taker held it alone (episode memory `both_held`); a `GIVER_ALONE_FIRST` task asks that the giver
+    held it alone first, at least `lift_height` above the table (`giver_held`), before both held it.
     """
 
     GIVER, TAKER = "left", "right"
@@ -35,6 +36,10 @@ class HandoverTask(ManiLadderEnv):
     # `lift_height` above the table (episode memory `both_held`): a hand-to-hand pass, not a pick-up of an object
     # the giver dropped or put down
     HAND_TO_HAND = False
+    # True: `giver_held` counts only while the giver holds the object alone (the taker neither holds nor touches it)
+    # with its centre at least `lift_height` above the table, and `both_held` only after it: the pass starts from
+    # the giver's own pick
+    GIVER_ALONE_FIRST = False
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -67,9 +72,12 @@ class HandoverTask(ManiLadderEnv):
         swapped = now[f"{taker}_grasped"] & ~now[f"{giver}_grasped"] & ~now[f"{giver}_touch"] & now["is_lifted"]
         before = self.memory["both_held" if self.HAND_TO_HAND else "giver_held"]
         self.memory.latch("handed_over", before & swapped)
-        self.memory.latch("giver_held", now[f"{giver}_grasped"])
+        held = now[f"{giver}_grasped"]
+        if self.GIVER_ALONE_FIRST:
+            held = held & ~now[f"{taker}_grasped"] & ~now[f"{taker}_touch"] & now["is_lifted"]
+        self.memory.latch("giver_held", held)
         if self.HAND_TO_HAND:
-            both = now[f"{giver}_grasped"] & now[f"{taker}_grasped"] & now["is_lifted"]
+            both = now[f"{giver}_grasped"] & now[f"{taker}_grasped"] & now["is_lifted"] & self.memory["giver_held"]
             self.memory.latch("both_held", both)
 
     def evaluate(self):
