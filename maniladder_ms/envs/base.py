@@ -47,6 +47,10 @@ class UnsupportedRobotError(ValueError):
     """A robot uid the task was not built for."""
 
 
+class UnsupportedControlModeError(ValueError):
+    """A control mode the task's robot does not offer."""
+
+
 def _check_visual_seed(seed) -> Optional[int]:
     if seed is None:
         return None
@@ -158,6 +162,15 @@ class ManiLadderEnv(BaseEnv):
             raise UnsupportedRobotError(
                 f"{task_id or type(self).__name__} does not support robot {robot_uids!r}; supported: {', '.join(map(str, self.SUPPORTED_ROBOTS))}"
             )
+        if kwargs.get("control_mode") is not None:
+            from maniladder_ms.agents.robots import offered_control_modes  # (the agents import this module)
+
+            modes = offered_control_modes(robot_uids)
+            if kwargs["control_mode"] not in modes:
+                raise UnsupportedControlModeError(
+                    f"{task_id or type(self).__name__}: robot {robot_uids!r} has no control mode "
+                    f"{kwargs['control_mode']!r}; it offers: {', '.join(modes)}"
+                )
         self.domain_randomization = domain_randomization
         self._visual_seed_default = _check_visual_seed(visual_seed)
         self._visual_seed_option: Optional[int] = None
