@@ -14,7 +14,7 @@ from mani_skill.utils.geometry.rotation_conversions import matrix_to_axis_angle,
 import maniladder_ms
 from maniladder_ms.agents import AGENT_UIDS
 from maniladder_ms.agents.robots import CONTROL_MODES, arm_configs, offered_control_modes
-from maniladder_ms.envs.base import UnsupportedControlModeError
+from maniladder_ms import UnsupportedControlModeError
 from maniladder_ms.solvers.control import hold_action
 
 TASK_OF_AGENT = {  # a cheap task of each agent

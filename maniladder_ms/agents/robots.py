@@ -8,9 +8,9 @@
 | `ml_dual_panda_leap` | DX | two Panda arms with a left / right LEAP hand, one articulation |
 | `ml_tidybot` | mobile | holonomic base (x, y, yaw) + Panda + gripper |
 
-Every agent has the control modes `pd_joint_pos`, `pd_joint_delta_pos` and `pd_ee_delta_pose`, one flat
-action vector each (layouts in the class docstrings), a `rest` keyframe and wrist cameras. Arm gains are
-ManiSkill's Panda gains. The generated descriptions are in the repo's `agents/` folder
+Every agent offers ManiSkill's eleven Panda control modes (`CONTROL_MODES`, docs/control-modes.md), one flat
+action vector each (the class docstrings lay out the three the solvers use), a `rest` keyframe and wrist
+cameras. Arm gains are ManiSkill's Panda gains. The generated descriptions are in the repo's `agents/` folder
 (scripts/make_agents.py).
 """
 
@@ -239,7 +239,7 @@ class MLPanda(PandaWristCam):
       pd_joint_delta_pos  [0:7] arm joint deltas (normalised, 1 = 0.1 rad), [7] gripper
       pd_ee_delta_pose    [0:3] TCP translation, [3:6] TCP rotation (axis-angle), both normalised
                           (1 = 0.1 m / 0.1 rad, in the robot root frame), [6] gripper
-    (ManiSkill's other Panda modes -- pd_ee_pose, pd_joint_vel, ... -- are available too.)
+    (ManiSkill's other Panda modes -- pd_ee_pose, pd_joint_vel, ... -- are available too: docs/control-modes.md.)
     """
 
     uid = "ml_panda"
@@ -261,6 +261,7 @@ class MLPandaLeap(_MLAgent):
       pd_ee_delta_pose    [0:6] TCP delta pose (as ml_panda), [6:22] hand joint targets (rad)
     Hand joints in LEAP order: index j0 (MCP side), j1 (MCP forward), j2 (PIP), j3 (DIP); middle
     j4-j7 and ring j8-j11 likewise; thumb j12 (base / opposition), j13, j14, j15 (tip). 0 = flat hand.
+    The other control modes change the arm part only (docs/control-modes.md).
     """
 
     uid = "ml_panda_leap"
@@ -338,6 +339,7 @@ class MLDualPanda(_DualArm):
       pd_ee_delta_pose    [0:6] left TCP delta pose, [6] left gripper, [7:13] right TCP delta pose,
                           [13] right gripper (delta poses normalised, 1 = 0.1 m / 0.1 rad, in the root frame)
     Gripper commands are normalised: -1 closed (finger target -0.01 m), 1 open (0.04 m).
+    The other control modes change the arm part only (docs/control-modes.md).
     """
 
     uid = "ml_dual_panda"
@@ -373,6 +375,7 @@ class MLDualPandaLeap(_DualArm):
                           [28:44] right hand
     Hand joints in LEAP order j0..j15 (see ml_panda_leap); the left hand is the mirror image of the right,
     so the same joint values give the mirrored posture.
+    The other control modes change the arm part only (docs/control-modes.md).
     """
 
     uid = "ml_dual_panda_leap"
@@ -405,6 +408,7 @@ class MLTidyBot(_MLAgent):
                           1 = 0.5 m/s, 0.5 m/s, 1.57 rad/s), [3:10] arm joint targets (rad), [10] gripper
       pd_joint_delta_pos  [0:3] base velocity, [3:10] arm joint deltas (1 = 0.1 rad), [10] gripper
       pd_ee_delta_pose    [0:3] base velocity, [3:9] TCP delta pose (in the fixed root frame), [9] gripper
+    The other control modes change the arm part only (docs/control-modes.md).
     """
 
     uid = "ml_tidybot"

@@ -32,6 +32,7 @@ from mani_skill.sensors.camera import CameraConfig
 from mani_skill.utils import sapien_utils
 
 from maniladder_ms.agents.effectors import EndEffectors, mark_placed, mark_simulated
+from maniladder_ms.agents.robots import offered_control_modes
 from maniladder_ms.catalog import CatalogError, TaskSpec, default_catalog
 
 from .memory import EpisodeMemory
@@ -163,8 +164,6 @@ class ManiLadderEnv(BaseEnv):
                 f"{task_id or type(self).__name__} does not support robot {robot_uids!r}; supported: {', '.join(map(str, self.SUPPORTED_ROBOTS))}"
             )
         if kwargs.get("control_mode") is not None:
-            from maniladder_ms.agents.robots import offered_control_modes  # (the agents import this module)
-
             modes = offered_control_modes(robot_uids)
             if kwargs["control_mode"] not in modes:
                 raise UnsupportedControlModeError(
