@@ -102,9 +102,9 @@ def rest_keyframe(name: str, values: dict[str, float], pose=None) -> Keyframe:
 
 
 # ---- controller configs ------------------------------------------------------------------------
-# The control modes of every agent, the default (`pd_joint_pos`) first: ManiSkill's eleven Panda modes. Only the
-# arm part differs between modes; a gripper or LEAP hand keeps its joint-position targets and the TidyBot base its
-# velocity command in every mode.
+# The control modes of the agents built here, the default (`pd_joint_pos`) first: ManiSkill's eleven Panda modes
+# (`ml_panda` is ManiSkill's Panda: the same eleven, its default `pd_joint_delta_pos`). Only the arm part differs
+# between modes; a gripper or LEAP hand keeps its joint-position targets and the TidyBot base its velocity command.
 CONTROL_MODES = (
     "pd_joint_pos", "pd_joint_delta_pos", "pd_ee_delta_pose",  # the modes the solvers and demos use
     "pd_ee_delta_pos", "pd_ee_pose", "pd_joint_vel", "pd_joint_pos_vel", "pd_joint_delta_pos_vel",
@@ -237,8 +237,8 @@ class MLPanda(PandaWristCam):
     Action layout (8 dims):
       pd_joint_pos        [0:7] arm joint targets (rad), [7] gripper (normalised: -1 closed, 1 open)
       pd_joint_delta_pos  [0:7] arm joint deltas (normalised, 1 = 0.1 rad), [7] gripper
-      pd_ee_delta_pose    [0:3] TCP translation, [3:6] TCP rotation (axis-angle), both normalised
-                          (1 = 0.1 m / 0.1 rad, in the robot root frame), [6] gripper
+      pd_ee_delta_pose    [0:3] TCP translation, [3:6] TCP rotation (XYZ Euler delta; ManiSkill 3.0.1 turns
+                          the other way), both normalised (1 = 0.1 m / 0.1 rad, in the robot root frame), [6] gripper
     (ManiSkill's other Panda modes -- pd_ee_pose, pd_joint_vel, ... -- are available too: docs/control-modes.md.)
     """
 
