@@ -10,7 +10,7 @@ __version__ = "0.1.0"
 
 from .catalog import Catalog, CatalogError, TaskSpec, UnknownTaskError, default_catalog, load_catalog
 from . import agents  # noqa: F401  (registers the agents; first: the base env uses agents.effectors)
-from .envs import ManiLadderEnv, UnsupportedRobotError
+from .envs import ManiLadderEnv, UnsupportedControlModeError, UnsupportedRobotError
 from . import tasks  # noqa: F401  (registers the envs; their modules are imported on first use)
 
 

@@ -8,9 +8,9 @@
 | `ml_dual_panda_leap` | DX | two Panda arms with a left / right LEAP hand, one articulation |
 | `ml_tidybot` | mobile | holonomic base (x, y, yaw) + Panda + gripper |
 
-Every agent has the control modes `pd_joint_pos`, `pd_joint_delta_pos` and `pd_ee_delta_pose`, one flat
-action vector each (layouts in the class docstrings), a `rest` keyframe and wrist cameras. Arm gains are
-ManiSkill's Panda gains. The generated descriptions are in the repo's `agents/` folder
+Every agent offers ManiSkill's eleven Panda control modes (`CONTROL_MODES`, docs/control-modes.md), one flat
+action vector each (the class docstrings lay out the three the solvers use), a `rest` keyframe and wrist
+cameras. Arm gains are ManiSkill's Panda gains. The generated descriptions are in the repo's `agents/` folder
 (scripts/make_agents.py).
 """
 
@@ -27,9 +27,12 @@ import torch
 from mani_skill.agents.base_agent import BaseAgent, Keyframe
 from mani_skill.agents.controllers import (
     PDBaseVelControllerConfig,
+    PDEEPosControllerConfig,
     PDEEPoseControllerConfig,
     PDJointPosControllerConfig,
     PDJointPosMimicControllerConfig,
+    PDJointPosVelControllerConfig,
+    PDJointVelControllerConfig,
     deepcopy_dict,
 )
 from mani_skill.agents.registration import register_agent
@@ -99,20 +102,41 @@ def rest_keyframe(name: str, values: dict[str, float], pose=None) -> Keyframe:
 
 
 # ---- controller configs ------------------------------------------------------------------------
+# The control modes of the agents built here, the default (`pd_joint_pos`) first: ManiSkill's eleven Panda modes
+# (`ml_panda` is ManiSkill's Panda: the same eleven, its default `pd_joint_delta_pos`). Only the arm part differs
+# between modes; a gripper or LEAP hand keeps its joint-position targets and the TidyBot base its velocity command.
+CONTROL_MODES = (
+    "pd_joint_pos", "pd_joint_delta_pos", "pd_ee_delta_pose",  # the modes the solvers and demos use
+    "pd_ee_delta_pos", "pd_ee_pose", "pd_joint_vel", "pd_joint_pos_vel", "pd_joint_delta_pos_vel",
+    "pd_joint_target_delta_pos", "pd_ee_target_delta_pos", "pd_ee_target_delta_pose",
+)
+
+
 def arm_configs(joints: list[str], ee_link: str, urdf: str) -> dict:
-    """The arm part of each control mode: absolute / delta joint targets, delta TCP pose (IK)."""
-    return dict(
-        pd_joint_pos=PDJointPosControllerConfig(
-            joints, None, None, ARM_STIFFNESS, ARM_DAMPING, ARM_FORCE, normalize_action=False
-        ),
-        pd_joint_delta_pos=PDJointPosControllerConfig(
-            joints, -0.1, 0.1, ARM_STIFFNESS, ARM_DAMPING, ARM_FORCE, use_delta=True
-        ),
-        pd_ee_delta_pose=PDEEPoseControllerConfig(
-            joint_names=joints, pos_lower=-0.1, pos_upper=0.1, rot_lower=-0.1, rot_upper=0.1,
-            stiffness=ARM_STIFFNESS, damping=ARM_DAMPING, force_limit=ARM_FORCE, ee_link=ee_link, urdf_path=urdf,
-        ),
+    """The arm part of each of `CONTROL_MODES` for one Panda arm (`joints`, IK end link `ee_link`), as ManiSkill's
+    Panda builds them (same gains and bounds): joint targets (absolute, delta, delta from the last target), joint
+    velocities, joint targets + velocities, and the TCP by IK (delta position, delta pose, absolute pose; deltas
+    also from the last target). TCP poses are in the articulation's root frame."""
+    gains = dict(stiffness=ARM_STIFFNESS, damping=ARM_DAMPING, force_limit=ARM_FORCE)
+    ik = dict(joint_names=joints, ee_link=ee_link, urdf_path=urdf, **gains)
+    configs = dict(
+        pd_joint_pos=PDJointPosControllerConfig(joints, None, None, **gains, normalize_action=False),
+        pd_joint_delta_pos=PDJointPosControllerConfig(joints, -0.1, 0.1, **gains, use_delta=True),
+        pd_ee_delta_pose=PDEEPoseControllerConfig(pos_lower=-0.1, pos_upper=0.1, rot_lower=-0.1, rot_upper=0.1, **ik),
+        pd_ee_delta_pos=PDEEPosControllerConfig(pos_lower=-0.1, pos_upper=0.1, **ik),
+        pd_ee_pose=PDEEPoseControllerConfig(pos_lower=-2.0, pos_upper=2.0, use_delta=False, normalize_action=False,
+                                            **ik),
+        # velocity drive: damping only (ManiSkill's Panda uses the arm's damping as its gain)
+        pd_joint_vel=PDJointVelControllerConfig(joints, -1.0, 1.0, ARM_DAMPING, ARM_FORCE),
+        pd_joint_pos_vel=PDJointPosVelControllerConfig(joints, None, None, **gains, normalize_action=False),
+        pd_joint_delta_pos_vel=PDJointPosVelControllerConfig(joints, -0.1, 0.1, **gains, use_delta=True),
     )
+    for mode in ("pd_joint_delta_pos", "pd_ee_delta_pos", "pd_ee_delta_pose"):
+        target_mode = mode.replace("_delta_", "_target_delta_")  # deltas from the last target, not the state
+        configs[target_mode] = deepcopy(configs[mode])
+        configs[target_mode].use_target = True
+    assert set(configs) == set(CONTROL_MODES)
+    return configs
 
 
 def gripper_config(prefix: str = ""):
@@ -132,15 +156,24 @@ def leap_config(prefix: str = ""):
     )
 
 
-MODES = ("pd_joint_pos", "pd_joint_delta_pos", "pd_ee_delta_pose")
-
-
 def combine(**parts) -> dict:
-    """{mode: {part: config}} from parts given as either a per-mode dict or one config for all modes."""
+    """{mode: {part: config}} for every one of `CONTROL_MODES`, from parts given as either a per-mode dict (an
+    arm's `arm_configs`) or one config for all modes (a gripper, a hand, a base)."""
     out = {}
-    for mode in MODES:
+    for mode in CONTROL_MODES:
         out[mode] = {name: (p[mode] if isinstance(p, dict) else deepcopy(p)) for name, p in parts.items()}
     return deepcopy_dict(out)
+
+
+def offered_control_modes(uid: str) -> tuple[str, ...]:
+    """The control modes registered agent `uid` offers (any ManiSkill agent), its default first. Read from the
+    agent class's controller configs without building the agent (they depend on class attributes only)."""
+    from mani_skill.agents.registration import REGISTERED_AGENTS
+
+    if uid not in REGISTERED_AGENTS:
+        raise KeyError(f"no registered agent {uid!r}")
+    cls = REGISTERED_AGENTS[uid].agent_cls
+    return tuple(object.__new__(cls)._controller_configs)
 
 
 def wrist_camera(uid: str, link, pose: sapien.Pose | None = None) -> CameraConfig:
@@ -204,9 +237,9 @@ class MLPanda(PandaWristCam):
     Action layout (8 dims):
       pd_joint_pos        [0:7] arm joint targets (rad), [7] gripper (normalised: -1 closed, 1 open)
       pd_joint_delta_pos  [0:7] arm joint deltas (normalised, 1 = 0.1 rad), [7] gripper
-      pd_ee_delta_pose    [0:3] TCP translation, [3:6] TCP rotation (axis-angle), both normalised
-                          (1 = 0.1 m / 0.1 rad, in the robot root frame), [6] gripper
-    (ManiSkill's other Panda modes -- pd_ee_pose, pd_joint_vel, ... -- are available too.)
+      pd_ee_delta_pose    [0:3] TCP translation, [3:6] TCP rotation (XYZ Euler delta; ManiSkill 3.0.1 turns
+                          the other way), both normalised (1 = 0.1 m / 0.1 rad, in the robot root frame), [6] gripper
+    (ManiSkill's other Panda modes -- pd_ee_pose, pd_joint_vel, ... -- are available too: docs/control-modes.md.)
     """
 
     uid = "ml_panda"
@@ -228,6 +261,7 @@ class MLPandaLeap(_MLAgent):
       pd_ee_delta_pose    [0:6] TCP delta pose (as ml_panda), [6:22] hand joint targets (rad)
     Hand joints in LEAP order: index j0 (MCP side), j1 (MCP forward), j2 (PIP), j3 (DIP); middle
     j4-j7 and ring j8-j11 likewise; thumb j12 (base / opposition), j13, j14, j15 (tip). 0 = flat hand.
+    The other control modes change the arm part only (docs/control-modes.md).
     """
 
     uid = "ml_panda_leap"
@@ -305,6 +339,7 @@ class MLDualPanda(_DualArm):
       pd_ee_delta_pose    [0:6] left TCP delta pose, [6] left gripper, [7:13] right TCP delta pose,
                           [13] right gripper (delta poses normalised, 1 = 0.1 m / 0.1 rad, in the root frame)
     Gripper commands are normalised: -1 closed (finger target -0.01 m), 1 open (0.04 m).
+    The other control modes change the arm part only (docs/control-modes.md).
     """
 
     uid = "ml_dual_panda"
@@ -340,6 +375,7 @@ class MLDualPandaLeap(_DualArm):
                           [28:44] right hand
     Hand joints in LEAP order j0..j15 (see ml_panda_leap); the left hand is the mirror image of the right,
     so the same joint values give the mirrored posture.
+    The other control modes change the arm part only (docs/control-modes.md).
     """
 
     uid = "ml_dual_panda_leap"
@@ -372,6 +408,7 @@ class MLTidyBot(_MLAgent):
                           1 = 0.5 m/s, 0.5 m/s, 1.57 rad/s), [3:10] arm joint targets (rad), [10] gripper
       pd_joint_delta_pos  [0:3] base velocity, [3:10] arm joint deltas (1 = 0.1 rad), [10] gripper
       pd_ee_delta_pose    [0:3] base velocity, [3:9] TCP delta pose (in the fixed root frame), [9] gripper
+    The other control modes change the arm part only (docs/control-modes.md).
     """
 
     uid = "ml_tidybot"

@@ -1,2 +1,2 @@
-from .base import ManiLadderEnv, UnsupportedRobotError, resolve_render_backend
+from .base import ManiLadderEnv, UnsupportedControlModeError, UnsupportedRobotError, resolve_render_backend
 from .registration import register_task

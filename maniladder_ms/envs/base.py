@@ -32,6 +32,7 @@ from mani_skill.sensors.camera import CameraConfig
 from mani_skill.utils import sapien_utils
 
 from maniladder_ms.agents.effectors import EndEffectors, mark_placed, mark_simulated
+from maniladder_ms.agents.robots import offered_control_modes
 from maniladder_ms.catalog import CatalogError, TaskSpec, default_catalog
 
 from .memory import EpisodeMemory
@@ -45,6 +46,10 @@ LAVAPIPE_ICD_GLOB = "/usr/share/vulkan/icd.d/lvp_icd*.json"
 
 class UnsupportedRobotError(ValueError):
     """A robot uid the task was not built for."""
+
+
+class UnsupportedControlModeError(ValueError):
+    """A control mode the task's robot does not offer."""
 
 
 def _check_visual_seed(seed) -> Optional[int]:
@@ -158,6 +163,13 @@ class ManiLadderEnv(BaseEnv):
             raise UnsupportedRobotError(
                 f"{task_id or type(self).__name__} does not support robot {robot_uids!r}; supported: {', '.join(map(str, self.SUPPORTED_ROBOTS))}"
             )
+        if kwargs.get("control_mode") is not None:
+            modes = offered_control_modes(robot_uids)
+            if kwargs["control_mode"] not in modes:
+                raise UnsupportedControlModeError(
+                    f"{task_id or type(self).__name__}: robot {robot_uids!r} has no control mode "
+                    f"{kwargs['control_mode']!r}; it offers: {', '.join(modes)}"
+                )
         self.domain_randomization = domain_randomization
         self._visual_seed_default = _check_visual_seed(visual_seed)
         self._visual_seed_option: Optional[int] = None

@@ -4,7 +4,7 @@ parallel sub-scenes (`DrivenSolver` in `driven.py` builds the solvers' moves on 
 Everything here builds flat action tensors (num_envs, action_dim) for the agent's current control
 mode from per-part targets, so the same helpers drive every embodiment:
 
-- `hold_action(agent, qpos)`: the action that holds `qpos` (default: the current joint targets).
+- `hold_action(agent, qpos)`: the action that holds `qpos` (default: the current joint targets), in any mode.
 - `Driver(env)`: closed-loop TCP moves through `pd_ee_delta_pose` (ManiSkill's IK controller) for
   each arm, gripper open/close, LEAP hand postures (`postures.LEAP_SYNERGIES`), base velocity.
 """
@@ -15,8 +15,10 @@ import numpy as np
 import torch
 
 from mani_skill.agents.controllers.pd_base_vel import PDBaseVelController
-from mani_skill.agents.controllers.pd_ee_pose import PDEEPoseController
-from mani_skill.agents.controllers.pd_joint_pos import PDJointPosController, PDJointPosMimicController
+from mani_skill.agents.controllers.pd_ee_pose import PDEEPosController
+from mani_skill.agents.controllers.pd_joint_pos import PDJointPosMimicController
+from mani_skill.agents.controllers.pd_joint_pos_vel import PDJointPosVelController
+from mani_skill.agents.controllers.pd_joint_vel import PDJointVelController
 from mani_skill.utils.structs.pose import Pose
 from mani_skill.utils.geometry.rotation_conversions import (
     axis_angle_to_matrix,
@@ -34,19 +36,45 @@ def _controllers(agent) -> dict:
 
 
 def hold_action(agent, qpos: torch.Tensor | None = None) -> torch.Tensor:
-    """Flat action (num_envs, dim) holding joint positions `qpos` (default: the current drive targets)."""
+    """Flat action (num_envs, dim) holding joint positions `qpos` (default: `current_joint_targets`), in any of
+    the agent's control modes: delta, velocity and base parts send zeros, joint-target parts the targets (and
+    zero velocities), and an absolute TCP-pose part (`pd_ee_pose`) the current TCP pose (so there it holds the
+    current state only: another `qpos` is refused)."""
+    if qpos is not None and any(_is_absolute_pose(c) for c in _controllers(agent).values()):
+        raise ValueError("hold_action in an absolute TCP-pose mode holds the current pose: call it without qpos")
     if qpos is None:
-        qpos = agent.robot.get_drive_targets()
+        qpos = current_joint_targets(agent)
     parts = []
     for ctrl in _controllers(agent).values():
         n = ctrl.single_action_space.shape[0]
-        # velocity and delta controllers hold with a zero action
-        if isinstance(ctrl, (PDBaseVelController, PDEEPoseController)) or (
-                isinstance(ctrl, PDJointPosController) and ctrl.config.use_delta):
-            parts.append(torch.zeros(qpos.shape[0], n, device=qpos.device))
+        zeros = torch.zeros(qpos.shape[0], n, device=qpos.device)
+        if _is_absolute_pose(ctrl):
+            pose = ctrl.ee_pose_at_base  # the controller's frame: the articulation root
+            parts.append(torch.cat([pose.p, matrix_to_euler_angles(quaternion_to_matrix(pose.q), "XYZ")], dim=1))
+        elif isinstance(ctrl, (PDBaseVelController, PDJointVelController, PDEEPosController)) or \
+                getattr(ctrl.config, "use_delta", False):
+            parts.append(zeros)  # velocity and delta controllers hold with a zero action
+        elif isinstance(ctrl, PDJointPosVelController):
+            parts.append(torch.cat([_joint_action(ctrl, qpos), zeros[:, n // 2:]], dim=1))  # targets, zero velocity
         else:
             parts.append(_joint_action(ctrl, qpos))
     return torch.cat(parts, dim=1).float()
+
+
+def current_joint_targets(agent) -> torch.Tensor:
+    """The joint targets the agent's controllers hold (num_envs, dof): each joint-target controller's own target
+    (ManiSkill sets it to the joint positions at reset, before the first action writes the drives; the drives
+    read 0 until then), the drive targets for the other joints."""
+    qpos = agent.robot.get_drive_targets().clone()
+    for ctrl in _controllers(agent).values():
+        target = getattr(ctrl, "_target_qpos", None)
+        if target is not None:
+            qpos[:, ctrl.active_joint_indices] = target
+    return qpos
+
+
+def _is_absolute_pose(ctrl) -> bool:
+    return isinstance(ctrl, PDEEPosController) and not ctrl.config.use_delta
 
 
 def _joint_action(ctrl, qpos: torch.Tensor) -> torch.Tensor:
