@@ -29,8 +29,8 @@ class PourThroughFunnelEnv(CupToBowl, ManiLadderEnv):
     - the bottle (glass, open, 13.5 cm tall: body outer radius 3 cm, neck outer radius 2.2 cm, bore 3.8 cm wide)
       stands at `BOTTLE_PLACEMENT`;
     - the funnel (mouth 9 cm wide inside, neck bore 2.2 cm wide and 3 cm long, 7.5 cm tall, ~30 g; a handle tab
-      on its rim) rests by its cone in the conical seat of a stand (fixed, 6.5 cm tall) at `STAND_PLACEMENT`, turned about its axis
-      so that its tab points within `FUNNEL_YAW` of `TAB_YAW` (away from the robot, +x);
+      on its rim) rests by its cone in the conical seat of a stand (fixed, 6.5 cm tall) at `STAND_PLACEMENT`,
+      turned about its axis so that its tab points within `FUNNEL_YAW` of `TAB_YAW` (to the left, +y);
     - the cup (plastic, inner radius 2.5 cm, 8 cm tall) stands to the right at `CUP_PLACEMENT`, holding the
       `particle_count` liquid particles (low-friction spheres, radius 4 mm) packed from its floor with a small
       random jitter.
@@ -72,9 +72,9 @@ class PourThroughFunnelEnv(CupToBowl, ManiLadderEnv):
     held_containers = {"funnel": "left", "cup": "right"}
     # layout ranges ((x low, x high), (y low, y high)), uniform
     BOTTLE_PLACEMENT = ((-0.1, -0.04), (-0.03, 0.03))
-    STAND_PLACEMENT = ((-0.18, -0.12), (0.17, 0.23))
+    STAND_PLACEMENT = ((-0.16, -0.1), (0.13, 0.19))
     CUP_PLACEMENT = ((-0.16, -0.1), (-0.26, -0.18))
-    TAB_YAW = 0.0  # the funnel's handle tab points away from the robot (+x), within
+    TAB_YAW = np.pi / 2  # the funnel's handle tab points to the left (+y), towards the left arm, within
     FUNNEL_YAW = 0.35  # rad either side
     placement = {"bowl": BOTTLE_PLACEMENT, "cup": CUP_PLACEMENT}
 
