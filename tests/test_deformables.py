@@ -763,6 +763,63 @@ def test_full_container_is_full(make_shape):
     assert particles.fraction_spilled(half, [(pose, shape)])[0] == pytest.approx(0.5)
 
 
+def test_particles_packed_in_a_narrow_bottle_are_inside_it():
+    bottle = containers.bottle(radius=0.03, body_height=0.09, shoulder_height=0.02, neck_radius=0.022,
+                               neck_height=0.025, wall=0.003)
+    pose = Pose.create_from_pq(torch.tensor([[-0.07, 0.01, 0.0]]))
+    packed = particles.pack_in_container(bottle, 80, 0.004)[None] + pose.p[:, None]
+    assert particles.fraction_inside(packed, pose, bottle)[0] == 1
+    # above the mouth, beside the neck (inside the body's radius, above the shoulder), under the floor
+    out = torch.tensor([[[-0.07, 0.01, bottle.height + 0.005], [-0.07 + 0.02, 0.01, 0.125], [-0.07, 0.01, 0.003]]])
+    assert particles.fraction_inside(out, pose, bottle)[0] == 0
+
+
+def test_funnel_passage_counts_particles_through_the_neck_only():
+    funnel = containers.funnel()
+    neck_top = containers.funnel_neck_top(funnel)
+    # a funnel tilted 20 degrees about x, its outlet at (0.1, 0.2, 0.15)
+    a = np.radians(20)
+    pose = Pose.create_from_pq(torch.tensor([[0.1, 0.2, 0.15]]), torch.tensor([[np.cos(a / 2), np.sin(a / 2), 0, 0]]))
+
+    def world(local):
+        local = torch.tensor(local, dtype=torch.float32)[None]
+        return pose.p[:, None] + quaternion_apply(pose.q[:, None].expand(-1, local.shape[1], -1), local)
+
+    # particle 0 falls down the cone, through the neck and out; 1 crosses the outlet within one step (in the cone,
+    # then below the outlet); 2 leaves over the rim and falls outside; 3 sits in the cone; 4 never enters
+    path = [[[0.0, 0.01, neck_top + 0.02], [0.0, 0.0, neck_top + 0.03], [0.03, 0.0, funnel.height - 0.005],
+             [0.0, 0.01, neck_top + 0.01], [0.2, 0.0, 0.0]],
+            [[0.0, 0.0, neck_top / 2], [0.0, 0.0, -0.04], [funnel.rim_radius + 0.01, 0.0, funnel.height],
+             [0.0, 0.01, neck_top + 0.01], [0.2, 0.0, -0.05]],
+            [[0.0, 0.0, -0.05], [0.0, 0.0, -0.08], [funnel.rim_radius + 0.015, 0.0, funnel.height - 0.03],
+             [0.0, 0.01, neck_top + 0.01], [0.2, 0.0, -0.1]]]
+    was_in = torch.zeros(1, 5, dtype=torch.bool)
+    through = torch.zeros(1, 5, dtype=torch.bool)
+    for step in path:
+        was_in, now = particles.funnel_passage(world(step), pose, funnel, was_in)
+        through |= now
+    assert through.tolist() == [[True, True, False, False, False]]
+    assert was_in.tolist() == [[False, False, False, True, False]]
+    # the same particles against an upright funnel elsewhere: none passed
+    away = Pose.create_from_pq(torch.tensor([[0.5, -0.3, 0.0]]))
+    was_in = torch.zeros(1, 5, dtype=torch.bool)
+    for step in path:
+        was_in, now = particles.funnel_passage(world(step), away, funnel, was_in)
+        assert not now.any()
+
+
+def test_funnel_and_bottle_shells_are_closed_rings():
+    funnel, bottle = containers.funnel(), containers.bottle()
+    hulls = containers.shell_hulls(funnel)
+    assert len(hulls) == containers.SHELL_SECTIONS * (len(funnel.inner) - 1)  # no floor
+    assert len(containers.shell_hulls(bottle)) == containers.SHELL_SECTIONS * len(bottle.inner)  # walls + floor
+    # the wall pieces reach from the inner radius to the inner radius + wall, all the way round
+    radii = np.concatenate([np.linalg.norm(h[:, :2], axis=1) for h in hulls])
+    assert radii.min() == pytest.approx(funnel.inner[0][1]) and radii.max() == pytest.approx(funnel.rim_radius + funnel.wall)
+    angles = np.unique(np.round(np.concatenate([np.arctan2(h[:, 1], h[:, 0]) for h in hulls]), 6))
+    assert len(angles) == containers.SHELL_SECTIONS
+
+
 def test_base_inside_a_bowl():
     from maniladder_ms.tasks.particles.pour_particles.base import base_inside
 

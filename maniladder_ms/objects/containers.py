@@ -1,5 +1,5 @@
-"""Procedural containers (cup, glass, bowl, pitcher with spout, scoop, bottle) for liquid and granular tasks
-and for grasping.
+"""Procedural containers (cup, glass, bowl, pitcher with spout, scoop, bottle, funnel) for liquid and granular
+tasks and for grasping.
 
 Each container is a solid of revolution about its local z axis (trimesh), origin at the centre of
 its bottom face, so it stands on the table at z = 0. Its collision is a convex decomposition by
@@ -7,6 +7,10 @@ CoACD: the shapes the tasks use ship with the package (`objects.convex_cache`), 
 and cached under `maniladder_ms.paths.cache_dir("containers")` (a few seconds to ~20 s per shape the first
 time, instant afterwards); a sealed bottle (`build_bottle`) collides as its convex hull instead. The
 pitcher's spout is a bulge of its rim towards +x; pitcher and scoop handles are boxes on the -x side.
+
+Open shells whose walls must be exact where particles pass (a funnel, an open narrow bottle, a ring stand) collide
+as sector hulls instead (`shell_hulls`: each wall segment of the profile cut into `SHELL_SECTIONS` convex pieces
+around the axis, no CoACD, the same on every install): `build_funnel`, `build_open_vessel`, `build_ring_stand`.
 
 `ContainerShape.inside` tells which points lie in the container's inner volume (metrics such as the
 fraction of particles in a cup build on it; see `maniladder_ms.deformables.particles`).
@@ -226,3 +230,114 @@ def set_contact_offset(actor, offset: float):
     for body in actor._bodies:
         for collision_shape in body.get_collision_shapes():
             collision_shape.set_contact_offset(offset)
+
+
+# ---- open shells as sector hulls: funnel, open bottle, ring stand -----------------------------------
+SHELL_SECTIONS = 24  # sector hulls around the axis: a chord sits 0.9 % of its radius inside the circle
+
+
+def funnel(mouth_radius: float = 0.045, cone_height: float = 0.045, neck_radius: float = 0.011,
+           neck_length: float = 0.03, wall: float = 0.003, tab=(0.018, 0.005, 0.01)) -> ContainerShape:
+    """A funnel: a straight neck (inner `neck_radius`, `neck_length` long, open at its bottom end, z = 0) under a
+    cone widening to `mouth_radius` (inner) `cone_height` higher; `tab`: half size of a flat handle tab sticking
+    out of the rim at +x (radial, tangential, vertical), its top flush with the rim. No floor (floor 0): `inside`
+    is the cone and the neck's bore; `funnel_neck_top` is where the neck meets the cone."""
+    inner = ((0.0, neck_radius), (neck_length, neck_radius), (neck_length + cone_height, mouth_radius))
+    return ContainerShape("funnel", inner, wall, 0.0, handle=tuple(tab))
+
+
+def funnel_neck_top(shape: ContainerShape) -> float:
+    """Height of the funnel's neck top (where the cone starts) in its frame (the neck's outlet at z = 0)."""
+    return shape.inner[1][0]
+
+
+def funnel_tab_pose(shape: ContainerShape) -> sapien.Pose:
+    """The handle tab's centre in the funnel's frame."""
+    hx, _, hz = shape.handle
+    return sapien.Pose(p=[shape.rim_radius + shape.wall + hx - 0.001, 0.0, shape.height - hz])
+
+
+def ring(radius: float = 0.02, height: float = 0.05, wall: float = 0.004, seat_height: float = 0.0,
+         seat_slope: float = 0.0) -> ContainerShape:
+    """An open tube (inner `radius`, `height` tall), no floor, widening above into a conical seat `seat_height`
+    tall (its inner radius growing `seat_slope` per metre up): a stand a funnel rests in by its cone."""
+    inner = ((0.0, radius), (height, radius))
+    if seat_height > 0:
+        inner += ((height + seat_height, radius + seat_slope * seat_height),)
+    return ContainerShape("ring", inner, wall, 0.0)
+
+
+def shell_hulls(shape: ContainerShape, sections: int = SHELL_SECTIONS) -> list[np.ndarray]:
+    """Convex pieces (vertex arrays, metres, the shape's frame) of the shape's revolved wall (`wall` thick
+    outward of the inner profile) cut into `sections` sectors, and of its floor (wedges) when `floor` > 0."""
+    angles = np.linspace(0.0, 2 * np.pi, sections + 1)
+    pieces = []
+    for a0, a1 in zip(angles[:-1], angles[1:]):
+        c = np.array([[np.cos(a0), np.sin(a0)], [np.cos(a1), np.sin(a1)]])
+        for (z0, r0), (z1, r1) in zip(shape.inner[:-1], shape.inner[1:]):
+            corners = [(r0, z0), (r0 + shape.wall, z0), (r1, z1), (r1 + shape.wall, z1)]
+            pieces.append(np.array([[r * cx, r * cy, z] for r, z in corners for cx, cy in c]))
+        if shape.floor > 0:
+            r = shape.inner[0][1] + shape.wall
+            pieces.append(np.array([[0.0, 0.0, z] for z in (0.0, shape.floor)]
+                                   + [[r * cx, r * cy, z] for z in (0.0, shape.floor) for cx, cy in c]))
+    return pieces
+
+
+def shell_profile(shape: ContainerShape) -> np.ndarray:
+    """Closed (radius, z) polygon of an open shell's wall band (no floor): outer wall up, inner wall down."""
+    return np.array([(r + shape.wall, z) for z, r in shape.inner] + [(r, z) for z, r in shape.inner[::-1]])
+
+
+def _shell_files(shape: ContainerShape) -> tuple[Path, list[Path]]:
+    """(visual mesh file, convex piece files) of `shell_hulls(shape)`, written once into the user cache."""
+    mesh = trimesh.creation.revolve(shell_profile(shape) if shape.floor == 0 else shape.profile(), sections=SECTIONS)
+    folder = cache_dir("shells", f"{shape.kind}_{mesh_key(mesh, ['sector hulls', SHELL_SECTIONS])}")
+    visual, parts = folder / "visual.obj", []
+    for k, piece in enumerate(shell_hulls(shape)):
+        parts.append(folder / f"piece_{k:03d}.obj")
+        if not visual.exists():
+            trimesh.convex.convex_hull(piece).export(parts[-1])
+    if not visual.exists():
+        mesh.export(visual)  # written last: its presence marks a complete cache entry
+    return visual, parts
+
+
+def shell_builder(scene: ManiSkillScene, shape: ContainerShape, color, density: float, friction: float):
+    """(actor builder with the shape's sector hulls and visual, physical material, render material or None)."""
+    visual, parts = _shell_files(shape)
+    builder = scene.create_actor_builder()
+    material = physx.PhysxMaterial(friction, friction, 0.0)
+    for part in parts:
+        builder.add_convex_collision_from_file(str(part), material=material, density=density)
+    render_mat = sapien.render.RenderMaterial(base_color=list(color), roughness=0.3) if scene.can_render() else None
+    if render_mat is not None:
+        builder.add_visual_from_file(str(visual), material=render_mat)
+    return builder, material, render_mat
+
+
+def build_open_vessel(scene: ManiSkillScene, name: str, shape: ContainerShape, color, density: float = CERAMIC_DENSITY,
+                      friction: float = 0.6):
+    """An open container (a `bottle()` with its mouth open, a cup) colliding as sector hulls, resting on z = 0."""
+    builder, _, _ = shell_builder(scene, shape, color, density, friction)
+    return build_resting(builder, name)
+
+
+def build_funnel(scene: ManiSkillScene, name: str, shape: ContainerShape, color, density: float = 1000.0,
+                 friction: float = 1.0):
+    """A `funnel()` as a dynamic actor (sector hulls and its handle tab), its neck's outlet at the origin."""
+    builder, material, render_mat = shell_builder(scene, shape, color, density, friction)
+    pose = funnel_tab_pose(shape)
+    builder.add_box_collision(pose=pose, half_size=shape.handle, material=material, density=density)
+    if render_mat is not None:
+        builder.add_box_visual(pose=pose, half_size=shape.handle, material=render_mat)
+    return build_resting(builder, name)
+
+
+def build_ring_stand(scene: ManiSkillScene, name: str, shape: ContainerShape, color):
+    """A `ring()` as a kinematic actor standing on z = 0 (move it with `set_pose`)."""
+    builder, _, _ = shell_builder(scene, shape, color, CERAMIC_DENSITY, 0.6)
+    builder.initial_pose = sapien.Pose()
+    actor = builder.build_kinematic(name=name)
+    set_contact_offset(actor, CONTACT_OFFSET)
+    return actor

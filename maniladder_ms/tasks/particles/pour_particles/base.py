@@ -78,11 +78,15 @@ class CupToBowl:
     def _load_cup_and_bowl(self):
         self.cup = containers.build_container(self.scene, self.cup_name, self.cup_shape, color=(0.9, 0.9, 0.92, 1),
                                               friction=self.cup_friction, density=self.cup_density)
-        self.bowl = containers.build_container(self.scene, self.bowl_name, self.bowl_shape, color=self.bowl_color,
-                                               density=self.bowl_density)
+        self.bowl = self._build_bowl()
         self.particles = particles.build_particles(self.scene, self.particle_name, self.particle_config)
         for role in self.held_containers:
             self.memory.flag(self._let_go_field(role))
+
+    def _build_bowl(self):
+        """The receiving container's actor (a task whose receiver is not a CoACD container overrides it)."""
+        return containers.build_container(self.scene, self.bowl_name, self.bowl_shape, color=self.bowl_color,
+                                          density=self.bowl_density)
 
     def _let_go_field(self, role: str) -> str:
         return f"{getattr(self, role + '_name')}_let_go"
