@@ -60,9 +60,9 @@ class CoilRopeOnSpoolEnv(ManiLadderEnv):
     SPOOL_Y_LOW, SPOOL_Y_SPAN = 0.12, 0.06  # its y
     HEADING_SPREAD = np.deg2rad(15)  # the rope leaves the drum within this of -y
     ROPE_MAX_AMP = 0.12  # rad: largest amplitude of the rope's S on the table
-    # the reward's `rope_grasped`: a gripper holds one of this many capsules at the free end (asking about every
-    # capsule of the rope costs ~5x the physics step)
-    FREE_END_CAPSULES = 4
+    # the reward's `rope_grasped`: a gripper holds one of this many capsules at the free end (`ee.holds` costs ~9 ms a
+    # capsule and side: about every capsule it was ~5x the physics step; at 4 capsules 0.13x PickCube-v1)
+    FREE_END_CAPSULES = 2
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
