@@ -9,7 +9,7 @@ import torch
 import gymnasium as gym
 
 import maniladder_ms  # noqa: F401
-from maniladder_ms.deformables import clay, cloth, metrics, particles, rope
+from maniladder_ms.deformables import clay, cloth, metrics, particles, rope, spool
 from maniladder_ms.deformables.showcase import SHOWCASE_ENV_IDS
 from maniladder_ms.objects import containers
 from mani_skill.utils.geometry.rotation_conversions import quaternion_apply
@@ -910,5 +910,63 @@ def test_towel_draped_over_the_bar_stays_put(top_row):
         assert torch.allclose(env.hanging()[0], start_sides, atol=0.02)
         assert abs(float(env.towel.positions()[0, :, 0].mean() - start_x)) < 0.005
         assert start_sides.tolist() == pytest.approx([0.4, 0.4] if top_row == 4.5 else [0.2, 0.6])
+    finally:
+        env.close()
+
+
+def test_coil_turns_of_polylines_round_a_spool():
+    """`spool.coil_turns` on constructed polylines about an axis at (0.1, -0.2), flanges 6 cm in radius between
+    heights 3 and 6 cm: a helix of 2.5 turns at 2.5 cm from the axis, rising from 4 to 5 cm, counts 2.5 (wound
+    either way); the same helix whose last 1.5 turns drop below the bottom flange counts its first turn only; one
+    outside the flanges' rim counts nothing; a coil that leaves the spool and comes back counts up to where it
+    left; batched."""
+    axis = torch.tensor([0.1, -0.2])
+    angle = np.linspace(0, 2.5 * 2 * np.pi, 101)
+    z = np.linspace(0.04, 0.05, 101)
+
+    def helix(radius, heights, sense=1.0):
+        return np.stack([0.1 + radius * np.cos(sense * angle), -0.2 + radius * np.sin(sense * angle), heights], 1)
+
+    dropped = z.copy()
+    dropped[41:] = 0.02  # below the bottom flange after the first turn (points 0-40: one turn)
+    away = helix(0.025, z)
+    away[60:70, :2] = away[60:70, :2] * 0 + np.array([0.3, 0.3])  # off the spool from point 60 on
+    points = torch.as_tensor(np.stack([helix(0.025, z), helix(0.025, z, -1.0), helix(0.025, dropped),
+                                       helix(0.08, z), away]), dtype=torch.float32)
+    turns = spool.coil_turns(points, axis.expand(5, 2), 0.06, 0.03, 0.06)
+    assert turns[0] == pytest.approx(2.5, abs=1e-3)
+    assert turns[1] == pytest.approx(2.5, abs=1e-3)
+    assert turns[2] == pytest.approx(1.0, abs=1e-3)
+    assert turns[3] == 0
+    assert turns[4] == pytest.approx(59 / 40, abs=1e-3)  # 59 steps of a fortieth of a turn
+
+
+def test_rope_coiled_on_the_spool_by_construction():
+    """CoilRopeOnSpool's spool and rope: as laid at reset the rope is not coiled (under half a turn: its level run
+    from the tie over the flange); its capsules bent in the drum's plane by the angle that makes a polygon round the drum (the
+    tied capsule's axis tangent at the tie radius) over the first joints, 2 turns' worth, and straight after:
+    `Spool.turns` counts those turns plus the straight part's run off the drum over the flange (the same run as at
+    reset), also with the spool turned round on its axle."""
+    env = maniladder_ms.make("CoilRopeOnSpool", obs_mode="state", render_backend="cpu")
+    try:
+        env.reset(seed=0)
+        task = env.unwrapped
+        sp = task.spool
+        level_run = float(sp.turns()[0])  # the rope's straight run from the tie tangent to the drum, over the flange
+        assert level_run < 0.5
+        cfg = sp.rope.config
+        bend = 2 * np.arctan(cfg.segment_length / 2 / sp.tie_radius)  # a capsule edge of a polygon round the drum
+        wound = int(round(2 * 2 * np.pi / bend))  # joints bent: two turns
+        names = [j.name for j in sp.articulation.active_joints]
+        for spin in (0.0, 2.0):
+            qpos = torch.zeros(1, len(names))
+            qpos[0, names.index("spool_spin")] = spin
+            for i in range(1, wound + 1):
+                qpos[0, names.index(f"bend_z_{i}")] = bend
+            sp.articulation.set_qpos(qpos)
+            turns = float(sp.turns()[0])
+            # the coil's turns, then the same straight tangent run off the drum as at reset
+            assert turns == pytest.approx(wound * bend / (2 * np.pi) + level_run, abs=0.02)
+            assert 2.0 < turns < 2.5
     finally:
         env.close()

@@ -16,6 +16,7 @@ last tip) so they also serve any other polyline:
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 
 import numpy as np
@@ -95,7 +96,7 @@ class Rope:
         self.articulation = articulation
         self.config = config
         self.links = [articulation.links_map[f"capsule_{i}"] for i in range(config.segments)]
-        self.capsules = Link.merge(self.links, name=f"{articulation.name}_capsules")
+        self.capsules = _merge_bodies(self.links, f"{articulation.name}_capsules")
 
     def points(self) -> torch.Tensor:
         """The rope as a polyline: first tip, capsule centres, last tip; [B, segments + 2, 3]."""
@@ -132,6 +133,18 @@ class Rope:
         bend[:, 0::2] = turns
         self.set_shape(Pose.create_from_pq(root, yaw_quat(heading)), bend)
         return torch.cat([first[:, None] + centres, root[:, None, 2:].expand(b, n, 1)], dim=2)
+
+
+def _merge_bodies(links: list[Link], name: str) -> Link:
+    """One view of several links' bodies, for one pose query (`Link.merge` without its joint: it would merge the
+    links' joints unless one link is the root, and a rope tied to another articulation has a fixed first joint
+    without an active index)."""
+    merged = Link.create([body for link in links for body in link._objs], scene=links[0].scene,
+                         scene_idxs=torch.concat([link._scene_idxs for link in links]))
+    merged.articulation = None
+    merged.name = name
+    merged.merged = True
+    return merged
 
 
 # `crumpled_turns`: the curl (rad of turn per joint, either sense), the meander's amplitude (rad), its number of
@@ -231,14 +244,25 @@ def build_rope(scene: ManiSkillScene, name: str, config: RopeConfig = RopeConfig
     fix_first_end: fix the first capsule in place (a cable hanging from a point); otherwise the rope is free.
     Joints are named `bend_z_<i>`, `bend_y_<i>`; capsule links `capsule_<i>`.
     """
+    builder = scene.create_articulation_builder()
+    builder.initial_pose = initial_pose
+    add_rope_links(scene, builder, config)
+    articulation = builder.build(name=name, fix_root_link=fix_first_end)
+    configure_rope(articulation, config)
+    return Rope(articulation, config)
+
+
+def add_rope_links(scene: ManiSkillScene, builder, config: RopeConfig, parent=None, attach: sapien.Pose = None):
+    """Add a rope's links (`capsule_<i>`, `middle_<i>`) and bend joints (`bend_z_<i>`, `bend_y_<i>`) to an
+    articulation builder, straight along the first capsule's local x. `parent`: None (the first capsule is the
+    articulation's root) or a link builder the first capsule is fixed to, its centre at `attach` (a pose in the
+    parent's frame): a rope tied to a part of another articulation (a spool's drum). After `builder.build`, call
+    `configure_rope` on the articulation."""
     seg = config.segment_length
     half = seg / 2 - config.radius  # the capsule's cylinder part; its tips reach the joint points
     capsule_mass = config.mass / config.segments
     material = physx.PhysxMaterial(config.friction, config.friction, 0.0)
-    builder = scene.create_articulation_builder()
-    builder.initial_pose = initial_pose
     colors = {0: config.end_color, config.segments - 1: config.end_color}
-    parent = None
     for i in range(config.segments):
         if i > 0:
             middle = builder.create_link_builder(parent)
@@ -258,6 +282,9 @@ def build_rope(scene: ManiSkillScene, name: str, config: RopeConfig = RopeConfig
             capsule.set_joint_properties(
                 "revolute", [[-config.max_bend, config.max_bend]], X_TO_Y, sapien.Pose(p=[-seg / 2, 0, 0]) * X_TO_Y
             )
+        elif parent is not None:
+            capsule.set_joint_name("rope_tie")
+            capsule.set_joint_properties("fixed", [], attach, sapien.Pose())
         capsule.add_capsule_collision(radius=config.radius, half_length=half, material=material)
         capsule.set_mass_and_inertia(
             capsule_mass, sapien.Pose(),
@@ -267,19 +294,35 @@ def build_rope(scene: ManiSkillScene, name: str, config: RopeConfig = RopeConfig
             mat = sapien.render.RenderMaterial(base_color=list(colors.get(i, config.color)), roughness=0.8)
             capsule.add_capsule_visual(radius=config.radius, half_length=half, material=mat)
         parent = capsule
-    articulation = builder.build(name=name, fix_root_link=fix_first_end)
+
+
+def configure_rope(articulation: Articulation, config: RopeConfig):
+    """What a built articulation holding a rope (`add_rope_links`) needs: contacts between neighbouring capsules
+    off, `config`'s solver iterations (the whole articulation's), depenetration cap on the rope's links, bend
+    drives, armature and speed cap on its bend joints."""
     _ignore_neighbour_contacts(articulation, config.segments)
     for art in articulation._objs:
         art.set_solver_position_iterations(config.solver_position_iterations)
     for link in articulation.links:
+        if not _is_rope_link(link.name):
+            continue
         for body in link._objs:
             body.set_max_depenetration_velocity(config.max_depenetration_velocity)
     for joint in articulation.active_joints:
+        if not _is_rope_joint(joint.name):
+            continue
         joint.set_drive_properties(config.bend_stiffness, config.bend_damping)
         for j in joint._objs:
             j.set_armature([config.armature])
             j.set_max_velocity(config.max_joint_velocity)
-    return Rope(articulation, config)
+
+
+def _is_rope_link(name: str) -> bool:
+    return re.fullmatch(r"(.*_)?(capsule|middle)_\d+", name) is not None
+
+
+def _is_rope_joint(name: str) -> bool:
+    return re.fullmatch(r"(.*_)?bend_[zy]_\d+", name) is not None
 
 
 def _ignore_neighbour_contacts(articulation: Articulation, segments: int):
