@@ -172,6 +172,12 @@ def body_builder(scene: ManiSkillScene, shape: ContainerShape, color, density: f
     """(actor builder with the container's convex parts and visual, its physical material, its render
     material or None): what every vessel starts from before its handle is added."""
     visual, parts = cached_parts(shape)
+    return builder_from_files(scene, visual, parts, color, density, friction)
+
+
+def builder_from_files(scene: ManiSkillScene, visual, parts, color, density: float, friction: float):
+    """(actor builder with convex collision `parts` and the `visual` mesh, physical material, render material
+    or None)."""
     builder = scene.create_actor_builder()
     material = physx.PhysxMaterial(friction, friction, 0.0)
     for part in parts:
@@ -306,14 +312,7 @@ def _shell_files(shape: ContainerShape) -> tuple[Path, list[Path]]:
 def shell_builder(scene: ManiSkillScene, shape: ContainerShape, color, density: float, friction: float):
     """(actor builder with the shape's sector hulls and visual, physical material, render material or None)."""
     visual, parts = _shell_files(shape)
-    builder = scene.create_actor_builder()
-    material = physx.PhysxMaterial(friction, friction, 0.0)
-    for part in parts:
-        builder.add_convex_collision_from_file(str(part), material=material, density=density)
-    render_mat = sapien.render.RenderMaterial(base_color=list(color), roughness=0.3) if scene.can_render() else None
-    if render_mat is not None:
-        builder.add_visual_from_file(str(visual), material=render_mat)
-    return builder, material, render_mat
+    return builder_from_files(scene, visual, parts, color, density, friction)
 
 
 def build_open_vessel(scene: ManiSkillScene, name: str, shape: ContainerShape, color, density: float = CERAMIC_DENSITY,
