@@ -19,7 +19,6 @@
 
 from __future__ import annotations
 
-import hashlib
 import os
 import sys
 from dataclasses import dataclass
@@ -99,13 +98,13 @@ def cluster_cpus(ray) -> int:
 
 
 @lru_cache(maxsize=1)
+@lru_cache(maxsize=None)
 def source_digest() -> str:
-    """A hash of the package's sources and data tables (.py, .yaml, .json): equal digests, the same code."""
-    h = hashlib.sha256()
-    for f in sorted(p for p in PACKAGE.rglob("*") if p.suffix in (".py", ".yaml", ".json") and p.is_file()
-                    and "__pycache__" not in p.parts):
-        h.update(f.relative_to(PACKAGE).as_posix().encode() + b"\0" + f.read_bytes() + b"\0")
-    return h.hexdigest()[:16]
+    """A hash of the package's sources and data tables (.py, .yaml, .json): equal digests, the same code. Once per
+    process: the code a process runs is the code it imported."""
+    from maniladder_ms.provenance import tree_digest
+
+    return tree_digest("", (".py", ".yaml", ".json"))[:16]
 
 
 def worker_env(render_backend: Optional[str] = None) -> dict:

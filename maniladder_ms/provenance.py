@@ -105,10 +105,14 @@ def task_source_files(task_id: str) -> list[str]:
     return sorted(import_closure(*task_modules(task_id)))
 
 
-def _tree_digest(rel: str) -> str:
+def tree_digest(rel: str = "", suffixes: tuple[str, ...] | None = None) -> str:
+    """sha256 over the files under the package folder `rel` (each file's relative path and bytes, in sorted
+    order), only those ending in `suffixes` if given; bytecode caches left out."""
     h = hashlib.sha256()
     base = PACKAGE / rel
-    for f in sorted(p for p in base.rglob("*") if p.is_file()) if base.exists() else ():
+    files = sorted(p for p in base.rglob("*") if p.is_file() and "__pycache__" not in p.parts
+                   and (suffixes is None or p.suffix in suffixes)) if base.exists() else ()
+    for f in files:
         h.update(f.relative_to(PACKAGE).as_posix().encode() + b"\0" + f.read_bytes() + b"\0")
     return h.hexdigest()
 
@@ -124,7 +128,7 @@ def task_hash_parts(task_id: str) -> dict:
     for f in task_source_files(task_id):
         parts[f] = hashlib.sha256((ROOT / f).read_bytes()).hexdigest()
     for d in TASK_DATA_DIRS:
-        parts[d] = _tree_digest(d)
+        parts[d] = tree_digest(d)
     return parts
 
 
