@@ -84,6 +84,53 @@ def file_episodes(env, h5_path, meta, n, stride=2):
     return episodes, replayed
 
 
+class StateOraclePolicy:
+    """A trained state oracle as a `maniladder eval` policy (obs mode "state", joint targets): the same episodes,
+    seeds and success rule as the visual policy's evaluation."""
+
+    obs_mode = "state"
+
+    def __init__(self, task: str, policy, mean: torch.Tensor, std: torch.Tensor, noise: float = 1.0):
+        from maniladder_ms.policy.calibrate import POLICY_CONTROL_MODE
+
+        self.task, self.policy, self.mean, self.std, self.noise = task, policy, mean, std, noise
+        self.control_mode = POLICY_CONTROL_MODE
+        self.generator = torch.Generator()
+
+    def supports(self, spec):
+        return True if spec.id == self.task else f"oracle trained on {self.task}"
+
+    def reset(self, ctx):
+        self.generator.manual_seed(int(ctx.seed))
+
+    def __call__(self, obs, spec):
+        state = ((torch.as_tensor(obs)[0].float() - self.mean) / self.std).reshape(1, -1)  # one observation token
+        return self.policy.act(state, generator=self.generator, noise=self.noise).numpy()
+
+
+def train_oracle(task: str, features_path: Path, demo_h5: Path, steps: int, num_demos: int = 20, progress=False):
+    """Train the state oracle on a calibration's demos (the frames its features hold): (StateOraclePolicy, demos
+    that replay to success from their joint targets, episodes trained on)."""
+    import maniladder_ms
+    from maniladder_ms.demos.files import load_demo_json, replay_env_kwargs
+    from maniladder_ms.policy.calibrate import POLICY_CONTROL_MODE
+    from maniladder_ms.policy.flow import LadderFlowConfig, LadderFlowTrainer
+
+    features, meta = np.load(features_path), load_demo_json(Path(demo_h5))
+    env = maniladder_ms.make(task, obs_mode="state", control_mode=POLICY_CONTROL_MODE, **{
+        k: v for k, v in replay_env_kwargs(meta).items() if k != "control_mode"})
+    try:
+        episodes, replayed = state_episodes(env, features, meta, num_demos)
+    finally:
+        env.close()
+    states = torch.cat([e[0] for e in episodes])
+    mean, std = states.mean(0), states.std(0).clamp(min=1e-2)  # near-constant dims are not blown up
+    episodes = [((s - mean) / std, a, f) for s, a, f in episodes]
+    trainer = LadderFlowTrainer(LadderFlowConfig(keypoints=0, grid=1, train_steps=steps), episodes)
+    trainer.train(steps, progress=progress)
+    return StateOraclePolicy(task, trainer.policy(), mean, std), replayed, len(episodes)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("task")

@@ -173,25 +173,30 @@ class TaskCalibration:
         self.control_mode = POLICY_CONTROL_MODE
         self.demo_control_mode = demo_control_mode_for(task_id)
         self.timings_path = self.dir / "timings.json"
+        self.cpu_timings_path = self.dir / "cpu_timings.json"  # CPU seconds of this process (its renderer threads
+        # included): the cost on one core, unlike the wall time, whatever else the machine runs
 
     # ---- bookkeeping -------------------------------------------------------------------------------
-    def _timings(self) -> dict:
-        return json.loads(self.timings_path.read_text()) if self.timings_path.is_file() else {}
+    def _timings(self, path: Optional[Path] = None) -> dict:
+        path = path or self.timings_path
+        return json.loads(path.read_text()) if path.is_file() else {}
 
     def _timed(self, stage: str, fn):
         import fcntl
         import os
 
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         out = fn()
+        spent = {self.timings_path: time.perf_counter() - t0, self.cpu_timings_path: time.process_time() - c0}
         # training seeds of a task may run in parallel (`--ray`): one read-add-write at a time, written whole
         with open(self.dir / ".timings.lock", "w") as lock:
             fcntl.flock(lock, fcntl.LOCK_EX)
-            timings = self._timings()
-            timings[stage] = round(timings.get(stage, 0.0) + time.perf_counter() - t0, 1)
-            tmp = self.timings_path.with_suffix(f".{os.getpid()}.tmp")
-            tmp.write_text(json.dumps(timings, indent=1))
-            tmp.replace(self.timings_path)
+            for path, seconds in spent.items():
+                timings = self._timings(path)
+                timings[stage] = round(timings.get(stage, 0.0) + seconds, 1)
+                tmp = path.with_suffix(f".{os.getpid()}.tmp")
+                tmp.write_text(json.dumps(timings, indent=1))
+                tmp.replace(path)
         return out
 
     def settings(self) -> dict:
@@ -363,6 +368,7 @@ class TaskCalibration:
             "control_mode": self.control_mode, "demo_control_mode": self.demo_control_mode, "horizon": self.spec.horizon,
             "demo_mean_steps": sum(e["elapsed_steps"] for e in demos) / max(len(demos), 1),
             "mean_steps": statistics.mean(t["mean_steps"] for t, _ in per_seed.values()), "timings_s": self._timings(),
+            "cpu_s": self._timings(self.cpu_timings_path),
             "protocol": PROTOCOL_VERSION, "config": self.config.as_dict(), "calibration": self.protocol.as_dict(),
             "task_hash": self.task_hash,
             "environment": environment(renderer=self.renderer, device=self.device),
@@ -371,7 +377,7 @@ class TaskCalibration:
         path = self.out / f"{self.spec.id}.json"
         if path.is_file():
             old = json.loads(path.read_text())
-            volatile = ("time", "timings_s", "environment")
+            volatile = ("time", "timings_s", "cpu_s", "environment")
             if {k: v for k, v in old.items() if k not in volatile} == \
                     json.loads(json.dumps({k: v for k, v in result.items() if k not in volatile})):
                 return old  # a resume of a finished task: the result stays as it is (no new time stamp to commit)
@@ -596,7 +602,7 @@ def write_summary(out: Path) -> dict:
     out = Path(out)
     rows = load_results(out)
     cols = ("task", "suite", "catalog_level", "purpose", "successes", "episodes", "success", "ci95", "measured_level",
-            "measured_level_text", "agree", "verdict", "training_seed_spread", "demo_mean_steps", "timings_s", "task_hash")
+            "measured_level_text", "agree", "verdict", "training_seed_spread", "demo_mean_steps", "timings_s", "cpu_s", "task_hash")
     table = [{c: r.get(c) for c in cols} for r in rows]
     summary = {"protocol": PROTOCOL_VERSION, "tasks": table, "n_tasks": len(rows),
                "n_agree": sum(r["agree"] for r in rows), "n_inside": sum(r.get("verdict") == "inside" for r in rows),

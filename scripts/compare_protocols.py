@@ -1,0 +1,253 @@
+"""The instrument check of protocol v4 (issue "LadderFlow v4"): on 16 tasks (the 10 Level 1 tasks measured under
+v3 and 6 Level 2 tasks of six suites), the same 20 demos and cached features, evaluated on the same development
+seeds (`maniladder eval --seed 1`: 1,010,000 + k, k < 50):
+
+- `v4`      the v4 candidate: LadderFlow with `V4_STEPS` training steps (a complete cosine schedule), one
+            checkpoint, one training seed;
+- `v3`      v3's schedule on the same network: 8000 steps, its last checkpoint (v3 also ran a 10-episode
+            selection between the 4000- and 8000-step checkpoints; it kept 8000 in 9 of its 10 L1 runs);
+- `oracle`  the 20-demo state oracle (`scripts/state_oracle.py`): the same network and schedule as `v4`, fed the
+            privileged state instead of images;
+- `v4s1`, `v4s2`  the v4 candidate's training seeds 1 and 2 on `SPREAD_TASKS` (the spread over training seeds).
+
+Each (task, arm) is one unit whose result is written to `--out/<task>.<arm>.json` (success, per-episode records'
+summary, CPU and wall seconds per stage, task hash, commit); a unit with a result is not run again, so the job
+resumes after a kill. Several processes may run the job at once on one work folder: each claims a unit with a file
+lock, and a task's demos and features are made once, under a lock. Run in the background, e.g.
+
+    for i in 1 2; do nohup python scripts/compare_protocols.py --work /tmp/compare > /tmp/compare.$i.log 2>&1 & done
+    python scripts/compare_protocols.py --table    # the comparison table and Kendall's tau so far
+
+Each process pins one torch thread and renders on the CPU (lavapipe).
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import dataclasses
+import fcntl
+import json
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+sys.path.insert(0, str(REPO / "scripts"))
+
+L1_TASKS = ["LiftWideBox", "LiftBottleHand", "PickPlacePen", "DragRopeToGoal", "LiftRopeBimanual", "StretchRopeHands",
+            "LiftRopeHand", "HangMug", "OpenBoxRetrieval", "LiftBasketHands"]  # measured under v3
+L2_TASKS = ["InsertPegInHole", "PlaceMugOnCoasterHand", "InsertPegBimanual", "CarryBoxToShelfHands", "FoldTowelInHalf",
+            "RopeIntoGroove"]  # one per suite: rigid SG, SX, DG, DX; deformable SG, DG
+TASKS = L1_TASKS + L2_TASKS
+SPREAD_TASKS = ["LiftWideBox", "LiftBottleHand", "InsertPegInHole"]
+V4_STEPS = 2000
+V3_STEPS = 8000
+EPISODES = 50
+DEMOS = 20
+ARMS = ("v4", "oracle", "v3", "v4s1", "v4s2")
+
+
+def units() -> list[tuple[str, str]]:
+    """In the order they are run: v4 and the oracle first (cheap), v3's long schedule on the first tasks early (the
+    paired cost and success evidence), then the rest."""
+    first = [(t, a) for t in TASKS[:4] for a in ("v4", "oracle")] + [(t, "v3") for t in TASKS[:2]]
+    rest = [(t, a) for t in TASKS[4:] for a in ("v4", "oracle")] + [(t, "v3") for t in TASKS[2:]]
+    spread = [(t, f"v4s{k}") for k in (1, 2) for t in SPREAD_TASKS]
+    return first + rest + spread
+
+
+@contextlib.contextmanager
+def claimed(path: Path, block: bool):
+    """An exclusive lock on `path` (released when the process ends, however it ends); yields False if taken."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(path, "w") as f:
+        try:
+            fcntl.flock(f, fcntl.LOCK_EX | (0 if block else fcntl.LOCK_NB))
+        except BlockingIOError:
+            yield False
+            return
+        yield True
+
+
+def commit() -> str:
+    return subprocess.run(["git", "-C", str(REPO), "rev-parse", "--short", "HEAD"], capture_output=True,
+                          text=True).stdout.strip()
+
+
+def calibration(task: str, work: Path, arm: str):
+    from maniladder_ms.policy.calibrate import CalibrationProtocol, TaskCalibration
+    from maniladder_ms.policy.flow import LadderFlowConfig
+
+    steps = V3_STEPS if arm == "v3" else V4_STEPS
+    seed = int(arm[3:]) if arm.startswith("v4s") else 0
+    protocol = CalibrationProtocol(demos=DEMOS, purpose="development", episodes=EPISODES, checkpoints=1)
+    root = work / ("v3" if arm == "v3" else "v4")
+    tc = TaskCalibration(task, root, work / "results-unused", demos_dir=work / "v4" / task / "demos",
+                         config=LadderFlowConfig(train_steps=steps), protocol=protocol, progress=False)
+    return tc, seed
+
+
+def prepared(task: str, work: Path) -> None:
+    """The task's demos and features, made once (in the v4 arm's folder; the v3 arm links the same features)."""
+    with claimed(work / "locks" / f"{task}.prepare", block=True):
+        tc, _ = calibration(task, work, "v4")
+        tc.prepare()
+        v3, _ = calibration(task, work, "v3")
+        v3.dir.mkdir(parents=True, exist_ok=True)
+        if not v3.features_path.exists():
+            os.link(tc.features_path, v3.features_path)
+
+
+def run_unit(task: str, arm: str, work: Path) -> dict:
+    import torch
+
+    prepared(task, work)
+    t0, c0 = time.perf_counter(), time.process_time()
+    if arm == "oracle":
+        from maniladder_ms.evaluation.runner import evaluate
+        from state_oracle import train_oracle
+
+        tc, _ = calibration(task, work, "v4")
+        policy, replayed, n = train_oracle(task, tc.features_path, tc.demo_h5, V4_STEPS, num_demos=DEMOS)
+        c1, t1 = time.process_time(), time.perf_counter()
+        summary = evaluate(policy, work / "oracle" / task, tasks=[task], episodes=EPISODES, seed=1, progress=False,
+                           bootstrap=0)["tasks"][task]
+        cpu = {"train": round(c1 - c0, 1), "evaluate": round(time.process_time() - c1, 1)}
+        wall = {"train": round(t1 - t0, 1), "evaluate": round(time.perf_counter() - t1, 1)}
+        extra = {"demos_replayed": replayed, "demos": n, "config": {"train_steps": V4_STEPS, "obs": "state"}}
+        task_hash = tc.task_hash
+    else:
+        tc, seed = calibration(task, work, arm)
+        tc._check_settings()
+        before = tc._timings(tc.cpu_timings_path), tc._timings()
+        summary, _ = tc.run_seed(seed)
+        # this unit's share: another training seed of the task may run in the same folder at the same time
+        after = tc._timings(tc.cpu_timings_path), tc._timings()
+        cpu, wall = ({k: round(a[k] - b.get(k, 0.0), 1) for k in ("train", "evaluate")} for a, b in zip(after, before))
+        extra = {"config": tc.config.as_dict(), "training_seed": seed}
+        task_hash = tc.task_hash
+    shared, _ = calibration(task, work, "v4")
+    return {"task": task, "arm": arm, "successes": summary["successes"], "episodes": summary["episodes"],
+            "success": summary["rate"], "mean_steps": summary.get("mean_steps"), "seed_set": 1,
+            "cpu_s": cpu, "wall_s": wall, "shared_cpu_s": {k: v for k, v in shared._timings(shared.cpu_timings_path).items()
+                                                          if k in ("demos", "features")},
+            "task_hash": task_hash, "commit": commit(), "torch_threads": torch.get_num_threads(),
+            "time": time.strftime("%Y-%m-%dT%H:%M:%S"), **extra}
+
+
+def run(work: Path, out: Path, only: list[str]) -> None:
+    import torch
+
+    from maniladder_ms.policy.calibrate import RENDER_ENV
+
+    torch.set_num_threads(1)
+    os.environ.setdefault(RENDER_ENV, "cpu")
+    out.mkdir(parents=True, exist_ok=True)
+    for task, arm in units():
+        if only and task not in only:
+            continue
+        path = out / f"{task}.{arm}.json"
+        if path.is_file():
+            continue
+        with claimed(work / "locks" / f"{task}.{arm}", block=False) as mine:
+            if not mine or path.is_file():
+                continue
+            print(f"{time.strftime('%H:%M:%S')} {task} {arm}: start", flush=True)
+            try:
+                r = run_unit(task, arm, work)
+            except Exception as e:  # one unit's failure leaves the others running
+                import traceback
+
+                print(f"{task} {arm}: FAILED {type(e).__name__}: {e}\n{traceback.format_exc()}", flush=True)
+                continue
+            tmp = path.with_suffix(".partial")
+            tmp.write_text(json.dumps(r, indent=1))
+            tmp.replace(path)
+            print(f"{time.strftime('%H:%M:%S')} {task} {arm}: {r['successes']}/{r['episodes']} cpu {r['cpu_s']}",
+                  flush=True)
+
+
+def kendall_tau(a: list[float], b: list[float]) -> float:
+    """Kendall's tau-b of two rankings (ties in either count half, as scipy's default)."""
+    import itertools
+    import math
+
+    conc = disc = ta = tb = 0
+    for i, j in itertools.combinations(range(len(a)), 2):
+        da, db = a[i] - a[j], b[i] - b[j]
+        if da == 0 and db == 0:
+            continue
+        if da == 0:
+            ta += 1
+        elif db == 0:
+            tb += 1
+        elif (da > 0) == (db > 0):
+            conc += 1
+        else:
+            disc += 1
+    denom = math.sqrt((conc + disc + ta) * (conc + disc + tb))
+    return (conc - disc) / denom if denom else float("nan")
+
+
+def table(out: Path) -> str:
+    from maniladder_ms.catalog import default_catalog
+    from maniladder_ms.evaluation.stats import wilson_interval
+
+    cat = default_catalog()
+    res = {(p.name.split(".")[0], p.name.split(".")[1]): json.loads(p.read_text()) for p in sorted(out.glob("*.json"))}
+    v3_recorded = {t: json.loads((REPO / "docs/calibration" / f"{t}.json").read_text()) for t in L1_TASKS
+                   if (REPO / "docs/calibration" / f"{t}.json").is_file()}
+    lines = ["| task | level | v3 recorded (set 0) | v3 schedule | v4 | oracle | v4 seeds 0/1/2 |",
+             "|---|---|---|---|---|---|---|"]
+
+    def cell(r):
+        if not r:
+            return "-"
+        lo, hi = wilson_interval(r["successes"], r["episodes"])
+        return f"{r['successes']}/{r['episodes']} ({lo:.0%}-{hi:.0%})"
+
+    for t in TASKS:
+        rec = v3_recorded.get(t)
+        seeds = [res.get((t, a)) for a in ("v4", "v4s1", "v4s2")]
+        spread = "/".join(f"{r['successes']}" for r in seeds if r) if t in SPREAD_TASKS else ""
+        lines.append(f"| {t} | L{cat.get(t).level} | {rec['successes']}/{rec['episodes']} | " if rec else
+                     f"| {t} | L{cat.get(t).level} | - | ")
+        lines[-1] += f"{cell(res.get((t, 'v3')))} | {cell(res.get((t, 'v4')))} | {cell(res.get((t, 'oracle')))} | {spread} |"
+    both = [t for t in TASKS if (t, "v4") in res and (t, "oracle") in res]
+    if len(both) >= 3:
+        tau = kendall_tau([res[(t, "v4")]["success"] for t in both], [res[(t, "oracle")]["success"] for t in both])
+        lines.append(f"\nKendall tau-b, v4 vs oracle, {len(both)} tasks: {tau:.2f}")
+    paired = [t for t in TASKS if (t, "v4") in res and (t, "v3") in res]
+    if paired:
+        s4 = sum(res[(t, "v4")]["successes"] for t in paired)
+        s3 = sum(res[(t, "v3")]["successes"] for t in paired)
+        c4 = sum(res[(t, "v4")]["cpu_s"].get("train", 0) + res[(t, "v4")]["cpu_s"].get("evaluate", 0) for t in paired)
+        c3 = sum(res[(t, "v3")]["cpu_s"].get("train", 0) + res[(t, "v3")]["cpu_s"].get("evaluate", 0) for t in paired)
+        lines.append(f"paired v3 schedule vs v4 on {len(paired)} tasks: successes {s3} vs {s4}; train+evaluate CPU "
+                     f"{c3 / 60:.0f} vs {c4 / 60:.0f} min")
+    return "\n".join(lines)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--work", type=Path, default=Path("runs/compare"), help="work folder (demos, features, checkpoints)")
+    ap.add_argument("--out", type=Path, default=REPO / "docs/calibration/v4_comparison", help="result files")
+    ap.add_argument("--tasks", default="", help="comma-separated subset")
+    ap.add_argument("--table", action="store_true", help="print the table of the results so far and exit")
+    args = ap.parse_args(argv)
+    if args.table:
+        print(table(args.out))
+        return
+    only = [t for t in args.tasks.split(",") if t]
+    unknown = set(only) - set(TASKS)
+    if unknown:
+        sys.exit(f"not among the comparison's tasks: {sorted(unknown)}")
+    run(args.work.resolve(), args.out, only)
+
+
+if __name__ == "__main__":
+    main()
