@@ -8,7 +8,8 @@ seeds (`maniladder eval --seed 1`: 1,010,000 + k, k < 50):
             selection between the 4000- and 8000-step checkpoints; it kept 8000 in 9 of its 10 L1 runs);
 - `oracle`  the 20-demo state oracle (`scripts/state_oracle.py`): the same network and schedule as `v4`, fed the
             privileged state instead of images;
-- `v4s1`, `v4s2`  the v4 candidate's training seeds 1 and 2 on `SPREAD_TASKS` (the spread over training seeds).
+- `v4s1`, `v4s2`  the v4 candidate's training seeds 1 and 2 on `SPREAD_TASKS` (the spread over training seeds);
+- `v4h2`    the v4 candidate with observation history 2 (`LadderFlowConfig.history`) on `HISTORY_TASKS`.
 
 Each (task, arm) is one unit whose result is written to `--out/<task>.<arm>.json` (success, per-episode records'
 summary, CPU and wall seconds per stage, task hash, commit); a unit with a result is not run again, so the job
@@ -48,7 +49,14 @@ V4_STEPS = 2000
 V3_STEPS = 8000
 EPISODES = 50
 DEMOS = 20
-ARMS = ("v4", "oracle", "v3", "v4s1", "v4s2")
+# item 5 of the issue (stronger within the paper's rules), on development seeds: observation history (the frame
+# 8 steps before beside the current one) on the tasks the v3 policy solved partly
+HISTORY_TASKS = ["LiftBasketHands", "LiftBottleHand", "DragRopeToGoal", "LiftRopeBimanual", "PickPlacePen",
+                 "InsertPegInHole"]
+# arm -> (work folder, LadderFlowConfig changes, training seed); "oracle" is the state oracle
+ARMS = {"v4": ("v4", {"train_steps": V4_STEPS}, 0), "v3": ("v3", {"train_steps": V3_STEPS}, 0),
+        "v4s1": ("v4", {"train_steps": V4_STEPS}, 1), "v4s2": ("v4", {"train_steps": V4_STEPS}, 2),
+        "v4h2": ("v4h2", {"train_steps": V4_STEPS, "history": 2}, 0)}
 
 
 def units() -> list[tuple[str, str]]:
@@ -57,7 +65,8 @@ def units() -> list[tuple[str, str]]:
     first = [(t, a) for t in TASKS[:4] for a in ("v4", "oracle")] + [(t, "v3") for t in TASKS[:2]]
     rest = [(t, a) for t in TASKS[4:] for a in ("v4", "oracle")] + [(t, "v3") for t in TASKS[2:]]
     spread = [(t, f"v4s{k}") for k in (1, 2) for t in SPREAD_TASKS]
-    return first + rest + spread
+    history = [(t, "v4h2") for t in HISTORY_TASKS]
+    return first + rest[:8] + history + rest[8:] + spread
 
 
 @contextlib.contextmanager
@@ -82,30 +91,34 @@ def calibration(task: str, work: Path, arm: str):
     from maniladder_ms.policy.calibrate import CalibrationProtocol, TaskCalibration
     from maniladder_ms.policy.flow import LadderFlowConfig
 
-    steps = V3_STEPS if arm == "v3" else V4_STEPS
-    seed = int(arm[3:]) if arm.startswith("v4s") else 0
+    folder, changes, seed = ARMS[arm]
     protocol = CalibrationProtocol(demos=DEMOS, purpose="development", episodes=EPISODES, checkpoints=1)
-    root = work / ("v3" if arm == "v3" else "v4")
-    tc = TaskCalibration(task, root, work / "results-unused", demos_dir=work / "v4" / task / "demos",
-                         config=LadderFlowConfig(train_steps=steps), protocol=protocol, progress=False)
+    tc = TaskCalibration(task, work / folder, work / "results-unused", demos_dir=work / "v4" / task / "demos",
+                         config=LadderFlowConfig(**changes), protocol=protocol, progress=False)
     return tc, seed
+
+
+class Busy(Exception):
+    """Another process is making this task's demos and features: come back to the unit later."""
 
 
 def prepared(task: str, work: Path) -> None:
     """The task's demos and features, made once (in the v4 arm's folder; the v3 arm links the same features)."""
-    with claimed(work / "locks" / f"{task}.prepare", block=True):
+    with claimed(work / "locks" / f"{task}.prepare", block=False) as mine:
+        if not mine:
+            raise Busy(task)
         tc, _ = calibration(task, work, "v4")
         tc.prepare()
-        v3, _ = calibration(task, work, "v3")
-        v3.dir.mkdir(parents=True, exist_ok=True)
-        if not v3.features_path.exists():
-            os.link(tc.features_path, v3.features_path)
+        for arm in ARMS:  # every arm trains on the same features
+            other, _ = calibration(task, work, arm)
+            other.dir.mkdir(parents=True, exist_ok=True)
+            if not other.features_path.exists():
+                os.link(tc.features_path, other.features_path)
 
 
 def run_unit(task: str, arm: str, work: Path) -> dict:
     import torch
 
-    prepared(task, work)
     t0, c0 = time.perf_counter(), time.process_time()
     if arm == "oracle":
         from maniladder_ms.evaluation.runner import evaluate
@@ -147,28 +160,40 @@ def run(work: Path, out: Path, only: list[str]) -> None:
     torch.set_num_threads(1)
     os.environ.setdefault(RENDER_ENV, "cpu")
     out.mkdir(parents=True, exist_ok=True)
-    for task, arm in units():
-        if only and task not in only:
-            continue
-        path = out / f"{task}.{arm}.json"
-        if path.is_file():
-            continue
-        with claimed(work / "locks" / f"{task}.{arm}", block=False) as mine:
-            if not mine or path.is_file():
+    failed: set = set()
+    while True:
+        waiting = False  # units whose task another process is preparing: the next pass takes them
+        for task, arm in units():
+            path = out / f"{task}.{arm}.json"
+            if (only and task not in only) or path.is_file() or (task, arm) in failed:
                 continue
-            print(f"{time.strftime('%H:%M:%S')} {task} {arm}: start", flush=True)
-            try:
-                r = run_unit(task, arm, work)
-            except Exception as e:  # one unit's failure leaves the others running
-                import traceback
+            with claimed(work / "locks" / f"{task}.{arm}", block=False) as mine:
+                if not mine or path.is_file():
+                    continue
+                try:
+                    prepared(task, work)
+                except Busy:
+                    waiting = True
+                    continue
+                print(f"{time.strftime('%H:%M:%S')} {task} {arm}: start", flush=True)
+                try:
+                    r = run_unit(task, arm, work)
+                except Exception as e:  # one unit's failure leaves the others running
+                    import traceback
 
-                print(f"{task} {arm}: FAILED {type(e).__name__}: {e}\n{traceback.format_exc()}", flush=True)
-                continue
-            tmp = path.with_suffix(".partial")
-            tmp.write_text(json.dumps(r, indent=1))
-            tmp.replace(path)
-            print(f"{time.strftime('%H:%M:%S')} {task} {arm}: {r['successes']}/{r['episodes']} cpu {r['cpu_s']}",
-                  flush=True)
+                    failed.add((task, arm))
+                    print(f"{task} {arm}: FAILED {type(e).__name__}: {e}\n{traceback.format_exc()}", flush=True)
+                    continue
+                tmp = path.with_suffix(".partial")
+                tmp.write_text(json.dumps(r, indent=1))
+                tmp.replace(path)
+                print(f"{time.strftime('%H:%M:%S')} {task} {arm}: {r['successes']}/{r['episodes']} cpu {r['cpu_s']}",
+                      flush=True)
+                break  # back to the first unit: the order is the priority
+        else:
+            if not waiting:
+                return
+            time.sleep(30)
 
 
 def kendall_tau(a: list[float], b: list[float]) -> float:
@@ -201,8 +226,8 @@ def table(out: Path) -> str:
     res = {(p.name.split(".")[0], p.name.split(".")[1]): json.loads(p.read_text()) for p in sorted(out.glob("*.json"))}
     v3_recorded = {t: json.loads((REPO / "docs/calibration" / f"{t}.json").read_text()) for t in L1_TASKS
                    if (REPO / "docs/calibration" / f"{t}.json").is_file()}
-    lines = ["| task | level | v3 recorded (set 0) | v3 schedule | v4 | oracle | v4 seeds 0/1/2 |",
-             "|---|---|---|---|---|---|---|"]
+    lines = ["| task | level | v3 recorded (set 0) | v3 schedule | v4 | oracle | v4 seeds 0/1/2 | v4 history 2 |",
+             "|---|---|---|---|---|---|---|---|"]
 
     def cell(r):
         if not r:
@@ -216,7 +241,8 @@ def table(out: Path) -> str:
         spread = "/".join(f"{r['successes']}" for r in seeds if r) if t in SPREAD_TASKS else ""
         lines.append(f"| {t} | L{cat.get(t).level} | {rec['successes']}/{rec['episodes']} | " if rec else
                      f"| {t} | L{cat.get(t).level} | - | ")
-        lines[-1] += f"{cell(res.get((t, 'v3')))} | {cell(res.get((t, 'v4')))} | {cell(res.get((t, 'oracle')))} | {spread} |"
+        lines[-1] += f"{cell(res.get((t, 'v3')))} | {cell(res.get((t, 'v4')))} | {cell(res.get((t, 'oracle')))} | {spread} | "
+        lines[-1] += f"{cell(res.get((t, 'v4h2'))) if t in HISTORY_TASKS else ''} |"
     both = [t for t in TASKS if (t, "v4") in res and (t, "oracle") in res]
     if len(both) >= 3:
         tau = kendall_tau([res[(t, "v4")]["success"] for t in both], [res[(t, "oracle")]["success"] for t in both])

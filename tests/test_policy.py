@@ -181,3 +181,66 @@ def test_demo_frames_render_the_recorded_states_and_train_an_evaluable_policy(tm
     finally:
         runner.close()
     assert rec["steps"] == spec.horizon and rec["success"] is False  # 3 training steps solve nothing
+
+
+def test_history_stacks_the_frames_the_policy_acted_on_before():
+    from maniladder_ms.policy.flow import with_history
+
+    frames = torch.arange(0, 20, 2)  # cached every second step
+    feats = frames.float()[:, None, None].expand(-1, 3, 1)  # a frame's features hold its step
+    stacked = with_history(feats, frames, history=3, every=8)
+    assert stacked.shape == (10, 9, 1)
+    # step 18 sees steps 18, 10, 2; step 8 sees 8, 0, 0 (before the start: the first frame); step 5 is not cached:
+    # the latest cached frame at or before it
+    assert stacked[9, ::3, 0].tolist() == [18, 10, 2]
+    assert stacked[4, ::3, 0].tolist() == [8, 0, 0]
+    odd = with_history(feats[:3], torch.tensor([0, 3, 13]), history=2, every=8)
+    assert odd[2, ::3, 0].tolist() == [4, 2]  # step 13 - 8 = 5: the frame of step 3 (holding the value 2)
+    assert with_history(feats, frames, history=1, every=8) is feats
+
+
+@pytest.mark.parametrize("keypoints", [0, 2], ids=["tokens", "spatial-softmax"])
+def test_a_policy_with_history_trains_and_round_trips(tmp_path, keypoints):
+    config = dataclasses.replace(TINY, keypoints=keypoints, history=2)
+    trainer = LadderFlowTrainer(config, two_demos())
+    assert trainer.features.shape[1] == 2 * 12
+    losses = trainer.train(200)
+    assert np.mean(losses[-50:]) < np.mean(losses[:50])
+    loaded = LadderFlowPolicy.load(trainer.save(tmp_path / "policy.pt"))
+    assert loaded.config == config and loaded.config.history == 2
+    feats = torch.cat([two_demos()[0][0][5], two_demos()[0][0][3]])
+    a = trainer.policy().act(feats, generator=torch.Generator().manual_seed(1))
+    assert torch.allclose(a, loaded.act(feats, generator=torch.Generator().manual_seed(1)), atol=1e-6)
+
+
+def test_config_fields_added_later_leave_older_settings_matching():
+    """Work folders and checkpoints written before `history` existed still match the default configuration."""
+    d = LadderFlowConfig().as_dict()
+    assert "history" not in d and LadderFlowConfig.from_dict(d) == LadderFlowConfig()
+    d2 = LadderFlowConfig(history=2).as_dict()
+    assert d2["history"] == 2 and LadderFlowConfig.from_dict(d2).history == 2
+
+
+def test_the_eval_policy_feeds_the_frames_it_saw_before(tmp_path, monkeypatch):
+    from maniladder_ms.policy import evaluate as ev
+
+    config = dataclasses.replace(TINY, history=3, cameras=("a",))
+    episodes = [(f, a, torch.arange(len(a))) for f, a in two_demos(n_obs=4)]
+    path = LadderFlowTrainer(config, episodes).save(tmp_path / "p.pt", meta={"task": "T"})
+
+    class Step:  # an encoder whose single token holds the image's value
+        name, tokens, dim = "step", 4, 16
+
+        def encode(self, images):
+            return torch.as_tensor(images[:, :1, :1, :1]).float().reshape(-1, 1, 1).expand(-1, 4, 16)
+
+    policy = ev.LadderFlowEvalPolicy(path, encoder=Step())
+    seen = []
+    monkeypatch.setattr(policy.policy, "act", lambda f, generator=None: seen.append(f[::4, 0].tolist()) or torch.zeros(2, 3))
+    obs = lambda v: {"sensor_data": {"a": {"rgb": torch.full((1, 2, 2, 3), v, dtype=torch.uint8)}}}
+    for episode in range(2):
+        policy.reset(type("Ctx", (), {"seed": episode})())
+        for v in (10, 20, 30, 40):
+            policy(obs(v), None)
+    assert seen[:4] == [[10, 10, 10], [20, 10, 10], [30, 20, 10], [40, 30, 20]]
+    assert seen[4:] == seen[:4]  # a reset forgets the last episode's frames

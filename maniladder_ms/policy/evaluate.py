@@ -27,14 +27,22 @@ class LadderFlowEvalPolicy:
         self.task = self.policy.meta.get("task")
         self.encoder = encoder or make_encoder(config.encoder, grid=config.grid)
         self.generator = torch.Generator().manual_seed(seed)
+        self.past = []
 
     def supports(self, spec):
         return True if self.task in (None, spec.id) else f"checkpoint trained on {self.task}"
 
     def reset(self, ctx):
         self.generator.manual_seed(int(ctx.seed))  # the flow's noise: reproducible per episode
+        self.past = []  # features of the frames observed before, the latest first (`LadderFlowConfig.history`)
 
     def __call__(self, obs, spec):
         images = np.stack([obs["sensor_data"][cam]["rgb"][0].cpu().numpy() for cam in self.cameras])[None]
         features = encode_frames(self.encoder, images)[0]
+        history = self.policy.config.history
+        if history > 1:  # as training stacks them (`flow.with_history`): before the first frame, the first frame
+            frames = [features] + self.past[: history - 1]
+            frames += [frames[-1]] * (history - len(frames))
+            self.past = frames[: history - 1]
+            features = torch.cat(frames, dim=0)
         return self.policy.act(features, generator=self.generator).numpy()

@@ -43,6 +43,9 @@ class LadderFlowConfig:
     chunk: int = 16  # actions predicted per call
     execute: int = 8  # of which the first ones are executed open loop
     integration_steps: int = 10
+    # observation frames the policy sees: the current one and the `history - 1` it observed before it, `execute`
+    # steps apart (the frames it acted on); 1: the current frame alone
+    history: int = 1
     # sized for a CPU (measured, one core: ~0.15-0.25 s a step). A GPU runs the same configuration, but its
     # arithmetic differs from the CPU's, so it trains another policy: results record the device
     d_model: int = 128
@@ -60,9 +63,16 @@ class LadderFlowConfig:
     ema_decay: float = 0.999
     seed: int = 0
 
+    # fields added after the first v4 work folders and checkpoints were written: left out of `as_dict` at their
+    # defaults, so those folders' settings and checkpoints' configs still match the configuration they were made with
+    LATER_FIELDS = {"history": 1}
+
     def as_dict(self) -> dict:
         d = dataclasses.asdict(self)
         d["cameras"] = list(self.cameras)
+        for key, default in self.LATER_FIELDS.items():
+            if d[key] == default:
+                del d[key]
         return d
 
     @classmethod
@@ -134,13 +144,14 @@ class LadderFlowNet(nn.Module):
         super().__init__()
         c = config
         self.config, self.action_dim = c, action_dim
-        n_tokens = n_tokens or len(c.cameras) * c.grid * c.grid  # encoder tokens of all cameras
+        n_tokens = n_tokens or len(c.cameras) * c.grid * c.grid  # encoder tokens of all cameras, one frame
+        self.n_tokens = n_tokens
         self.pool = None
-        if c.keypoints:
+        if c.keypoints:  # one pool per camera, shared by the history's frames
             self.pool = SpatialSoftmaxPool(len(c.cameras), n_tokens // len(c.cameras), feature_dim, c.keypoints)
-            n_obs, feature_dim = len(c.cameras) * c.keypoints, feature_dim + 2
+            n_obs, feature_dim = len(c.cameras) * c.keypoints * c.history, feature_dim + 2
         else:
-            n_obs = n_tokens
+            n_obs = n_tokens * c.history
         self.obs_proj = nn.Sequential(nn.LayerNorm(feature_dim), nn.Linear(feature_dim, c.d_model))
         self.obs_pos = nn.Parameter(torch.randn(1, n_obs, c.d_model) * 0.02)
         self.action_in = nn.Linear(action_dim, c.d_model)
@@ -153,9 +164,10 @@ class LadderFlowNet(nn.Module):
         self.head = nn.Sequential(nn.LayerNorm(c.d_model), nn.Linear(c.d_model, action_dim))
 
     def encode_obs(self, features: torch.Tensor) -> torch.Tensor:
-        """(B, cameras * tokens, feature_dim) -> memory (B, n_obs, d_model)."""
+        """(B, history * cameras * tokens, feature_dim), the current frame first -> memory (B, n_obs, d_model)."""
         if self.pool is not None:
-            features = self.pool(features)
+            b, h = features.shape[0], self.config.history
+            features = self.pool(features.reshape(b * h, self.n_tokens, -1)).reshape(b, -1, features.shape[-1] + 2)
         return self.encoder(self.obs_proj(features) + self.obs_pos)
 
     def velocity(self, memory: torch.Tensor, x_t: torch.Tensor, t: torch.Tensor) -> torch.Tensor:
@@ -194,6 +206,20 @@ def chunk_targets(actions: torch.Tensor, chunk: int) -> torch.Tensor:
     return actions[idx.clamp(max=T - 1)]
 
 
+def with_history(features: torch.Tensor, frames: torch.Tensor, history: int, every: int) -> torch.Tensor:
+    """(F, tokens, D) features of one episode's steps `frames` -> (F, history * tokens, D): each frame followed by
+    the frames `every`, 2 `every`, ... steps before it (the latest cached frame at or before that step; the first
+    frame before the episode's start), as the policy sees them when it observes every `every` steps."""
+    if history == 1:
+        return features
+    frames = torch.as_tensor(frames).long()
+    stacked = [features]
+    for j in range(1, history):
+        idx = torch.searchsorted(frames, frames - j * every, right=True) - 1
+        stacked.append(features[idx.clamp(min=0)])
+    return torch.cat(stacked, dim=1)
+
+
 class LadderFlowTrainer:
     """Train one policy on one task's demos: `episodes` is a list of (features (F, n_obs, D), actions (T, A)[,
     frames (F,)]): the features of the steps `frames` (default: every step) and all of the episode's actions;
@@ -204,15 +230,17 @@ class LadderFlowTrainer:
             raise ValueError("no demonstration episodes to train on")
         torch.manual_seed(config.seed)
         self.config, self.device = config, device
-        feats = torch.cat([ep[0] for ep in episodes]).float()
         actions = [torch.as_tensor(ep[1]).float() for ep in episodes]
         frames = [torch.as_tensor(ep[2]).long() if len(ep) > 2 else torch.arange(len(ep[1])) for ep in episodes]
+        n_tokens = episodes[0][0].shape[1]
+        feats = torch.cat([with_history(ep[0].float(), f, config.history, config.execute)
+                           for ep, f in zip(episodes, frames)])
         self.normalizer = ActionNormalizer.fit(torch.cat(actions))
         targets = torch.cat([chunk_targets(self.normalizer.normalize(a), config.chunk)[f] for a, f in zip(actions, frames)])
         if feats.shape[0] != targets.shape[0]:
             raise ValueError(f"{feats.shape[0]} feature frames but {targets.shape[0]} action steps")
         self.features, self.targets = feats.to(device), targets.to(device)
-        self.net = LadderFlowNet(config, feats.shape[-1], targets.shape[-1], n_tokens=feats.shape[1]).to(device)
+        self.net = LadderFlowNet(config, feats.shape[-1], targets.shape[-1], n_tokens=n_tokens).to(device)
         self.ema = copy.deepcopy(self.net).eval()
         for p in self.ema.parameters():
             p.requires_grad_(False)
@@ -253,7 +281,7 @@ class LadderFlowTrainer:
         tmp = path.with_suffix(".partial")
         torch.save({
             "protocol": PROTOCOL_VERSION, "config": self.config.as_dict(), "step": self.step_count, "meta": meta or {},
-            "feature_dim": self.features.shape[-1], "action_dim": self.targets.shape[-1], "n_tokens": self.features.shape[1],
+            "feature_dim": self.features.shape[-1], "action_dim": self.targets.shape[-1], "n_tokens": self.net.n_tokens,
             "normalizer": self.normalizer.state_dict(), "net": self.net.state_dict(), "ema": self.ema.state_dict(),
             "optimizer": self.opt.state_dict(), "scheduler": self.sched.state_dict(),
             "rng": torch.get_rng_state(),
