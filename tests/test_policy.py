@@ -244,3 +244,57 @@ def test_the_eval_policy_feeds_the_frames_it_saw_before(tmp_path, monkeypatch):
             policy(obs(v), None)
     assert seen[:4] == [[10, 10, 10], [20, 10, 10], [30, 20, 10], [40, 30, 20]]
     assert seen[4:] == seen[:4]  # a reset forgets the last episode's frames
+
+
+def test_random_shift_moves_each_image_by_whole_pixels_within_the_pad():
+    from maniladder_ms.policy.features import random_shift
+
+    images = np.zeros((5, 2, 16, 16, 3), np.uint8)
+    images[..., 8, 8, :] = 255  # one bright pixel per image
+    shifted = random_shift(images, 3, np.random.default_rng(0))
+    assert shifted.shape == images.shape and shifted.dtype == np.uint8
+    moves = set()
+    for img in shifted.reshape(-1, 16, 16, 3):
+        ys, xs = np.nonzero(img[..., 0])
+        assert len(ys) == 1 and abs(ys[0] - 8) <= 3 and abs(xs[0] - 8) <= 3
+        moves.add((ys[0], xs[0]))
+    assert len(moves) > 1  # images move independently
+    assert np.array_equal(shifted, random_shift(images, 3, np.random.default_rng(0)))  # seeded
+
+
+def test_renders_are_cached_and_re_encoded_with_augmented_copies(tmp_path, monkeypatch):
+    """Another encoder or an augmentation re-encodes the cached renders without rendering again."""
+    from pathlib import Path
+
+    from maniladder_ms.policy import features as feats
+    from maniladder_ms.policy.features import cache_features, load_features
+
+    demo = Path(__file__).resolve().parents[1] / "demos/PickPlacePen/trajectory.none.pd_ee_delta_pose.physx_cpu.h5"
+    cams, renders = ("front_camera",), tmp_path / "renders.npz"
+    plain = load_features(cache_features(demo, make_encoder("random-projection"), cams, tmp_path / "a.npz", size=64,
+                                         stride=4, control_mode="pd_joint_pos", renders=renders))
+    assert renders.is_file()
+
+    def no_rendering(*a, **k):
+        raise AssertionError("rendered again")
+
+    monkeypatch.setattr(feats, "demo_frames", no_rendering)
+    monkeypatch.setattr(feats, "joint_target_episodes", no_rendering)
+    again = load_features(cache_features(demo, make_encoder("random-projection"), cams, tmp_path / "b.npz", size=64,
+                                         stride=4, control_mode="pd_joint_pos", renders=renders))
+    assert all(torch.equal(x, y) for p, q in zip(plain, again) for x, y in zip(p, q))
+    other = load_features(cache_features(demo, make_encoder("random-projection", dim=8, seed=1), cams,
+                                         tmp_path / "c.npz", size=64, stride=4, control_mode="pd_joint_pos",
+                                         renders=renders, augment_copies=2, augment_shift=4))
+    assert other[0][0].shape[-1] == 8 and torch.equal(other[0][1], plain[0][1])
+    aug = other[0][3]
+    assert aug.shape == (2, *other[0][0].shape) and not torch.equal(aug[0], other[0][0])
+    with pytest.raises(ValueError, match="holds renders of"):
+        cache_features(demo, make_encoder("random-projection"), cams, tmp_path / "d.npz", size=32, stride=4,
+                       control_mode="pd_joint_pos", renders=renders)
+    config = dataclasses.replace(TINY, cameras=cams, encoder="random-projection", augment_copies=2, augment_shift=4)
+    trainer = LadderFlowTrainer(config, other)
+    assert trainer.augmented.shape[0] == 2
+    trainer.train(3)
+    with pytest.raises(ValueError, match="no augmented copies"):
+        LadderFlowTrainer(config, plain)

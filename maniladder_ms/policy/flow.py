@@ -46,6 +46,10 @@ class LadderFlowConfig:
     # observation frames the policy sees: the current one and the `history - 1` it observed before it, `execute`
     # steps apart (the frames it acted on); 1: the current frame alone
     history: int = 1
+    # random-shift augmentation: every demo frame also encoded as `augment_copies` copies shifted by up to
+    # `augment_shift` px (`features.random_shift`); training draws the frame or one of its copies. 0: none
+    augment_copies: int = 0
+    augment_shift: int = 8
     # sized for a CPU (measured, one core: ~0.15-0.25 s a step). A GPU runs the same configuration, but its
     # arithmetic differs from the CPU's, so it trains another policy: results record the device
     d_model: int = 128
@@ -65,7 +69,7 @@ class LadderFlowConfig:
 
     # fields added after the first v4 work folders and checkpoints were written: left out of `as_dict` at their
     # defaults, so those folders' settings and checkpoints' configs still match the configuration they were made with
-    LATER_FIELDS = {"history": 1}
+    LATER_FIELDS = {"history": 1, "augment_copies": 0, "augment_shift": 8}
 
     def as_dict(self) -> dict:
         d = dataclasses.asdict(self)
@@ -235,6 +239,14 @@ class LadderFlowTrainer:
         n_tokens = episodes[0][0].shape[1]
         feats = torch.cat([with_history(ep[0].float(), f, config.history, config.execute)
                            for ep, f in zip(episodes, frames)])
+        # augmented copies (copies, N, tokens, dim) of every frame (`features.cache_features`), if any
+        copies = [ep[3] for ep in episodes if len(ep) > 3]
+        if config.augment_copies and len(copies) != len(episodes):
+            raise ValueError(f"augment_copies={config.augment_copies} but the features hold no augmented copies")
+        self.augmented = None
+        if config.augment_copies:
+            self.augmented = torch.cat([torch.stack([with_history(c.float(), f, config.history, config.execute) for c in cs])
+                                        for cs, f in zip(copies, frames)], dim=1).to(device)
         self.normalizer = ActionNormalizer.fit(torch.cat(actions))
         targets = torch.cat([chunk_targets(self.normalizer.normalize(a), config.chunk)[f] for a, f in zip(actions, frames)])
         if feats.shape[0] != targets.shape[0]:
@@ -257,7 +269,12 @@ class LadderFlowTrainer:
         self.net.train()
         for _ in tqdm(range(steps), desc="train", disable=not progress):
             idx = torch.randint(0, n, (min(self.config.batch_size, n),), device=self.device)
-            loss = self.net.loss(self.features[idx], self.targets[idx])
+            features = self.features[idx]
+            if self.augmented is not None:  # each sample: the frame itself or one of its shifted copies
+                copy = torch.randint(0, self.augmented.shape[0] + 1, idx.shape, device=self.device)
+                shifted = copy > 0
+                features[shifted] = self.augmented[copy[shifted] - 1, idx[shifted]]
+            loss = self.net.loss(features, self.targets[idx])
             self.opt.zero_grad(set_to_none=True)
             loss.backward()
             nn.utils.clip_grad_norm_(self.net.parameters(), 1.0)
