@@ -152,6 +152,7 @@ def run_unit(task: str, arm: str, work: Path) -> dict:
         task_hash = tc.task_hash
     else:
         tc, seed = calibration(task, work, arm)
+        resumed = (tc.seed_dir(seed) / "resume.pt").is_file()  # then this unit's training CPU is only the rest
         before = tc._timings(tc.cpu_timings_path), tc._timings()
         tc.prepare()  # an arm with its own encoding makes its features here (from the shared renders, if any)
         summary, _ = tc.run_seed(seed)
@@ -159,7 +160,7 @@ def run_unit(task: str, arm: str, work: Path) -> dict:
         after = tc._timings(tc.cpu_timings_path), tc._timings()
         cpu, wall = ({k: round(a[k] - b.get(k, 0.0), 1) for k in ("features", "train", "evaluate") if k in a}
                      for a, b in zip(after, before))
-        extra = {"config": tc.config.as_dict(), "training_seed": seed}
+        extra = {"config": tc.config.as_dict(), "training_seed": seed, "resumed_training": resumed}
         task_hash = tc.task_hash
     shared, _ = calibration(task, work, "v4")
     return {"task": task, "arm": arm, "successes": summary["successes"], "episodes": summary["episodes"],
@@ -266,7 +267,8 @@ def table(out: Path) -> str:
     if len(both) >= 3:
         tau = kendall_tau([res[(t, "v4")]["success"] for t in both], [res[(t, "oracle")]["success"] for t in both])
         lines.append(f"\nKendall tau-b, v4 vs oracle, {len(both)} tasks: {tau:.2f}")
-    paired = [t for t in TASKS if (t, "v4") in res and (t, "v3") in res]
+    paired = [t for t in TASKS if (t, "v4") in res and (t, "v3") in res
+              and not res[(t, "v4")].get("resumed_training") and not res[(t, "v3")].get("resumed_training")]
     if paired:
         s4 = sum(res[(t, "v4")]["successes"] for t in paired)
         s3 = sum(res[(t, "v3")]["successes"] for t in paired)
@@ -274,6 +276,26 @@ def table(out: Path) -> str:
         c3 = sum(res[(t, "v3")]["cpu_s"].get("train", 0) + res[(t, "v3")]["cpu_s"].get("evaluate", 0) for t in paired)
         lines.append(f"paired v3 schedule vs v4 on {len(paired)} tasks: successes {s3} vs {s4}; train+evaluate CPU "
                      f"{c3 / 60:.0f} vs {c4 / 60:.0f} min")
+    if paired:
+        lines += ["", f"Per-stage CPU seconds on one core, mean over the {len(paired)} paired tasks (demos and features are "
+                  "made once per task and shared by every training seed; v3's selection stage evaluated 2 x 10 "
+                  "episodes: 20/50 of its evaluation's cost):", "",
+                  "| stage | v3 | v4 | v3 / v4 |", "|---|---|---|---|"]
+
+        def mean(arm, key, shared=False):
+            return sum(res[(t, arm)]["shared_cpu_s" if shared else "cpu_s"].get(key, 0.0) for t in paired) / len(paired)
+
+        rows = {"demos": (mean("v4", "demos", True),) * 2, "features": (mean("v4", "features", True),) * 2,
+                "train": (mean("v3", "train"), mean("v4", "train")),
+                "select": (0.4 * mean("v3", "evaluate"), 0.0),
+                "evaluate": (mean("v3", "evaluate"), mean("v4", "evaluate"))}
+        seed3, seed4 = (sum(rows[k][i] for k in ("train", "select", "evaluate")) for i in (0, 1))
+        shared = rows["demos"][0] + rows["features"][0]
+        rows["one training seed"] = (seed3, seed4)
+        rows["development run (shared + 1 seed)"] = (shared + seed3, shared + seed4)
+        rows["final run: v3 1 seed, v4 3 seeds"] = (shared + seed3, shared + 3 * seed4)
+        for k, (a, b) in rows.items():
+            lines.append(f"| {k} | {a:.0f} | {b:.0f} | {a / b:.1f}x |" if b else f"| {k} | {a:.0f} | {b:.0f} | - |")
     return "\n".join(lines)
 
 
