@@ -35,6 +35,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from typing import Optional
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
@@ -171,7 +172,7 @@ def run_unit(task: str, arm: str, work: Path) -> dict:
             "time": time.strftime("%Y-%m-%dT%H:%M:%S"), **extra}
 
 
-def run(work: Path, out: Path, only: list[str]) -> None:
+def run(work: Path, out: Path, only: list[str], arms: Optional[list[str]] = None) -> None:
     import torch
 
     from maniladder_ms.policy.calibrate import RENDER_ENV
@@ -184,7 +185,7 @@ def run(work: Path, out: Path, only: list[str]) -> None:
         waiting = False  # units whose task another process is preparing: the next pass takes them
         for task, arm in units():
             path = out / f"{task}.{arm}.json"
-            if (only and task not in only) or path.is_file() or (task, arm) in failed:
+            if (only and task not in only) or (arms and arm not in arms) or path.is_file() or (task, arm) in failed:
                 continue
             with claimed(work / "locks" / f"{task}.{arm}", block=False) as mine:
                 if not mine or path.is_file():
@@ -303,6 +304,7 @@ def main(argv=None):
     ap.add_argument("--work", type=Path, default=Path("runs/compare"), help="work folder (demos, features, checkpoints)")
     ap.add_argument("--out", type=Path, default=REPO / "docs/calibration/v4_comparison", help="result files")
     ap.add_argument("--tasks", default="", help="comma-separated subset")
+    ap.add_argument("--arms", default="", help="comma-separated subset of the arms (default: all, in order)")
     ap.add_argument("--table", action="store_true", help="print the table of the results so far and exit")
     args = ap.parse_args(argv)
     if args.table:
@@ -312,7 +314,11 @@ def main(argv=None):
     unknown = set(only) - set(TASKS)
     if unknown:
         sys.exit(f"not among the comparison's tasks: {sorted(unknown)}")
-    run(args.work.resolve(), args.out, only)
+    arms = [a for a in args.arms.split(",") if a]
+    unknown = set(arms) - set(ARMS) - {"oracle"}
+    if unknown:
+        sys.exit(f"unknown arms {sorted(unknown)}; known: {', '.join(list(ARMS) + ['oracle'])}")
+    run(args.work.resolve(), args.out, only, arms)
 
 
 if __name__ == "__main__":
