@@ -32,15 +32,15 @@ class TwistOpenBottleHandsEnv(UnscrewCapTask):
     other hand does not hold the bottle does not count, and the free bottle spins with a cap twisted
     without it.
 
-    **Level 3:** (against Level 2's OpenJarHands: a 6.6 cm wide, 3.5 cm tall lid turned 360 degrees,
-    one or two strokes, 326-657 control steps) the cap is 4.6 cm wide and 2.2 cm tall on a 3.2 cm neck
-    (0.7 of the lid's width, its rim 1.3 cm from the axis where the fingertips get 1.7 cm on the lid,
-    so the pinch must stay centred within ~1 cm as before on a grip a third smaller), and it must turn
-    twice as far, 720 degrees: 12.6 rad, more than twice joint 7's 5.8-radian stroke, so three strokes
-    with two regrasps and two turn-backs between them (8 stages: hold the bottle, grip the cap, twist,
-    let go and turn back, grip again, twist, let go and turn back, grip and twist), each regrasp on a
-    cap that is no longer at its home stop, while the other hand keeps the free bottle upright through
-    all of it; the solver's episodes take about twice OpenJarHands' control steps.
+    **Level 3:** (against Level 2's OpenJarHands: a 6.6 cm wide, 3.5 cm tall lid turned 360 degrees in one or
+    two strokes, 326-657 control steps, mean 459) the cap is 4.6 cm wide and 2.2 cm tall on a 3.2 cm neck: the
+    pinch closes on a rim 1 cm nearer the axis with 1.3 cm less of it to hold, and the same thread torque
+    asks 1.4 times the fingertip force (2.2 N at the rim against 1.5 N); and it turns twice as far, 720
+    degrees: 12.6 rad, more than twice what the wrist turns the cap in one stroke (~5.2 rad within joint 7's
+    5.8-radian range), so always three strokes with two regrasps and two turn-backs between them: 8 stages
+    (hold the bottle, grip the cap, twist, let go and turn back, grip again, twist, let go and turn back, grip
+    and twist), each regrasp on a cap off its home stop, while the other hand holds the free bottle upright
+    throughout: 920-1090 control steps in the solver's episodes on seeds 100-109, about twice OpenJarHands'.
     """
 
     SUPPORTED_ROBOTS = ["ml_dual_panda_leap"]
