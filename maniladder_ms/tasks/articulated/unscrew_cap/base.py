@@ -1,5 +1,4 @@
-"""The UnscrewCap family's rule (OpenJarBimanual, UnscrewCapHand, OpenJarHands; the catalog's TwistOpenBottleHands
-is not built yet):
+"""The UnscrewCap family's rule (OpenJarBimanual, UnscrewCapHand, OpenJarHands, TwistOpenBottleHands):
 turn a screw lid or cap (`objects.jar`, its thread a revolute joint with friction) off its thread, the
 container held by another end effector (or clamped to the table).
 
