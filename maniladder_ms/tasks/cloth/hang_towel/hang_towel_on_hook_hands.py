@@ -2,7 +2,6 @@
 hook by the cord loop at one of them."""
 
 from __future__ import annotations
-import os
 
 from typing import Any
 
@@ -20,52 +19,64 @@ from maniladder_ms.tasks.cloth.base import (BETWEEN_HANDS_X_LOW, BETWEEN_HANDS_X
                                             BETWEEN_HANDS_Y_SPAN, SIDES, TOWEL_YAW_MAX, TOWEL_YAW_MIN)
 
 ROWS = COLS = 8  # the towel's particle rows and columns
-LOOP_PARTICLES = int(os.environ.get("LOOP_N", 7))  # the cord loop's ring at the towel's (+x, +y) corner (`cloth.towel_with_loop`)
-import os
-CORD_K = float(os.environ.get("CORD_K", 0.05)); CORD_D = float(os.environ.get("CORD_D", 0.005))
+LOOP_PARTICLES = 7  # the cord loop's ring at the towel's (+x, +y) corner (`cloth.towel_with_loop`)
+# the loop's links bend 25 times as stiffly as the sheet's (N m/rad, N m s/rad): a sewn-on hanging loop keeps its
+# shape. With the sheet's 0.002 a ring held at the corner hangs closed, its two strands of beads side by side
+# (measured with an 11-bead ring: a shaft pushed at the gap swung it aside); at 0.05 it stays an open ring
+CORD_BEND_STIFFNESS, CORD_BEND_DAMPING = 0.05, 0.005
 HOOK_COLOR = (0.55, 0.42, 0.3, 1)
 
 
 @register_task("HangTowelOnHookHands")
 class HangTowelOnHookHandsEnv(ManiLadderEnv):
     """**Task:** a towel with a cord loop sewn to one corner lies flat on the table between the two arms; a
-    small hook sticks out of an upright board at the far side of the table, pointing at the robot. The
-    LEAP hands take the towel by two opposite corners (the right one the corner with the loop), lift it, carry
-    the hanging loop over the hook's tip, lower it onto the hook's shaft and let go: the towel hangs from the
-    hook by its loop.
+    small hook sticks out of an upright board at the far side of the table, pointing up and at the robot. The
+    LEAP hands take the towel by two opposite corners (the right one the corner with the loop), lift it, turn
+    the loop to face the hook, carry it over the hook's tip and let go: the towel hangs from the hook by its loop.
 
     **Randomisation:**
     - the towel (`cloth.towel_with_loop(8, 8, 7)`: 8 x 8 particles 2.5 cm apart, 1 cm radius, and a ring of
-      7 cord beads, 6.5 cm across, beyond one corner) lies flat, its centre at x uniform in [-0.14, -0.06],
-      y uniform in [-0.03, 0.03] (`tasks/cloth/base.py`'s `BETWEEN_HANDS_*`), turned so its loop corner is
-      the right hand's: the diagonal through the loop corner 85-105 degrees from the x axis
-      (`TOWEL_YAW_MIN`, `TOWEL_YAW_MAX`, plus a half turn);
-    - the hook (a shaft of radius `HOOK_RADIUS`, `hook_length` long, a ball `KNOB_RADIUS` at its tip) stands
-      with its root at x uniform in [`HOOK_X_LOW`, `HOOK_X_LOW` + `HOOK_X_SPAN`], y uniform in [`HOOK_Y_LOW`,
-      `HOOK_Y_LOW` + `HOOK_Y_SPAN`], its axis `HOOK_HEIGHT_LOW` to `HOOK_HEIGHT_LOW` + `HOOK_HEIGHT_SPAN` above
-      the table (uniform).
+      7 cord beads beyond one corner, 6.5 cm across between bead centres, its hole 4.5 cm; the loop's links
+      bend `CORD_BEND_STIFFNESS`) lies flat, its centre at x uniform in [-0.14, -0.06], y uniform in
+      [-0.03, 0.03] (`tasks/cloth/base.py`'s `BETWEEN_HANDS_*`), turned so the loop's corner is the right
+      hand's: the diagonal through it 85-105 degrees from the x axis (`TOWEL_YAW_MIN`, `TOWEL_YAW_MAX`, plus
+      a half turn);
+    - the hook (a round shaft of radius `HOOK_RADIUS`, pitched `HOOK_TILT` up from -x, out of a board 8 cm
+      wide) has its root at x uniform in [0.08, 0.12] (`HOOK_X_LOW`, `HOOK_X_SPAN`), y uniform in
+      [-0.16, -0.10] (`HOOK_Y_LOW`, `HOOK_Y_SPAN`), height uniform in [0.38, 0.41] (`HOOK_HEIGHT_LOW`,
+      `HOOK_HEIGHT_SPAN`).
 
     **Success:** the loop hangs on the hook (`cloth.loop_on_hook`: the ring of loop particles winds once round
-    the shaft's line and its centre lies along the shaft between the board and the tip, whose shaft is
+    the shaft's line and its centre lies along the shaft between the board and the tip, the shaft being
     `hook_length` long); no particle within `table_gap` of the table (every particle's lowest point higher);
     both hands have let go (neither touches a towel particle, `ee.touches`); and at some step both hands held
-    (`ee.holds`) a towel corner particle at once (episode memory `corners_held`: the towel was carried by two
-    hands, not dragged or flung by one).
+    (`ee.holds`) towel particles at once (episode memory `towel_held`: the towel was carried by two hands, not
+    dragged or flung onto the hook by one).
 
-    **Level 3:** ...
+    **Level 3:** a rung up from Level 2's HangTowelOnBar (two grippers drape a towel over a 2 cm rod 40 cm
+    long: 5 stages, ~190 steps, a drape anywhere along the rod counts): here the towel must go onto a 1 cm
+    shaft through a 4.5 cm hole whose pose the hands do not set. 7 stages (both corners pinched; lifted ~45 cm,
+    over the hook's tip; the loop turned about the vertical, up to 180 degrees, until its plane faces the
+    shaft; lined up 4 cm in front of the tip, closed loop on the ring's particles, within ~1.5 cm of the hole's
+    middle in both directions across the shaft; carried 9.5 cm along +x over the tip; the right hand lowers
+    and lets go; the left lays the towel under the hook and lets go), the loop's pose perceived at every turn
+    and line-up, and the 71-particle towel must end hanging free from the loop alone; demos take ~300 steps.
     """
 
     SUPPORTED_ROBOTS = ["ml_dual_panda_leap"]
     max_dense_reward = 6
-    cloth_config = cloth.ClothConfig(radius=0.010, cord_bend_stiffness=CORD_K, cord_bend_damping=CORD_D)
+    cloth_config = cloth.ClothConfig(radius=0.010, cord_bend_stiffness=CORD_BEND_STIFFNESS,
+                                      cord_bend_damping=CORD_BEND_DAMPING)
     PARAMS = ("hook_length", "table_gap")
-    TASK_REGION = (-0.3, 0.16, -0.3, 0.22)
+    # towel start (centre plus the half diagonal, the loop's 7.5 cm beyond the right corner) and the hook's board
+    TASK_REGION = (-0.28, 0.15, -0.26, 0.17)
     HOOK_X_LOW, HOOK_X_SPAN = 0.08, 0.04  # the hook root's x (the board's front face): uniform in [low, low + span]
     HOOK_Y_LOW, HOOK_Y_SPAN = -0.16, 0.06  # its y
     HOOK_HEIGHT_LOW, HOOK_HEIGHT_SPAN = 0.38, 0.03  # the root's height above the table
-    HOOK_RADIUS, KNOB_RADIUS = 0.005, 0.0
+    HOOK_RADIUS = 0.005
     HOOK_TILT = np.deg2rad(20)  # the shaft pitched up from -x (pointing at the robot) by this
-    BOARD_HALF = (0.01, 0.04)  # the board's half thickness (x) and half width (y); it reaches 5 cm over the hook
+    BOARD_HALF = (0.01, 0.04)  # the board's half thickness (x) and half width (y)
+    # the board reaches this far over the shaft's root: low, so the hand holding the loop over the shaft clears it
     BOARD_ABOVE = 0.03
 
     def _load_scene(self, options: dict):
@@ -80,7 +91,7 @@ class HangTowelOnHookHandsEnv(ManiLadderEnv):
         self.hook_axis = torch.tensor(wall_hook_axis(self.HOOK_TILT), device=self.device)
         self.hook = build_wall_hook(self.scene, "hook", self.hook_length, self.HOOK_RADIUS, self.HOOK_TILT,
                                     self.BOARD_HALF,
-                                    (below, self.BOARD_ABOVE), HOOK_COLOR, knob_radius=self.KNOB_RADIUS)
+                                    (below, self.BOARD_ABOVE), HOOK_COLOR)
         self.memory.flag("towel_held")  # both hands held a towel particle at the same step
 
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
@@ -98,7 +109,7 @@ class HangTowelOnHookHandsEnv(ManiLadderEnv):
             self.hook.set_pose(Pose.create_from_pq(root))
 
     def hook_tip(self) -> torch.Tensor:
-        """The centre of the hook's tip (the ball's), [B, 3]."""
+        """The centre of the hook's tip (its shaft's end), [B, 3]."""
         return self.hook.pose.p + self.hook_axis * self.hook_length
 
     def corner_particles(self) -> dict:
