@@ -1,4 +1,4 @@
-"""Scripted solver of HangTowelOnHookHands (tasks/cloth/hang_towel/hang_towel_on_hook_hands.py): both LEAP hands
+"""Scripted solver of HangTowelOnHookHands (tasks/cloth/hang_towel_on_hook_hands.py): both LEAP hands
 lift the towel by two opposite corners, the right one (the loop's corner) turns the loop's ring across the hook's
 shaft, both carry the ring over the hook's tip, and the hands let go one after the other.
 
@@ -28,7 +28,7 @@ from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.bimanual import Grasp, glide
 from maniladder_ms.solvers.driven import DrivenSolver
 from maniladder_ms.solvers.towel import pinch_side_corners
-from maniladder_ms.tasks.cloth.hang_towel.hang_towel_on_hook_hands import HangTowelOnHookHandsEnv
+from maniladder_ms.tasks.cloth.hang_towel_on_hook_hands import HangTowelOnHookHandsEnv
 
 LIFT_ABOVE_TIP = 0.09  # TCP height over the hook's tip after the lift: the ring hangs ~3 cm under the TCP
 LIFT_STEP, MOVE_STEP, THREAD_STEP, DROP_STEP = 0.008, 0.008, 0.005, 0.004  # metres per control step
