@@ -50,8 +50,8 @@ class HangTowelOnHookHandsEnv(ManiLadderEnv):
     the shaft's line and its centre lies along the shaft between the board and the tip, the shaft being
     `hook_length` long); no particle within `table_gap` of the table (every particle's lowest point higher);
     both hands have let go (neither touches a towel particle, `ee.touches`); and at some step both hands held
-    (`ee.holds`) towel particles at once (episode memory `towel_held`: the towel was carried by two hands, not
-    dragged or flung onto the hook by one).
+    (`ee.holds`) a corner or the loop at once (each hand's corner particle or a loop bead; episode memory
+    `towel_held`: the towel was carried by two hands, not dragged or flung onto the hook by one).
 
     **Level 3:** a rung up from Level 2's HangTowelOnBar (two grippers drape a towel over a 2 cm rod 40 cm
     long: 5 stages, ~190 steps, a drape anywhere along the rod counts): here the towel must go onto a 1 cm
@@ -86,6 +86,9 @@ class HangTowelOnHookHandsEnv(ManiLadderEnv):
         corners = layout.named["corners"]
         self.hand_corners = {"left": corners[0], "right": corners[3]}  # the loop's corner is the right hand's
         self.ring = layout.named["loop"]
+        # what the memory's holds look for: each hand's corner and the loop's beads (the right hand's pinch takes the
+        # loop's first beads beside its corner); a check over all 71 particles made a control step 7 times as long
+        self.hold_parts = [self.towel.spheres[i] for i in [*self.hand_corners.values(), *self.ring[1:]]]
         # the board reaches from the table (or into it, for a lower hook) to BOARD_ABOVE over the shaft
         below = self.HOOK_HEIGHT_LOW + self.HOOK_HEIGHT_SPAN
         self.hook_axis = torch.tensor(wall_hook_axis(self.HOOK_TILT), device=self.device)
@@ -117,7 +120,7 @@ class HangTowelOnHookHandsEnv(ManiLadderEnv):
         return {side: self.towel.spheres[i] for side, i in self.hand_corners.items()}
 
     def _update_memory(self):
-        latch_held_by_both(self, "towel_held", self.towel.spheres)
+        latch_held_by_both(self, "towel_held", self.hold_parts)
 
     def evaluate(self):
         points = self.towel.positions()
