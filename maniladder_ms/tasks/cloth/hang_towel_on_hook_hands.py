@@ -13,10 +13,8 @@ from mani_skill.utils.structs.pose import Pose
 from maniladder_ms.deformables import cloth
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.envs.memory import latch_held_by_both
-from maniladder_ms.geometry import yaw_quat
 from maniladder_ms.objects.tabletop import build_wall_hook, wall_hook_axis
-from maniladder_ms.tasks.cloth.base import (BETWEEN_HANDS_X_LOW, BETWEEN_HANDS_X_SPAN, BETWEEN_HANDS_Y_LOW,
-                                            BETWEEN_HANDS_Y_SPAN, SIDES, TOWEL_YAW_MAX, TOWEL_YAW_MIN)
+from maniladder_ms.tasks.cloth.base import SIDES, lay_between_hands
 
 ROWS = COLS = 8  # the towel's particle rows and columns
 LOOP_PARTICLES = 7  # the cord loop's ring at the towel's (+x, +y) corner (`cloth.towel_with_loop`)
@@ -38,9 +36,8 @@ class HangTowelOnHookHandsEnv(ManiLadderEnv):
     - the towel (`cloth.towel_with_loop(8, 8, 7)`: 8 x 8 particles 2.5 cm apart, 1 cm radius, and a ring of
       7 cord beads beyond one corner, 6.5 cm across between bead centres, its hole 4.5 cm; the loop's links
       bend `CORD_BEND_STIFFNESS`) lies flat, its centre at x uniform in [-0.14, -0.06], y uniform in
-      [-0.03, 0.03] (`tasks/cloth/base.py`'s `BETWEEN_HANDS_*`), turned so the loop's corner is the right
-      hand's: the diagonal through it 85-105 degrees from the x axis (`TOWEL_YAW_MIN`, `TOWEL_YAW_MAX`, plus
-      a half turn);
+      [-0.03, 0.03], turned so the loop's corner is the right hand's: the diagonal through it 85-105 degrees
+      from the x axis (`tasks/cloth/base.py`'s `lay_between_hands`, turned a half turn further);
     - the hook (a round shaft of radius `HOOK_RADIUS`, pitched `HOOK_TILT` up from -x, out of a board 8 cm
       wide) has its root at x uniform in [0.08, 0.12] (`HOOK_X_LOW`, `HOOK_X_SPAN`), y uniform in
       [-0.16, -0.10] (`HOOK_Y_LOW`, `HOOK_Y_SPAN`), height uniform in [0.38, 0.41] (`HOOK_HEIGHT_LOW`,
@@ -95,17 +92,13 @@ class HangTowelOnHookHandsEnv(ManiLadderEnv):
         self.hook = build_wall_hook(self.scene, "hook", self.hook_length, self.HOOK_RADIUS, self.HOOK_TILT,
                                     self.BOARD_HALF,
                                     (below, self.BOARD_ABOVE), HOOK_COLOR)
-        self.memory.flag("towel_held")  # both hands held a towel particle at the same step
+        self.memory.flag("towel_held")  # both hands held a corner or the loop at the same step
 
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            centre = torch.stack([torch.rand(b) * BETWEEN_HANDS_X_SPAN + BETWEEN_HANDS_X_LOW,
-                                  torch.rand(b) * BETWEEN_HANDS_Y_SPAN + BETWEEN_HANDS_Y_LOW,
-                                  torch.full((b,), self.cloth_config.radius)], dim=1)
-            yaw = TOWEL_YAW_MIN + torch.rand(b) * (TOWEL_YAW_MAX - TOWEL_YAW_MIN) + np.pi
-            self.towel.set_rest_shape(Pose.create_from_pq(centre, yaw_quat(yaw)))
+            lay_between_hands(self.towel, b, turn=np.pi)  # the loop's corner (+x, +y) the right hand's
             root = torch.stack([torch.rand(b) * self.HOOK_X_SPAN + self.HOOK_X_LOW,
                                 torch.rand(b) * self.HOOK_Y_SPAN + self.HOOK_Y_LOW,
                                 torch.rand(b) * self.HOOK_HEIGHT_SPAN + self.HOOK_HEIGHT_LOW], dim=1)
