@@ -970,3 +970,24 @@ def test_rope_coiled_on_the_spool_by_construction():
             assert 2.0 < turns < 2.5
     finally:
         env.close()
+
+
+def test_cord_links_bend_with_the_cord_drive_and_sheet_links_with_the_sheet_drive():
+    """`ClothConfig.cord_bend_stiffness` / `cord_bend_damping` set the angular drives of the links with a cord
+    particle (HangTowelOnHookHands' stiff corner loop) and leave every sheet link's at `bend_stiffness`; a config
+    without them (0) bends cord links like the sheet (every other cloth task)."""
+    env = gym.make("ManiLadder-HangTowelOnHookHands-v1", obs_mode="state")
+    towel = env.unwrapped.towel
+    config, layout = towel.config, towel.layout
+    assert config.cord_bend_stiffness > 10 * config.bend_stiffness
+    kinds = set()
+    for (i, j), drive in zip(layout.links, towel.drives):
+        stiffness, damping = drive._objs[0].get_drive_property_slerp()[:2]
+        cord = i in layout.cords or j in layout.cords
+        kinds.add(cord)
+        expected = (config.cord_bend_stiffness, config.cord_bend_damping) if cord else (
+            config.bend_stiffness, config.bend_damping)
+        assert (stiffness, damping) == pytest.approx(expected, rel=1e-5), (i, j)
+    assert kinds == {True, False}
+    env.close()
+    assert cloth.ClothConfig().cord_bend_stiffness == 0.0  # the default: cords bend like the sheet

@@ -73,7 +73,11 @@ class ClothConfig:
     (one island) a control step takes 2.4x as long (80 vs 191 steps/s); a resting towel is unaffected.
     max_depenetration_velocity (m/s; 0: PhysX's default, unlimited) stays uncapped: capping it at
     1 m/s, as the rope does, let the fingers close through the particles (2/8 held).
-    max_linear_velocity (m/s; 0: unlimited) caps a particle's speed."""
+    max_linear_velocity (m/s; 0: unlimited) caps a particle's speed.
+
+    cord_bend_stiffness, cord_bend_damping (0: bend_stiffness, bend_damping): the angular drives of the links
+    with a cord particle (`ClothLayout.cords`: a bag's handles, a towel's loop), so a loop can keep its shape
+    (a stiff hanging ring) while the sheet stays soft."""
 
     spacing: float = 0.025
     radius: float = 0.008
@@ -87,6 +91,8 @@ class ClothConfig:
     solver_position_iterations: int = 40
     max_depenetration_velocity: float = 0.0
     max_linear_velocity: float = 0.0
+    cord_bend_stiffness: float = 0.0
+    cord_bend_damping: float = 0.0
     color: tuple = (0.2, 0.55, 0.75, 1)
     border_color: tuple = (0.95, 0.95, 0.95, 1)
 
@@ -370,19 +376,26 @@ def build_cloth(scene: ManiSkillScene, name: str, layout: ClothLayout, config: C
                 body.set_max_depenetration_velocity(config.max_depenetration_velocity)
             if config.max_linear_velocity:
                 body.set_max_linear_velocity(config.max_linear_velocity)
-    drives = [_link(scene, spheres, layout.positions, i, j, config) for i, j in layout.links]
+    drives = [_link(scene, spheres, layout.positions, i, j, config, cord=i in layout.cords or j in layout.cords)
+              for i, j in layout.links]
     return Cloth(spheres, name, drives, layout, config)
 
 
-def _link(scene: ManiSkillScene, particles: list[Actor], rest: np.ndarray, i: int, j: int, config: ClothConfig):
-    """A D6 drive between particles i and j with both frames at their rest midpoint."""
+def _link(scene: ManiSkillScene, particles: list[Actor], rest: np.ndarray, i: int, j: int, config: ClothConfig,
+          cord: bool = False):
+    """A D6 drive between particles i and j with both frames at their rest midpoint (`cord`: a link of a cord
+    particle, bent with the config's cord drive where it sets one)."""
     mid = (rest[i] + rest[j]) / 2
     drive = scene.create_drive(particles[i], sapien.Pose(p=mid - rest[i]), particles[j], sapien.Pose(p=mid - rest[j]))
     drive.set_drive_property_x(config.stretch_stiffness, config.stretch_damping)
     drive.set_drive_property_y(config.stretch_stiffness, config.stretch_damping)
     drive.set_drive_property_z(config.stretch_stiffness, config.stretch_damping)
     for component in drive._objs:  # ManiSkill's Drive wraps only the linear drive properties
-        component.set_drive_property_slerp(config.bend_stiffness, config.bend_damping)
+        stiffness, damping = config.bend_stiffness, config.bend_damping
+        if cord:
+            stiffness = config.cord_bend_stiffness or stiffness
+            damping = config.cord_bend_damping or damping
+        component.set_drive_property_slerp(stiffness, damping)
     return drive
 
 

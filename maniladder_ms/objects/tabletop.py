@@ -304,3 +304,40 @@ def build_standing_ring(scene: ManiSkillScene, name: str, inner_radius: float, t
             builder.add_box_visual(post, half_size=size, material=material)
     builder.initial_pose = sapien.Pose()
     return builder.build_kinematic(name=name)
+
+
+def wall_hook_axis(tilt: float) -> tuple[float, float, float]:
+    """The direction `build_wall_hook`'s shaft points (out of its board, towards the tip) in the hook's frame."""
+    return (-float(np.cos(tilt)), 0.0, float(np.sin(tilt)))
+
+
+def build_wall_hook(scene: ManiSkillScene, name: str, shaft_length: float, shaft_radius: float, tilt: float,
+                    board_half: tuple[float, float], board_span: tuple[float, float], color, knob_radius: float = 0.0,
+                    friction: float = 1.0) -> "Actor":
+    """A fixed (kinematic) wall hook: a straight round shaft `shaft_length` long and of radius `shaft_radius`,
+    sticking out of the front face (towards -x) of an upright board, pitched `tilt` rad up from -x (its axis
+    (-cos tilt, 0, sin tilt), `wall_hook_axis`), and ending in a ball `knob_radius` (0: none) at its tip. The
+    actor origin is the shaft's root (on the board's front face, on its axis); the tip's centre is at
+    `shaft_length` times the axis. The board (`board_half`: its x, y half sizes) spans `board_span` =
+    (below, above) the shaft's axis: placed with its bottom in the table, it stands on it."""
+    builder = scene.create_actor_builder()
+    material = physx.PhysxMaterial(friction, friction, 0.0)
+    mat = sapien.render.RenderMaterial(base_color=list(color), roughness=0.5) if scene.can_render() else None
+    below, above = board_span
+    board_size = [board_half[0], board_half[1], (below + above) / 2]
+    board = sapien.Pose(p=[board_half[0], 0, (above - below) / 2])
+    axis = np.asarray(wall_hook_axis(tilt))
+    # SAPIEN cylinders lie along x: turned about y by the tilt, along the shaft's axis
+    shaft = sapien.Pose(p=axis * shaft_length / 2, q=[np.cos(tilt / 2), 0, np.sin(tilt / 2), 0])
+    knob = sapien.Pose(p=axis * shaft_length)
+    builder.add_box_collision(board, half_size=board_size, material=material)
+    builder.add_cylinder_collision(shaft, radius=shaft_radius, half_length=shaft_length / 2, material=material)
+    if knob_radius:
+        builder.add_sphere_collision(knob, radius=knob_radius, material=material)
+    if mat is not None:
+        builder.add_box_visual(board, half_size=board_size, material=mat)
+        builder.add_cylinder_visual(shaft, radius=shaft_radius, half_length=shaft_length / 2, material=mat)
+        if knob_radius:
+            builder.add_sphere_visual(knob, radius=knob_radius, material=mat)
+    builder.initial_pose = sapien.Pose()
+    return builder.build_kinematic(name=name)

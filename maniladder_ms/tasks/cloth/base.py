@@ -30,11 +30,12 @@ def side_corners(layout: cloth.ClothLayout) -> dict[str, int]:
     return {"left": corners[int(np.argmax(along))], "right": corners[int(np.argmin(along))]}
 
 
-def lay_between_hands(towel: cloth.Cloth, b: int):
+def lay_between_hands(towel: cloth.Cloth, b: int, turn: float = 0.0):
     """Lay `towel` flat for `b` envs being reset (in the env's torch device context), one corner towards each
-    hand: centre x uniform in [-0.14, -0.06], y in [-0.03, 0.03], yaw uniform in [TOWEL_YAW_MIN, TOWEL_YAW_MAX]."""
+    hand: centre x uniform in [-0.14, -0.06], y in [-0.03, 0.03], yaw uniform in [TOWEL_YAW_MIN, TOWEL_YAW_MAX]
+    plus `turn` (a half turn swaps the hands' corners: `side_corners` then names them the other way round)."""
     centre = torch.stack([torch.rand(b) * BETWEEN_HANDS_X_SPAN + BETWEEN_HANDS_X_LOW,
                           torch.rand(b) * BETWEEN_HANDS_Y_SPAN + BETWEEN_HANDS_Y_LOW,
                           torch.full((b,), towel.config.radius)], dim=1)
-    yaw = TOWEL_YAW_MIN + torch.rand(b) * (TOWEL_YAW_MAX - TOWEL_YAW_MIN)
+    yaw = TOWEL_YAW_MIN + torch.rand(b) * (TOWEL_YAW_MAX - TOWEL_YAW_MIN) + turn
     towel.set_rest_shape(Pose.create_from_pq(centre, yaw_quat(yaw)))
