@@ -19,7 +19,7 @@ from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.bimanual import close_hands
 from maniladder_ms.solvers.driven import DrivenSolver
 from maniladder_ms.solvers.twist import is_wound_up, unscrew
-from maniladder_ms.tasks.articulated.unscrew_cap.open_jar_hands import HOLDER, TWISTER, OpenJarHandsEnv
+from maniladder_ms.tasks.articulated.unscrew_cap.open_jar_hands import HOLDER, TWISTER
 from maniladder_ms.solvers.postures import LEAP_SYNERGIES
 from maniladder_ms.solvers.side_grasps import LINE_UP_ABOVE, SIDE_PRESHAPE_STEPS, lined_up_side_grasp
 
@@ -53,18 +53,18 @@ BACK_MARGIN = 1.2
 # ~1 rad longer than it needs to be (the two-stroke episodes take 501-657 steps)
 
 
-@register_solver("OpenJarHands", control_modes=TCP_DELTA_MODES)
-def solve_open_jar_hands(env, seed: int) -> dict:
-    """Left: side grasp on the jar's body from the ready pose; right: rise, wind the wrist up above the lid,
-    then rim-grasp twist strokes until the lid is off."""
+def hold_and_twist(env, seed: int, rim_offset, **strokes) -> dict:
+    """The two-hand UnscrewCap solvers' phases: left, side grasp on the vessel's body from the ready pose; right,
+    rise, wind the wrist up above the lid, then rim-grasp twist strokes (`twist.unscrew`, with `strokes`: follow,
+    back_margin, max_strokes) until the lid is off."""
     with DrivenSolver.episode(env, seed) as s:
-        task: OpenJarHandsEnv = env.unwrapped
+        task = env.unwrapped
         hold, _ = lined_up_side_grasp(f"{HOLDER}_arm", f"{HOLDER}_hand", task.jar.pose.p, HOLD_GRASP)
         twist_arm = f"{TWISTER}_arm"
         s.set_ee(hold.ee, HOLD_GRASP["approach"], steps=0)
         for k in range(WIND_UP_STEPS):
             target = (s.above(hold.lined_up[0], LINE_UP_ABOVE), hold.q) if k < SIDE_PRESHAPE_STEPS else hold.lined_up
-            errs = s.step({hold.arm: target, twist_arm: wind_up_above_lid(s, task, twist_arm, RIM_OFFSET)})
+            errs = s.step({hold.arm: target, twist_arm: wind_up_above_lid(s, task, twist_arm, rim_offset)})
             ep, _ = errs[twist_arm]
             hp, _ = errs[hold.arm]
             if (k >= SIDE_PRESHAPE_STEPS and bool((ep < READY_POS_TOL).all() and (hp < READY_POS_TOL).all())
@@ -72,9 +72,16 @@ def solve_open_jar_hands(env, seed: int) -> dict:
                 break
         s.move({hold.arm: (hold.p, hold.q)}, max_steps=MOVE_IN_STEPS, pos_tol=MOVE_IN_POS_TOL)
         close_hands(s, {hold.ee: HOLD_GRASP["close"]}, ramp_steps=HOLD_CLOSE_STEPS)
-        unscrew(s, task, twist_arm, f"{TWISTER}_hand", offset=RIM_OFFSET, synergy=RIM_CLOSE, ramp_steps=RAMP_STEPS,
-                preshape=RIM_OPEN, follow=FOLLOW, measured_axis=True,
-                rise_back=RISE_BACK, release_steps=RELEASE_STEPS, still_release=True, back_margin=BACK_MARGIN,
-                soft_end=True, stop_on_release=True, hold_gain=HOLD_GAIN, release_pose=RIM_OPEN)
+        unscrew(s, task, twist_arm, f"{TWISTER}_hand", offset=rim_offset, synergy=RIM_CLOSE, ramp_steps=RAMP_STEPS,
+                preshape=RIM_OPEN, measured_axis=True, rise_back=RISE_BACK, release_steps=RELEASE_STEPS,
+                still_release=True, soft_end=True, stop_on_release=True, hold_gain=HOLD_GAIN, release_pose=RIM_OPEN,
+                **strokes)
         s.hold_until_success()
         return s.info
+
+
+@register_solver("OpenJarHands", control_modes=TCP_DELTA_MODES)
+def solve_open_jar_hands(env, seed: int) -> dict:
+    """Left: side grasp on the jar's body from the ready pose; right: rise, wind the wrist up above the lid,
+    then rim-grasp twist strokes until the lid is off (`hold_and_twist`)."""
+    return hold_and_twist(env, seed, RIM_OFFSET, follow=FOLLOW, back_margin=BACK_MARGIN)
