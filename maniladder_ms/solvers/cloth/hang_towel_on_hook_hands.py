@@ -24,6 +24,7 @@ import torch
 from mani_skill.utils.geometry.rotation_conversions import quaternion_multiply
 
 from maniladder_ms.deformables import cloth
+from maniladder_ms.geometry import yaw_quat
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.bimanual import Grasp, glide
 from maniladder_ms.solvers.driven import DrivenSolver
@@ -72,10 +73,7 @@ def turn_ring(s: DrivenSolver, task: HangTowelOnHookHandsEnv, grasp: Grasp, acti
         q7 = robot.get_qpos()[:, joint7]
         reach = JOINT7_LIMIT - JOINT7_MARGIN
         turn = torch.where(q7 - turn > reach, turn + torch.pi, torch.where(q7 - turn < -reach, turn - torch.pi, turn))
-        turn = turn * active
-        half = turn / 2
-        zero = torch.zeros_like(half)
-        q = quaternion_multiply(torch.stack([torch.cos(half), zero, zero, torch.sin(half)], dim=1), q)
+        q = quaternion_multiply(yaw_quat(turn * active), q)
         s.move({grasp.arm: (s.tcp(grasp.arm).p.clone(), q)}, max_steps=TURN_STEPS)
         for _ in range(TURN_SETTLE):
             s.step()
