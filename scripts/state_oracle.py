@@ -108,27 +108,42 @@ class StateOraclePolicy:
         return self.policy.act(state, generator=self.generator, noise=self.noise).numpy()
 
 
-def train_oracle(task: str, features_path: Path, demo_h5: Path, steps: int, num_demos: int = 20, progress=False):
-    """Train the state oracle on a calibration's demos (the frames its features hold): (StateOraclePolicy, demos
-    that replay to success from their joint targets, episodes trained on)."""
+def oracle_env(task: str, meta: dict):
+    """A state-obs env of `task` acting in joint targets, with the demo file's (`meta`) other env kwargs."""
     import maniladder_ms
-    from maniladder_ms.demos.files import load_demo_json, replay_env_kwargs
+    from maniladder_ms.demos.files import replay_env_kwargs
     from maniladder_ms.policy.calibrate import POLICY_CONTROL_MODE
+
+    return maniladder_ms.make(task, obs_mode="state", control_mode=POLICY_CONTROL_MODE, **{
+        k: v for k, v in replay_env_kwargs(meta).items() if k != "control_mode"})
+
+
+def fit_oracle(task: str, episodes: list, steps: int, noise: float = 1.0, progress=False):
+    """Train the LadderFlow network on (states, actions, frames) episodes, states normalised per dimension:
+    (StateOraclePolicy, trainer, losses)."""
     from maniladder_ms.policy.flow import LadderFlowConfig, LadderFlowTrainer
 
-    features, meta = np.load(features_path), load_demo_json(Path(demo_h5))
-    env = maniladder_ms.make(task, obs_mode="state", control_mode=POLICY_CONTROL_MODE, **{
-        k: v for k, v in replay_env_kwargs(meta).items() if k != "control_mode"})
-    try:
-        episodes, replayed = state_episodes(env, features, meta, num_demos)
-    finally:
-        env.close()
     states = torch.cat([e[0] for e in episodes])
     mean, std = states.mean(0), states.std(0).clamp(min=1e-2)  # near-constant dims are not blown up
     episodes = [((s - mean) / std, a, f) for s, a, f in episodes]
     trainer = LadderFlowTrainer(LadderFlowConfig(keypoints=0, grid=1, train_steps=steps), episodes)
-    trainer.train(steps, progress=progress)
-    return StateOraclePolicy(task, trainer.policy(), mean, std), replayed, len(episodes)
+    losses = trainer.train(steps, progress=progress)
+    return StateOraclePolicy(task, trainer.policy(), mean, std, noise), trainer, losses
+
+
+def train_oracle(task: str, features_path: Path, demo_h5: Path, steps: int, num_demos: int = 20, progress=False):
+    """Train the state oracle on a calibration's demos (the frames its features hold): (StateOraclePolicy, demos
+    that replay to success from their joint targets, episodes trained on)."""
+    from maniladder_ms.demos.files import load_demo_json
+
+    features, meta = np.load(features_path), load_demo_json(Path(demo_h5))
+    env = oracle_env(task, meta)
+    try:
+        episodes, replayed = state_episodes(env, features, meta, num_demos)
+    finally:
+        env.close()
+    policy, _, _ = fit_oracle(task, episodes, steps, progress=progress)
+    return policy, replayed, len(episodes)
 
 
 def main(argv=None):
@@ -143,10 +158,11 @@ def main(argv=None):
     ap.add_argument("--num-demos", type=int, default=None, help="with --demo-file: its first N episodes (default 20)")
     args = ap.parse_args(argv)
 
+    import types
+
     import maniladder_ms
-    from maniladder_ms.demos.files import demo_path, load_demo_json, replay_env_kwargs
-    from maniladder_ms.policy.calibrate import POLICY_CONTROL_MODE, CalibrationProtocol, demo_control_mode_for
-    from maniladder_ms.policy.flow import LadderFlowConfig, LadderFlowTrainer
+    from maniladder_ms.demos.files import demo_path, load_demo_json
+    from maniladder_ms.policy.calibrate import CalibrationProtocol, demo_control_mode_for
     from tqdm import tqdm
 
     torch.set_num_threads(1)
@@ -162,41 +178,33 @@ def main(argv=None):
             sys.exit(f"{work}/features.npz not found: run `maniladder calibrate --tasks {args.task} --work {args.work}` first")
         features = np.load(work / "features.npz")
         meta = load_demo_json(demo_path(work / "demos", args.task, "none", demo_control_mode_for(args.task)))
-    env = maniladder_ms.make(args.task, obs_mode="state", control_mode=POLICY_CONTROL_MODE, **{
-        k: v for k, v in replay_env_kwargs(meta).items() if k != "control_mode"})
+    env = oracle_env(args.task, meta)
     if args.demo_file:
         episodes, replayed = file_episodes(env, args.demo_file, meta, args.num_demos or CalibrationProtocol().demos)
     else:
         episodes, replayed = state_episodes(env, features, meta, CalibrationProtocol().demos)
     print(f"{args.task}: {replayed}/{len(episodes)} demos replay to success from their joint targets")
-    states = torch.cat([e[0] for e in episodes])
-    mean, std = states.mean(0), states.std(0).clamp(min=1e-2)  # near-constant dims are not blown up
-    episodes = [((s - mean) / std, a, f) for s, a, f in episodes]
-    trainer = LadderFlowTrainer(LadderFlowConfig(keypoints=0, grid=1, train_steps=args.steps), episodes)
-    losses = trainer.train(args.steps, progress=True)
+    oracle, trainer, losses = fit_oracle(args.task, episodes, args.steps, noise=args.noise, progress=True)
     print(f"loss: first 50 steps {np.mean(losses[:50]):.3f}, last 200 {np.mean(losses[-200:]):.3f}")
     if args.out:
-        trainer.save(args.out, meta={"task": args.task, "state_mean": mean, "state_std": std})
-    policy, generator = trainer.policy(), torch.Generator()
-    horizon = maniladder_ms.default_catalog().get(args.task).horizon
+        trainer.save(args.out, meta={"task": args.task, "state_mean": oracle.mean, "state_std": oracle.std})
+    spec = maniladder_ms.default_catalog().get(args.task)
     successes = []
     for k in tqdm(range(args.episodes), desc="evaluate"):
         seed = SELECTION_SEED_BASE + k
         obs, _ = env.reset(seed=seed)
-        generator.manual_seed(seed)
+        oracle.reset(types.SimpleNamespace(seed=seed))
         steps, done = 0, False
-        while steps < horizon and not done:
-            state = ((obs[0].float() - mean) / std).reshape(1, -1)  # one observation token
-            for a in policy.act(state, generator=generator, noise=args.noise):
-                obs, _, _, _, info = env.step(a[None])
+        while steps < spec.horizon and not done:
+            for a in oracle(obs, spec):
+                obs, _, _, _, info = env.step(np.asarray(a)[None])
                 steps += 1
                 done = bool(info["success"][0])
-                if done or steps >= horizon:
+                if done or steps >= spec.horizon:
                     break
         successes.append(done)
     print(f"STATE ORACLE {args.task}: {sum(successes)}/{len(successes)} on selection seeds "
           f"(noise {args.noise}, {args.steps} steps, {len(episodes)} demos)")
-
 
 if __name__ == "__main__":
     main()
