@@ -152,7 +152,9 @@ def run_unit(task: str, arm: str, work: Path) -> dict:
         tc, _ = calibration(task, work, "v4")
         policy, replayed, n = train_oracle(task, tc.features_path, tc.demo_h5, V4_STEPS, num_demos=DEMOS)
         c1, t1 = time.process_time(), time.perf_counter()
-        summary = evaluate(policy, work / "oracle" / task, tasks=[task], episodes=EPISODES, seed=1, progress=False,
+        # keyed like the calibrations' folders: a changed task or schedule never resumes another policy's episodes
+        folder = work / "oracle" / task / tc.task_hash / f"steps_{V4_STEPS}"
+        summary = evaluate(policy, folder, tasks=[task], episodes=EPISODES, seed=1, progress=False,
                            bootstrap=0)["tasks"][task]
         cpu = {"train": round(c1 - c0, 1), "evaluate": round(time.process_time() - c1, 1)}
         wall = {"train": round(t1 - t0, 1), "evaluate": round(time.perf_counter() - t1, 1)}
