@@ -46,7 +46,8 @@ install_system_packages() {
 
 install_python_packages() {
   [ -x .venv/bin/python ] || python3 -m venv .venv
-  .venv/bin/pip install -q --upgrade pip==24.3.1 setuptools==75.6.0 wheel==0.45.1
+  # setuptools pinned at a version torch 2.13 accepts (it requires >= 77.0.3), so torch's install leaves it alone
+  .venv/bin/pip install -q --upgrade pip==24.3.1 setuptools==84.2.1 wheel==0.45.1
   # torch first and pinned: this exact version is the CPU build on local disk; anything looser
   # lets mani-skill's dependency pull a multi-GB CUDA build.
   .venv/bin/pip install -q torch==2.13.0
