@@ -4,14 +4,15 @@ seeds (`maniladder eval --seed 1`: 1,010,000 + k, k < 50):
 
 - `v4`      the v4 candidate: LadderFlow with `V4_STEPS` training steps (a complete cosine schedule), one
             checkpoint, one training seed;
+- `v4k2`    the first candidate, 2000 steps (lost to v3's schedule: see `V4_STEPS`);
 - `v3`      v3's schedule on the same network: 8000 steps, its last checkpoint (v3 also ran a 10-episode
             selection between the 4000- and 8000-step checkpoints; it kept 8000 in 9 of its 10 L1 runs);
 - `oracle`  the 20-demo state oracle (`scripts/state_oracle.py`): the same network and schedule as `v4`, fed the
-            privileged state instead of images;
+            privileged state instead of images (`oraclek2`: at 2000 steps);
 - `v4s1`, `v4s2`  the v4 candidate's training seeds 1 and 2 on `SPREAD_TASKS` (the spread over training seeds);
-- `v4k4`    the v4 candidate at 4000 steps (after v3's schedule beat the 2000-step one on LiftBottleHand);
+- `v4b32`   the v4 candidate with half its batch (32): half the training arithmetic, the remaining cost lever on a CPU;
 - `v4h2`, `v4aug`, `v4lite1`  the v4 candidate with observation history 2, random-shift augmentation, the Lite1
-            encoder (`ITEM5_TASKS`: the instrument choices of item 5).
+            encoder (`ITEM5_TASKS`: the instrument choices of item 5); `v4k2h2`, `v4k2aug` the same at 2000 steps.
 
 Each (task, arm) is one unit whose result is written to `--out/<task>.<arm>.json` (success, per-episode records'
 summary, CPU and wall seconds per stage, task hash, commit); a unit with a result is not run again, so the job
@@ -48,7 +49,10 @@ L2_TASKS = ["InsertPegInHole", "PlaceMugOnCoasterHand", "InsertPegBimanual", "Ca
             "RopeIntoGroove"]  # one per suite: rigid SG, SX, DG, DX; deformable SG, DG
 TASKS = L1_TASKS + L2_TASKS
 SPREAD_TASKS = ["LiftWideBox", "LiftBottleHand", "InsertPegInHole"]
-V4_STEPS = 2000
+# the v4 schedule, paired with v3's 8000 steps (same demos, features, development seeds): LiftBottleHand 31/50 at
+# 4000, 32/50 at 8000, 10/50 at 2000 (so 2000 steps, the first candidate, is `v4k2`)
+V4_STEPS = 4000
+K2_STEPS = 2000
 V3_STEPS = 8000
 EPISODES = 50
 DEMOS = 20
@@ -61,34 +65,37 @@ ITEM5_ARMS = ("v4aug", "v4h2", "v4lite1")
 # v3's schedule (3.5 h of CPU a task at 4 times v4's steps) on six tasks, paired with v4: the cost and "no loss"
 # evidence; the other L1 tasks' v3 column is their recorded v3 result
 V3_TASKS = ["LiftBottleHand", "PickPlacePen", "LiftWideBox", "DragRopeToGoal", "InsertPegInHole", "RopeIntoGroove"]
-# arm -> (work folder, LadderFlowConfig changes, training seed); "oracle" is the state oracle
-ARMS = {"v4": ("v4", {"train_steps": V4_STEPS}, 0), "v3": ("v3", {"train_steps": V3_STEPS}, 0),
-        "v4s1": ("v4", {"train_steps": V4_STEPS}, 1), "v4s2": ("v4", {"train_steps": V4_STEPS}, 2),
-        "v4h2": ("v4h2", {"train_steps": V4_STEPS, "history": 2}, 0),
-        "v4aug": ("v4aug", {"train_steps": V4_STEPS, "augment_copies": 2, "augment_shift": 8}, 0),
-        "v4lite1": ("v4lite1", {"train_steps": V4_STEPS, "encoder": "efficientnet-lite1-s16"}, 0),
-        "v4k4": ("v4k4", {"train_steps": 2 * V4_STEPS}, 0)}
-# v3's schedule on LiftBottleHand: 32/50 against the 2000-step candidate's 10/50 (same demos, features, seeds), so
-# the next candidate, 4000 steps (a complete schedule), is tried first where v3's schedule has a paired result
+AUGMENT = {"augment_copies": 2, "augment_shift": 8}
+# arm -> (work folder, LadderFlowConfig changes, training seed); the state oracle's arms are `ORACLE_ARMS`
+ARMS = {"v4": ("v4k4", {"train_steps": V4_STEPS}, 0), "v3": ("v3", {"train_steps": V3_STEPS}, 0),
+        "v4s1": ("v4k4", {"train_steps": V4_STEPS}, 1), "v4s2": ("v4k4", {"train_steps": V4_STEPS}, 2),
+        "v4b32": ("v4b32", {"train_steps": V4_STEPS, "batch_size": 32}, 0),
+        "v4h2": ("v4k4h2", {"train_steps": V4_STEPS, "history": 2}, 0),
+        "v4aug": ("v4k4aug", {"train_steps": V4_STEPS, **AUGMENT}, 0),
+        "v4lite1": ("v4k4lite1", {"train_steps": V4_STEPS, "encoder": "efficientnet-lite1-s16"}, 0),
+        "v4k2": ("v4", {"train_steps": K2_STEPS}, 0),
+        "v4k2h2": ("v4h2", {"train_steps": K2_STEPS, "history": 2}, 0),
+        "v4k2aug": ("v4aug", {"train_steps": K2_STEPS, **AUGMENT}, 0)}
+ORACLE_ARMS = {"oracle": V4_STEPS, "oraclek2": K2_STEPS}  # arm -> training steps
+PREPARE_ARM = "v4k2"  # its folder holds each task's demos and features, made once and shared by every arm
+# the schedule's paired evidence and the batch lever, first on the tasks with a v3 result
 STEPS_TASKS = ["LiftBottleHand", "PickPlacePen", "LiftWideBox"]
 ENCODING_FIELDS = {"encoder", "image_size", "cameras", "augment_copies", "augment_shift"}  # arms with their own features
 
 
 def units() -> list[tuple[str, str]]:
-    """In the order they are run: the instrument choices (item 5) first, on their six tasks, with v4, the oracle and
-    v3's schedule on the first of them (the paired cost evidence); then v4 and the oracle on the other tasks, v3's
-    schedule on its other tasks, the training-seed spread."""
+    """In the order they are run: what the protocol's choices wait for first (the schedule's pairs with v3, the batch
+    lever, augmentation and Lite1 on three of item 5's tasks), then v4 and the oracle on all 16 tasks, v3's schedule
+    on its other tasks, the training-seed spread, the rest of item 5."""
     base = ("v4", "oracle")
-    order = [("LiftBottleHand", "v4k4"), ("PickPlacePen", "v4"), ("PickPlacePen", "v3"), ("PickPlacePen", "v4k4")]
-    order += [("LiftWideBox", a) for a in base]
-    for k, t in enumerate(ITEM5_TASKS):
-        order += [(t, a) for a in base + ITEM5_ARMS]
-        if k < 2:
-            order.append((t, "v3"))
-    order += [(t, a) for t in TASKS if t not in ITEM5_TASKS + ["LiftWideBox"] for a in base]
-    order += [(t, "v3") for t in V3_TASKS if (t, "v3") not in order]
+    order = [("PickPlacePen", a) for a in ("v4", "v3")]
+    order += [(t, "v4b32") for t in STEPS_TASKS[:2]]
+    order += [(t, a) for t in ITEM5_TASKS[:3] for a in ("v4", "v4aug", "v4lite1")]
+    order += [(t, a) for t in TASKS for a in base]
+    order += [(t, "v3") for t in V3_TASKS]
     order += [(t, f"v4s{k}") for k in (1, 2) for t in SPREAD_TASKS]
-    order += [(t, "v4k4") for t in STEPS_TASKS]
+    order += [(t, a) for t in ITEM5_TASKS for a in ITEM5_ARMS]
+    order += [(t, "v4b32") for t in STEPS_TASKS]
     return list(dict.fromkeys(order))  # each unit once, at its first place
 
 
@@ -116,7 +123,8 @@ def calibration(task: str, work: Path, arm: str):
 
     folder, changes, seed = ARMS[arm]
     protocol = CalibrationProtocol(demos=DEMOS, purpose="development", episodes=EPISODES, checkpoints=1)
-    tc = TaskCalibration(task, work / folder, work / "results-unused", demos_dir=work / "v4" / task / "demos",
+    demos = work / ARMS[PREPARE_ARM][0] / task / "demos"
+    tc = TaskCalibration(task, work / folder, work / "results-unused", demos_dir=demos,
                          config=LadderFlowConfig(**changes), protocol=protocol, progress=False)
     return tc, seed
 
@@ -130,7 +138,7 @@ def prepared(task: str, work: Path) -> None:
     with claimed(work / "locks" / f"{task}.prepare", block=False) as mine:
         if not mine:
             raise Busy(task)
-        tc, _ = calibration(task, work, "v4")
+        tc, _ = calibration(task, work, PREPARE_ARM)
         tc.prepare()
         for arm, (_, changes, _) in ARMS.items():  # the same features, or the same renders to encode again
             other, _ = calibration(task, work, arm)
@@ -145,20 +153,21 @@ def run_unit(task: str, arm: str, work: Path) -> dict:
     import torch
 
     t0, c0 = time.perf_counter(), time.process_time()
-    if arm == "oracle":
+    if arm in ORACLE_ARMS:
         from maniladder_ms.evaluation.runner import evaluate
         from state_oracle import train_oracle
 
-        tc, _ = calibration(task, work, "v4")
-        policy, replayed, n = train_oracle(task, tc.features_path, tc.demo_h5, V4_STEPS, num_demos=DEMOS)
+        steps = ORACLE_ARMS[arm]
+        tc, _ = calibration(task, work, PREPARE_ARM)
+        policy, replayed, n = train_oracle(task, tc.features_path, tc.demo_h5, steps, num_demos=DEMOS)
         c1, t1 = time.process_time(), time.perf_counter()
         # keyed like the calibrations' folders: a changed task or schedule never resumes another policy's episodes
-        folder = work / "oracle" / task / tc.task_hash / f"steps_{V4_STEPS}"
+        folder = work / "oracle" / task / tc.task_hash / f"steps_{steps}"
         summary = evaluate(policy, folder, tasks=[task], episodes=EPISODES, seed=1, progress=False,
                            bootstrap=0)["tasks"][task]
         cpu = {"train": round(c1 - c0, 1), "evaluate": round(time.process_time() - c1, 1)}
         wall = {"train": round(t1 - t0, 1), "evaluate": round(time.perf_counter() - t1, 1)}
-        extra = {"demos_replayed": replayed, "demos": n, "config": {"train_steps": V4_STEPS, "obs": "state"}}
+        extra = {"demos_replayed": replayed, "demos": n, "config": {"train_steps": steps, "obs": "state"}}
         task_hash = tc.task_hash
     else:
         tc, seed = calibration(task, work, arm)
@@ -172,7 +181,7 @@ def run_unit(task: str, arm: str, work: Path) -> dict:
                      for a, b in zip(after, before))
         extra = {"config": tc.config.as_dict(), "training_seed": seed, "resumed_training": resumed}
         task_hash = tc.task_hash
-    shared, _ = calibration(task, work, "v4")
+    shared, _ = calibration(task, work, PREPARE_ARM)
     return {"task": task, "arm": arm, "successes": summary["successes"], "episodes": summary["episodes"],
             "success": summary["rate"], "mean_steps": summary.get("mean_steps"), "seed_set": 1,
             "cpu_s": cpu, "wall_s": wall, "shared_cpu_s": {k: v for k, v in shared._timings(shared.cpu_timings_path).items()
@@ -255,8 +264,9 @@ def table(out: Path) -> str:
     res = {(p.name.split(".")[0], p.name.split(".")[1]): json.loads(p.read_text()) for p in sorted(out.glob("*.json"))}
     v3_recorded = {t: json.loads((REPO / "docs/calibration" / f"{t}.json").read_text()) for t in L1_TASKS
                    if (REPO / "docs/calibration" / f"{t}.json").is_file()}
-    lines = ["| task | level | v3 recorded (set 0) | v3 schedule (8000) | v4 (2000) | v4 at 4000 | oracle | v4 seeds 0/1/2 | "
-             "history 2 | augmented | Lite1 |", "|---|---|---|---|---|---|---|---|---|---|---|"]
+    lines = [f"| task | level | v3 recorded (set 0) | v3 schedule ({V3_STEPS}) | {K2_STEPS} steps | v4 ({V4_STEPS}) | "
+             "batch 32 | oracle | v4 seeds 0/1/2 | history 2 | augmented | Lite1 |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
 
     def cell(r):
         if not r:
@@ -270,10 +280,14 @@ def table(out: Path) -> str:
         spread = "/".join(f"{r['successes']}" for r in seeds if r) if t in SPREAD_TASKS else ""
         lines.append(f"| {t} | L{cat.get(t).level} | {rec['successes']}/{rec['episodes']} | " if rec else
                      f"| {t} | L{cat.get(t).level} | - | ")
-        lines[-1] += (f"{cell(res.get((t, 'v3')))} | {cell(res.get((t, 'v4')))} | {cell(res.get((t, 'v4k4')))} | "
-                      f"{cell(res.get((t, 'oracle')))} | {spread} | ")
+        lines[-1] += " | ".join(cell(res.get((t, a))) for a in ("v3", "v4k2", "v4", "v4b32", "oracle"))
+        lines[-1] += f" | {spread} | "
         lines[-1] += " | ".join(cell(res.get((t, a))) if t in ITEM5_TASKS else "" for a in ("v4h2", "v4aug", "v4lite1"))
         lines[-1] += " |"
+    shown = {"v3", "v4k2", "v4", "v4b32", "oracle", "v4s1", "v4s2", *ITEM5_ARMS}
+    others = [f"{t} {a}: {cell(r)}" for (t, a), r in sorted(res.items()) if a not in shown]
+    if others:
+        lines.append("\nOther arms: " + "; ".join(others))
     both = [t for t in TASKS if (t, "v4") in res and (t, "oracle") in res]
     if len(both) >= 3:
         tau = kendall_tau([res[(t, "v4")]["success"] for t in both], [res[(t, "oracle")]["success"] for t in both])
@@ -325,9 +339,9 @@ def main(argv=None):
     if unknown:
         sys.exit(f"not among the comparison's tasks: {sorted(unknown)}")
     arms = [a for a in args.arms.split(",") if a]
-    unknown = set(arms) - set(ARMS) - {"oracle"}
+    unknown = set(arms) - set(ARMS) - set(ORACLE_ARMS)
     if unknown:
-        sys.exit(f"unknown arms {sorted(unknown)}; known: {', '.join(list(ARMS) + ['oracle'])}")
+        sys.exit(f"unknown arms {sorted(unknown)}; known: {', '.join(list(ARMS) + list(ORACLE_ARMS))}")
     run(args.work.resolve(), args.out, only, arms)
 
 
