@@ -30,6 +30,9 @@ TRAY_OVERHANG, TRAY_SLAB = 0.04, 0.01  # the floor slab's -y edge this far in fr
 # partial top layer at the far wall: the middle 8 cm (3.3 layers) lost 1-3 beans over the lip in 120 idle steps on
 # each of seeds 100-109, this band 0-1
 PILE_DEPTH, PILE_Y = 0.09, 0.015
+# the pile's lattice, in bean radii (as `particles.pack_in_container`): spacing, clearance from the floor's edges,
+# the first layer's centres above the floor, and the jitter's width
+PILE_SPACING, PILE_CLEARANCE, PILE_LIFT, PILE_JITTER = 2.1, 1.2, 1.05, 0.1
 CUP_DENSITY = 400.0  # a light plastic cup
 # the left holds the cup with the left hand's measured side grasp (`solvers.side_grasps`: left Panda, thumb low,
 # joint 7 >= 0.8 rad from its limits); the right's joint 7 is at its limit for that grasp, so the right scoops
@@ -116,14 +119,14 @@ class CupBeansHandsEnv(ScoopBeansTask, ManiLadderEnv):
         round `PILE_Y` of the tray's floor layer by layer, far rows first, jittered by 0.05 radius (as
         `particles.pack_in_container`)."""
         r = self.bean_radius
-        spacing = 2.1 * r
-        kx, ky = (int((half - 1.2 * r) // spacing) for half in (TRAY_INNER[0], PILE_DEPTH / 2))
+        spacing = PILE_SPACING * r
+        kx, ky = (int((half - PILE_CLEARANCE * r) // spacing) for half in (TRAY_INNER[0], PILE_DEPTH / 2))
         xy = np.stack(np.meshgrid(np.arange(-kx, kx + 1) * spacing, PILE_Y + np.arange(ky, -ky - 1, -1) * spacing), -1).reshape(-1, 2)
         layers = -(-self.bean_count // len(xy))
-        z = np.repeat(TRAY_FLOOR + 1.05 * r + spacing * np.arange(layers), len(xy))[:, None]
+        z = np.repeat(TRAY_FLOOR + PILE_LIFT * r + spacing * np.arange(layers), len(xy))[:, None]
         pts = np.concatenate([np.tile(xy, (layers, 1)), z], axis=1)[: self.bean_count]
         out = torch.tensor(pts, dtype=torch.float32, device=tray.device).expand(len(tray), -1, 3)
-        out = out + (torch.rand(out.shape, device=tray.device) - 0.5) * 0.1 * r
+        out = out + (torch.rand(out.shape, device=tray.device) - 0.5) * PILE_JITTER * r
         return out + tray[:, None]
 
     # ---- what the rule reads --------------------------------------------------------------------------

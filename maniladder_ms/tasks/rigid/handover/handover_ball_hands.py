@@ -25,6 +25,7 @@ BALL_FRICTION = 0.8  # felt
 STAND_RING_RADIUS = 0.02  # to the boxes' centres
 STAND_HEIGHT = 0.015
 STAND_SEGMENTS = 12
+BALL_DROP = 0.001  # the ball starts this far above its rest height in the stand and settles onto it (`place_at_rest`)
 
 
 def build_ball(scene, name: str, color=(0.8, 0.95, 0.2, 1)):
@@ -93,7 +94,7 @@ class HandoverBallHandsEnv(HandoverTask):
             b = len(env_idx)
             xy = torch.stack([uniform(b, self.stand_x_range), uniform(b, self.stand_y_range)], dim=1)
             self.stand.set_pose(Pose.create_from_pq(torch.cat([xy, torch.zeros(b, 1)], dim=1)))
-            ball = torch.cat([xy, torch.full((b, 1), ball_rest_height() + 0.001)], dim=1)
+            ball = torch.cat([xy, torch.full((b, 1), ball_rest_height() + BALL_DROP)], dim=1)
             place_at_rest(self.ball, Pose.create_from_pq(ball))
 
     def _get_obs_extra(self, info: dict):
