@@ -69,7 +69,8 @@ class FlattenClayWithRollerEnv(FlattenClayTask):
             b = len(env_idx)
             centre = self.clay.start[env_idx].mean(dim=1)
             behind_lo, behind_hi = self.pin_behind_range  # drawn as x - low - (high - low) * U
-            p = torch.stack([centre[:, 0] - behind_lo - (behind_hi - behind_lo) * torch.rand(b), uniform(b, self.pin_y_range),
+            p = torch.stack([centre[:, 0] - behind_lo - (behind_hi - behind_lo) * torch.rand(b),
+                             uniform(b, self.pin_y_range),
                              torch.full((b,), self.pin_shape.barrel_radius)], dim=1)
             self.pin.set_pose(Pose.create_from_pq(p, yaw_quat(torch.zeros(b))))
             self.pin.set_linear_velocity(torch.zeros(b, 3))
