@@ -3,7 +3,7 @@
 A task's layout ranges are catalog `params` (SI units, angles in degrees), named by one scheme so that a
 calibration can read, compare and change them across the ladder (docs/calibration/layout-policy.md):
 
-- `<obj>_x_range`, `<obj>_y_range`: [low, high] in m, the object's centre uniform in it (world frame);
+- `<obj>_x_range`, `<obj>_y_range`: [low, high] in m, the object's centre uniform in it (table frame);
 - `<obj>_abs_y_range`: [low, high] in m of |y|, on a random side of the robot's centre line (`sides` 2);
 - `<obj>_dx_range`, `<obj>_dy_range`: [low, high] in m, the object's offset from another object (its docstring
   names which), uniform in it;
