@@ -83,6 +83,7 @@ def cmd_show(args) -> int:
     """Where a task lives: its catalog row (family, params, rendered rule), its env class and solver files."""
     from mani_skill.utils.registration import REGISTERED_ENVS
 
+    from maniladder_ms.layout import format_breadth, object_breadths
     from maniladder_ms.levels import level_label, levels_note
 
     spec = _catalog().get(args.task)
@@ -91,6 +92,9 @@ def cmd_show(args) -> int:
             ("description", spec.description), ("success", spec.success), ("instruction", spec.instruction)]
     rows += [(f"paraphrase {i}", p) for i, p in enumerate(spec.paraphrases, 1)]
     rows += [(f"param {k}", str(v)) for k, v in spec.params.items()]
+    objects = object_breadths(dict(spec.params))
+    if objects:  # the breadth of its layout params (docs/calibration/layout-policy.md)
+        rows.append(("layout", format_breadth(objects)))
     if spec.implemented:
         from maniladder_ms.solvers import solver_for
 

@@ -53,10 +53,10 @@ def shrink_layout_draws(task_id: str, scale: float) -> None:
 
 
 def pick_place_pen_one_side(scale: float) -> None:
-    """Replace PickPlacePen's layout draw in this process: the registered task's ranges (`PickPlacePenEnv.PEN_X`
-    and the rest, drawn in its `_initialize_episode`'s order, so a seed gives the layout the committed pilot result
-    was measured on), each scaled by `scale` about its middle, the pen always on the robot's left (+y) and the tray
-    on its right."""
+    """Replace PickPlacePen's layout draw in this process: the registered task's ranges (its catalog params
+    `pen_x_range` and the rest, drawn in its `_initialize_episode`'s order, so a seed gives the layout the committed
+    pilot result was measured on), each scaled by `scale` about its middle, the pen always on the robot's left (+y)
+    and the tray on its right."""
     from mani_skill.utils.structs.pose import Pose
 
     from maniladder_ms.envs import ManiLadderEnv
@@ -71,10 +71,12 @@ def pick_place_pen_one_side(scale: float) -> None:
             def uniform(lo, hi):
                 return (lo + hi) / 2 + (torch.rand(b) - 0.5) * (hi - lo) * scale
 
-            pen_xyz = torch.stack([uniform(*self.PEN_X), uniform(*self.PEN_ABS_Y), torch.full((b,), self.pen_radius)], 1)
-            self.pen.set_pose(Pose.create_from_pq(pen_xyz, yaw_quat(uniform(0, np.pi))))
-            tray_xyz = torch.stack([uniform(*self.TRAY_X), -uniform(*self.TRAY_ABS_Y), torch.zeros(b)], 1)
-            self.tray.set_pose(Pose.create_from_pq(tray_xyz, yaw_quat(uniform(-self.TRAY_MAX_YAW, self.TRAY_MAX_YAW))))
+            pen_xyz = torch.stack([uniform(*self.pen_x_range), uniform(*self.pen_abs_y_range),
+                                   torch.full((b,), self.pen_radius)], 1)
+            self.pen.set_pose(Pose.create_from_pq(pen_xyz, yaw_quat(uniform(*np.deg2rad(self.pen_yaw_range)))))
+            tray_xyz = torch.stack([uniform(*self.tray_x_range), -uniform(*self.tray_abs_y_range), torch.zeros(b)], 1)
+            max_yaw = np.deg2rad(self.tray_max_yaw)
+            self.tray.set_pose(Pose.create_from_pq(tray_xyz, yaw_quat(uniform(-max_yaw, max_yaw))))
 
     PickPlacePenEnv._initialize_episode = _initialize_episode
 

@@ -216,6 +216,7 @@ def test_randomisation_pilot_draws_pick_place_pen_layouts_from_the_narrowed_rang
     from maniladder_ms.tasks.rigid.pick_place_pen import PickPlacePenEnv
 
     registered = PickPlacePenEnv._initialize_episode
+    params = maniladder_ms.default_catalog().get("PickPlacePen").params
     try:
         randomisation_pilot.pick_place_pen_one_side(scale=0.5)
         env = maniladder_ms.make("PickPlacePen", obs_mode="state")
@@ -223,10 +224,10 @@ def test_randomisation_pilot_draws_pick_place_pen_layouts_from_the_narrowed_rang
         for seed in range(8):
             env.reset(seed=seed)
             pen, tray = task.pen.pose.p[0].tolist(), task.tray.pose.p[0].tolist()
-            assert within(pen[0], halved(PickPlacePenEnv.PEN_X)) and within(pen[1], halved(PickPlacePenEnv.PEN_ABS_Y))
+            assert within(pen[0], halved(params["pen_x_range"])) and within(pen[1], halved(params["pen_abs_y_range"]))
             # the tray on the other side
-            assert within(tray[0], halved(PickPlacePenEnv.TRAY_X)) and within(-tray[1], halved(PickPlacePenEnv.TRAY_ABS_Y))
-            assert abs(actor_yaw(task.tray)) <= PickPlacePenEnv.TRAY_MAX_YAW / 2 + 1e-4
+            assert within(tray[0], halved(params["tray_x_range"])) and within(-tray[1], halved(params["tray_abs_y_range"]))
+            assert abs(actor_yaw(task.tray)) <= np.deg2rad(params["tray_max_yaw"]) / 2 + 1e-4
         env.close()
     finally:
         PickPlacePenEnv._initialize_episode = registered
@@ -240,14 +241,15 @@ def test_randomisation_pilot_shrinks_every_uniform_layout_draw_about_its_middle(
     from maniladder_ms.tasks.rigid.hang_mug import HangMugEnv
 
     registered = HangMugEnv._initialize_episode
+    params = maniladder_ms.default_catalog().get("HangMug").params
     try:
         randomisation_pilot.shrink_layout_draws("HangMug", 0.5)
         env = maniladder_ms.make("HangMug", obs_mode="state")
         for seed in range(8):
             env.reset(seed=seed)
             mug, tree = env.unwrapped.mug.pose.p[0].tolist(), env.unwrapped.tree.pose.p[0].tolist()
-            assert within(mug[0], halved(HangMugEnv.MUG_X)) and within(mug[1], halved(HangMugEnv.MUG_Y))
-            assert within(tree[0], halved(HangMugEnv.TREE_X)) and within(tree[1], halved(HangMugEnv.TREE_Y))
+            assert within(mug[0], halved(params["mug_x_range"])) and within(mug[1], halved(params["mug_y_range"]))
+            assert within(tree[0], halved(params["tree_x_range"])) and within(tree[1], halved(params["tree_y_range"]))
         env.close()
     finally:
         HangMugEnv._initialize_episode = registered

@@ -71,6 +71,10 @@ def test_show_points_at_the_row_the_class_and_the_solver(capsys):
     assert "maniladder_ms/tasks/rigid/pick_place_pen.py:" in out and "solve_pick_place_pen" in out
     assert "maniladder_ms/solvers/rigid/pick_place_pen.py:" in out  # the solver tree mirrors the task tree
     assert "margin" in out and "(2 cm margin)" in out
+    from maniladder_ms.layout import format_breadth, object_breadths
+
+    layout = format_breadth(object_breadths(dict(maniladder_ms.default_catalog().get("PickPlacePen").params)))
+    assert "layout" in out and layout in out and "cm2" in layout  # the row's layout breadth
     line = int(out.split("task_catalog.yaml:")[1].split()[0])
     catalog = (REPO / "maniladder_ms/data/task_catalog.yaml").read_text().splitlines()
     assert catalog[line - 1] == "- id: PickPlacePen"

@@ -13,6 +13,7 @@ from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.geometry import yaw_quat
+from maniladder_ms.layout import symmetric_deg, uniform
 from maniladder_ms.objects import LiddedBoxShape, build_lidded_box, lid_angle
 
 
@@ -21,14 +22,12 @@ class OpenBoxRetrievalEnv(ManiLadderEnv):
     """**Task:** lift the hinged lid of a box and take out the cube (2 x `cube_half_size`) lying inside.
 
     **Randomisation:**
-    - the box (inner 16 x 16 cm, walls 6 cm high, 1.5 kg) has its centre uniform in `BOX_X` x `BOX_Y`
-      (x in [-0.24, -0.16], y in [-0.1, 0.1]); the lid is hinged on the side facing the robot and
-      overhangs the far wall by a 3 cm lip, the box turned by pi plus a yaw uniform in
-      [-`BOX_YAW_SPAN` / 2, `BOX_YAW_SPAN` / 2] = [-pi/8, pi/8];
-    - the cube lies on the box floor, offset from the box centre by up to `CUBE_OFFSET_SPAN` / 2 = 1 cm
-      along each box axis, turned from the box's axes by a yaw uniform in [-pi / `CUBE_YAW_DIVISOR`,
-      pi / `CUBE_YAW_DIVISOR`] = [-pi/9, pi/9] (room for the open gripper's fingers between the cube and
-      the walls).
+    - the box (inner 16 x 16 cm, walls 6 cm high, 1.5 kg) has its centre uniform in x in `box_x_range`, y in
+      `box_y_range`; the lid is hinged on the side facing the robot and overhangs the far wall by a 3 cm lip,
+      the box turned by pi plus a yaw uniform in +-`box_max_yaw`;
+    - the cube lies on the box floor, offset from the box centre by up to `cube_max_offset` along each box
+      axis (uniform), turned from the box's axes by a yaw uniform in +-`cube_max_yaw` (room for the open
+      gripper's fingers between the cube and the walls).
 
     **Success:** the lid is open by at least `open_angle`, the cube centre is either at least
     `lift_clearance` above the box rim or outside the box's outer footprint (in the box frame, |x| or
@@ -44,13 +43,8 @@ class OpenBoxRetrievalEnv(ManiLadderEnv):
     TASK_REGION = (-0.37, 0.25, -0.25, 0.25)
     box_shape = LiddedBoxShape(inner_half_size=(0.08, 0.08))
     box_density = 2200.0  # ~1.5 kg: the box stays put while the lid is pulled open
-    PARAMS = ("cube_half_size", "open_angle", "lift_clearance", "max_box_tilt")  # angles in degrees
-    BOX_X, BOX_Y = (-0.24, -0.16), (-0.1, 0.1)  # m, the box's centre at reset, uniform
-    BOX_YAW_SPAN = np.pi / 4  # rad, the box's yaw at reset: pi plus a yaw uniform over this span round 0
-    CUBE_OFFSET_SPAN = 0.02  # m, the cube's offset from the box centre: uniform over this span round 0 per box axis
-    # the cube's yaw in the box: uniform in [-pi / CUBE_YAW_DIVISOR, pi / CUBE_YAW_DIVISOR], drawn as
-    # (r - 0.5) * 2 * pi / CUBE_YAW_DIVISOR (a premultiplied pi / 9 rounds differently from the demos' draw)
-    CUBE_YAW_DIVISOR = 9
+    PARAMS = ("cube_half_size", "open_angle", "lift_clearance", "max_box_tilt",  # angles in degrees
+              "box_x_range", "box_y_range", "box_max_yaw", "cube_max_offset", "cube_max_yaw")
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -64,18 +58,17 @@ class OpenBoxRetrievalEnv(ManiLadderEnv):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            (x0, x1), (y0, y1) = self.BOX_X, self.BOX_Y
-            box_xyz = torch.stack([x0 + torch.rand(b) * (x1 - x0), y0 + torch.rand(b) * (y1 - y0), torch.zeros(b)],
-                                  dim=1)
+            box_xyz = torch.stack([uniform(b, self.box_x_range), uniform(b, self.box_y_range), torch.zeros(b)], dim=1)
             # hinge towards the robot: the hand lifts the far lip tilted back towards the robot, and the
             # opened lid leans over the robot's side, under the forearm that reaches into the box
-            box_pose = Pose.create_from_pq(box_xyz, yaw_quat(np.pi + (torch.rand(b) - 0.5) * self.BOX_YAW_SPAN))
+            box_pose = Pose.create_from_pq(box_xyz, yaw_quat(np.pi + symmetric_deg(b, self.box_max_yaw)))
             self.box.set_pose(box_pose)
             self.box.set_qpos(torch.zeros(b, 1))
             self.box.set_qvel(torch.zeros(b, 1))
-            offset = torch.cat([(torch.rand(b, 2) - 0.5) * self.CUBE_OFFSET_SPAN,
+            offset = torch.cat([(torch.rand(b, 2) - 0.5) * (2 * self.cube_max_offset),
                                 torch.full((b, 1), self.box_shape.base_thickness + self.cube_half_size)], dim=1)
-            cube_yaw = (torch.rand(b) - 0.5) * 2 * np.pi / self.CUBE_YAW_DIVISOR
+            # drawn as (r - 0.5) * 2 * pi / (180 / max): a premultiplied radian span rounds differently
+            cube_yaw = (torch.rand(b) - 0.5) * 2 * np.pi / (180 / self.cube_max_yaw)
             cube_in_box = Pose.create_from_pq(offset, yaw_quat(cube_yaw))
             self.cube.set_pose(box_pose * cube_in_box)
 

@@ -11,6 +11,7 @@ from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.geometry import yaw_quat
+from maniladder_ms.layout import uniform
 from maniladder_ms.objects.cabinet import DOORS, CabinetShape, build_cabinet, door_angles, door_frame
 
 
@@ -21,8 +22,7 @@ class OpenDoubleDoorsHandsEnv(ManiLadderEnv):
     **Randomisation:** the cabinet (40 cm wide, 22 cm deep, 32 cm tall, fixed to the table, front facing
     the robot; two 20 cm doors hinged on their outer edges, each with a knob 8 cm from its hinge: a 10 cm
     stem out of the door ending in an upright post 5 cm across) starts with both doors closed, its centre
-    uniform in `CABINET_X` x `CABINET_Y` (x in [0.27, 0.31], y in [-0.02, 0.02]) and its yaw uniform in
-    [-`MAX_YAW`, `MAX_YAW`] = [-5, 5] degrees.
+    uniform in x in `cabinet_x_range`, y in `cabinet_y_range` and its yaw uniform in +-`cabinet_max_yaw`.
 
     **Success:** both door angles are at least `open_angle` at the same time, each hand holds its own
     door (`ee.holds` on the door with its knob: the left hand the left door, the right hand the right one),
@@ -32,11 +32,9 @@ class OpenDoubleDoorsHandsEnv(ManiLadderEnv):
     SUPPORTED_ROBOTS = ["ml_dual_panda_leap"]
     max_dense_reward = 6
     TASK_REGION = (-0.25, 0.44, -0.3, 0.3)
-    PARAMS = ("open_angle",)
+    PARAMS = ("open_angle", "cabinet_x_range", "cabinet_y_range", "cabinet_max_yaw")
     cabinet_shape = CabinetShape()
     grasp_depth = 0.035  # below the knob's top, where a hand closes round it (as round a can)
-    CABINET_X, CABINET_Y = (0.27, 0.31), (-0.02, 0.02)  # m, the cabinet's centre at reset, uniform
-    MAX_YAW = np.deg2rad(5)  # rad, the cabinet's yaw at reset: uniform in [-MAX_YAW, MAX_YAW]
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -52,9 +50,8 @@ class OpenDoubleDoorsHandsEnv(ManiLadderEnv):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            (x0, x1), (y0, y1) = self.CABINET_X, self.CABINET_Y
-            xyz = torch.stack([x0 + torch.rand(b) * (x1 - x0), y0 + torch.rand(b) * (y1 - y0), torch.zeros(b)], dim=1)
-            yaw = (torch.rand(b) * 2 - 1) * self.MAX_YAW
+            xyz = torch.stack([uniform(b, self.cabinet_x_range), uniform(b, self.cabinet_y_range), torch.zeros(b)], dim=1)
+            yaw = (torch.rand(b) * 2 - 1) * np.deg2rad(self.cabinet_max_yaw)
             self.cabinet.set_pose(Pose.create_from_pq(xyz, yaw_quat(yaw)))
             self.cabinet.set_qpos(torch.zeros(b, 2))
             self.cabinet.set_qvel(torch.zeros(b, 2))

@@ -11,6 +11,7 @@ from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.geometry import yaw_quat
+from maniladder_ms.layout import uniform
 from maniladder_ms.objects.boxes import LiddedBoxShape, build_lidded_box, lid_angle
 from maniladder_ms.geometry import tcp_quat
 
@@ -23,8 +24,8 @@ class OpenLidHoldBoxEnv(ManiLadderEnv):
     **Randomisation:** the box (inner 2 x `box_inner_half`, i.e. 16 cm long along y and 6 cm wide outside,
     walls `box_wall_height` high, `box_density`: about 0.25 kg with the lid; the lid is hinged across the
     top of the left (+y) end and overhangs the right end wall by a 3 cm lip) has its centre uniform in
-    `BOX_X` x `BOX_Y` (x in [-0.12, -0.06], y in [-0.04, 0.04]) and its long axis turned from y by a yaw
-    uniform in [-`MAX_YAW_OFF`, `MAX_YAW_OFF`] = [-15, 15] degrees; the lid is closed.
+    x in `box_x_range`, y in `box_y_range` and its long axis turned from y by a yaw uniform in +-`box_max_yaw`;
+    the lid is closed.
 
     **Success:** the lid is open by at least `open_angle`; the box body has moved less than
     `max_displacement` (horizontally) from where it stood at the start of the episode (episode memory
@@ -38,9 +39,8 @@ class OpenLidHoldBoxEnv(ManiLadderEnv):
     # box_inner_half: 6 cm wide outside across the hinge axis (the box's y), so that one gripper closes across
     # the box at its hinge end below the lid; box_wall_height: 9 cm walls leave room for the fingers under the
     # lid; box_density: a 0.18 kg body, which opening the lid drags ~10 cm unless it is held
-    PARAMS = ("open_angle", "max_displacement", "closed_angle", "box_inner_half", "box_wall_height", "box_density")
-    BOX_X, BOX_Y = (-0.12, -0.06), (-0.04, 0.04)  # m, the box's centre at reset, uniform
-    MAX_YAW_OFF = np.deg2rad(15)  # rad, the box's long axis from y at reset: uniform in [-MAX_YAW_OFF, MAX_YAW_OFF]
+    PARAMS = ("open_angle", "max_displacement", "closed_angle", "box_inner_half", "box_wall_height", "box_density",
+              "box_x_range", "box_y_range", "box_max_yaw")
     # TCP height of the holding grasp, 2.5 cm below the lid: the fingers (+-1 cm about the TCP) grip the side
     # walls clear of the lid, and the sideways hand, which reaches ~6 cm below its TCP on the wrist camera's
     # side, clears the table
@@ -60,9 +60,8 @@ class OpenLidHoldBoxEnv(ManiLadderEnv):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            (x0, x1), (y0, y1) = self.BOX_X, self.BOX_Y
-            xyz = torch.stack([x0 + torch.rand(b) * (x1 - x0), y0 + torch.rand(b) * (y1 - y0), torch.zeros(b)], dim=1)
-            yaw = np.pi / 2 + (torch.rand(b) * 2 - 1) * self.MAX_YAW_OFF
+            xyz = torch.stack([uniform(b, self.box_x_range), uniform(b, self.box_y_range), torch.zeros(b)], dim=1)
+            yaw = np.pi / 2 + (torch.rand(b) * 2 - 1) * np.deg2rad(self.box_max_yaw)
             self.box.set_pose(Pose.create_from_pq(xyz, yaw_quat(yaw)))
             self.box.set_qpos(torch.zeros(b, 1))
             self.box.set_qvel(torch.zeros(b, 1))

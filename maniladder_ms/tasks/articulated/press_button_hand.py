@@ -4,7 +4,6 @@ from __future__ import annotations
 
 from typing import Any
 
-import numpy as np
 import torch
 
 from mani_skill.utils.structs.pose import Pose
@@ -13,6 +12,7 @@ from maniladder_ms.agents.effectors import TOUCH_FORCE, link_forces
 from maniladder_ms.agents.effectors import leap_fingertip
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.geometry import yaw_quat
+from maniladder_ms.layout import uniform, uniform_deg
 from maniladder_ms.objects.controls import ButtonShape, build_push_button, button_travel
 
 
@@ -21,9 +21,8 @@ class PressButtonHandEnv(ManiLadderEnv):
     """**Task:** press a large push button (5 cm cap on a 9 cm housing, 1.2 cm travel, spring-returned)
     all the way down with the LEAP hand's index finger.
 
-    **Randomisation:** the button's centre uniform in `BUTTON_X` x `BUTTON_Y` (x in [-0.2, -0.05], y in
-    [-0.15, 0.15]); its housing's yaw uniform in [0, `MAX_YAW`) = [0, pi/2) (the square housing looks the
-    same every quarter turn).
+    **Randomisation:** the button's centre uniform in x in `button_x_range`, y in `button_y_range`; its
+    housing's yaw uniform in `button_yaw_range` (the square housing looks the same every quarter turn).
 
     **Success:** the cap is pressed down by at least `press_fraction` of its travel, and the index finger
     presses on it (one of its links, `INDEX_LINKS`, above the vocabulary's touch force): the spring pushes
@@ -32,10 +31,8 @@ class PressButtonHandEnv(ManiLadderEnv):
 
     SUPPORTED_ROBOTS = ["ml_panda_leap"]
     max_dense_reward = 4
-    PARAMS = ("press_fraction",)
+    PARAMS = ("press_fraction", "button_x_range", "button_y_range", "button_yaw_range")
     button_shape = ButtonShape()
-    BUTTON_X, BUTTON_Y = (-0.2, -0.05), (-0.15, 0.15)  # m, the button's centre at reset, uniform
-    MAX_YAW = np.pi / 2  # rad, the housing's yaw at reset, uniform in [0, MAX_YAW)
     TASK_REGION = (-0.27, 0.02, -0.22, 0.22)  # button centres plus the housing's half diagonal
     # the index finger's links: the catalog asks for the press to be made with the index finger (not the
     # palm, another finger or the arm); the vocabulary's `ee.touches` has no per-finger form yet
@@ -51,9 +48,8 @@ class PressButtonHandEnv(ManiLadderEnv):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            (x0, x1), (y0, y1) = self.BUTTON_X, self.BUTTON_Y
-            xyz = torch.stack([x0 + torch.rand(b) * (x1 - x0), y0 + torch.rand(b) * (y1 - y0), torch.zeros(b)], dim=1)
-            self.button.set_pose(Pose.create_from_pq(xyz, yaw_quat(torch.rand(b) * self.MAX_YAW)))
+            xyz = torch.stack([uniform(b, self.button_x_range), uniform(b, self.button_y_range), torch.zeros(b)], dim=1)
+            self.button.set_pose(Pose.create_from_pq(xyz, yaw_quat(uniform_deg(b, self.button_yaw_range))))
             self.button.set_qpos(torch.zeros(b, 1))
             self.button.set_qvel(torch.zeros(b, 1))
 

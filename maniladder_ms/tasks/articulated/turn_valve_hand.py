@@ -12,6 +12,7 @@ from mani_skill.utils.structs.pose import Pose
 from maniladder_ms.agents.effectors import leap_fingertip
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.geometry import yaw_quat
+from maniladder_ms.layout import uniform, uniform_deg
 from maniladder_ms.objects.controls import ValveShape, build_turn_arrow, build_wheel_valve, turn_direction, valve_angle
 
 
@@ -20,10 +21,10 @@ class TurnValveHandEnv(ManiLadderEnv):
     """**Task:** turn a hand-wheel valve (17 cm wheel, 4 spokes, on a 10 cm stem; the wheel turns about
     the vertical) by a quarter turn in the direction a curved yellow arrow on the table shows.
 
-    **Randomisation:** the valve's centre uniform in `VALVE_X` x `VALVE_Y` (x in [-0.2, -0.1], y in
-    [-0.1, 0.1]); its yaw (where the spokes point) uniform in [0, 2 pi); the direction (clockwise /
-    counter-clockwise seen from above) uniform, and the arrow's place on its arc (`ARROW_RADIUS` round the
-    valve) uniform in [0, 2 pi). The wheel starts at joint angle 0.
+    **Randomisation:** the valve's centre uniform in x in `valve_x_range`, y in `valve_y_range`; its yaw (where
+    the spokes point) uniform in `valve_yaw_range`; the direction (clockwise / counter-clockwise seen from
+    above) uniform, and the arrow's place on its arc (`ARROW_RADIUS` round the valve) uniform in
+    `arrow_yaw_range`. The wheel starts at joint angle 0.
 
     **Success:** the hand has turned the wheel by at least `turn_angle` in the arrow's direction: the
     episode memory sums the wheel's turn (in the arrow's direction, turning back counts against it) over
@@ -35,9 +36,9 @@ class TurnValveHandEnv(ManiLadderEnv):
     SUPPORTED_ROBOTS = ["ml_panda_leap"]
     max_dense_reward = 5
     TASK_REGION = (-0.36, 0.06, -0.26, 0.26)  # valve region plus the arrow around it (16 cm)
-    PARAMS = ("turn_angle",)  # degrees
+    PARAMS = ("turn_angle",  # degrees
+              "valve_x_range", "valve_y_range", "valve_yaw_range", "arrow_yaw_range")
     valve_shape = ValveShape()
-    VALVE_X, VALVE_Y = (-0.2, -0.1), (-0.1, 0.1)  # m, the valve's centre at reset, uniform
     ARROW_RADIUS = 0.13  # m: the arrow lies on the table on an arc around the valve, outside the wheel
     ARROW_LIFT = 0.001  # m above the table top (drawn over it)
 
@@ -55,16 +56,15 @@ class TurnValveHandEnv(ManiLadderEnv):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            (x0, x1), (y0, y1) = self.VALVE_X, self.VALVE_Y
-            xyz = torch.stack([x0 + torch.rand(b) * (x1 - x0), y0 + torch.rand(b) * (y1 - y0), torch.zeros(b)], dim=1)
-            self.valve.set_pose(Pose.create_from_pq(xyz, yaw_quat(torch.rand(b) * 2 * np.pi)))
+            xyz = torch.stack([uniform(b, self.valve_x_range), uniform(b, self.valve_y_range), torch.zeros(b)], dim=1)
+            self.valve.set_pose(Pose.create_from_pq(xyz, yaw_quat(uniform_deg(b, self.valve_yaw_range))))
             self.valve.set_qpos(torch.zeros(b, 1))
             self.valve.set_qvel(torch.zeros(b, 1))
             # the arrow points counter-clockwise face up; upside down (pi about its x axis) clockwise
             clockwise = torch.rand(b) < 0.5
             flip = torch.where(clockwise[:, None], torch.tensor([0.0, 1.0, 0.0, 0.0]), torch.tensor([1.0, 0.0, 0.0, 0.0]))
             place = Pose.create_from_pq(xyz + torch.tensor([0, 0, self.ARROW_LIFT]),
-                                        yaw_quat(torch.rand(b) * 2 * np.pi))
+                                        yaw_quat(uniform_deg(b, self.arrow_yaw_range)))
             self.arrow.set_pose(place * Pose.create_from_pq(q=flip))
             self.memory.store("last_angle", torch.zeros(b, 1), env_idx)
 

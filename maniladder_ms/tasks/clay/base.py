@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import numpy as np
 import torch
 
 from maniladder_ms.deformables import clay
@@ -10,12 +11,18 @@ from maniladder_ms.deformables import clay
 
 class ClayTask(clay.ClayHolder):
     """`clay.ClayHolder` for a task env (before `ManiLadderEnv` in its bases), with `reset_clay`: the task's
-    clay placed at random on the table."""
+    clay placed at random on the table, from the catalog params `CLAY_LAYOUT_PARAMS` (the task's `PARAMS`
+    include them)."""
 
-    def reset_clay(self, env_idx: torch.Tensor, x: tuple, y: tuple, yaw: tuple, scale: tuple = (1.0, 1.15)):
-        """Put `self.clay` back for the envs `env_idx`, its bottom centre on the table uniform in x = (low,
-        high) and y, turned by a yaw uniform in `yaw` and scaled by a factor uniform in `scale` (`Clay.reset`)."""
+    CLAY_LAYOUT_PARAMS = ("clay_x_range", "clay_y_range", "clay_yaw_range", "clay_scale_range")
+
+    def reset_clay(self, env_idx: torch.Tensor):
+        """Put `self.clay` back for the envs `env_idx`, its bottom centre on the table uniform in x in
+        `clay_x_range` and y in `clay_y_range`, turned by a yaw uniform in `clay_yaw_range` (deg) and scaled by a
+        factor uniform in `clay_scale_range` (`Clay.reset`)."""
         b, device = len(env_idx), self.device
+        x, y, scale = self.clay_x_range, self.clay_y_range, self.clay_scale_range
+        yaw = tuple(float(np.deg2rad(v)) for v in self.clay_yaw_range)
 
         def uniform(low_high):
             low, high = low_high

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 from typing import Any
 
-import numpy as np
 import torch
 
 from maniladder_ms.agents.effectors import TOUCH_FORCE, link_forces
@@ -20,9 +19,8 @@ class PokeClayHandEnv(ClayTask, ManiLadderEnv):
     a dent at least 1 cm deep into the middle of its top with the LEAP hand's index finger.
 
     **Randomisation:** the block (particle centres within +-`block_half`: 5 x 5 x 3 particles on a 1.2 cm
-    lattice, 6 x 6 x 3.6 cm) is scaled by a uniform factor in [1, 1.15] (`Clay.reset`), turned by a uniform
-    yaw in [0, pi/2) (`CLAY_YAW`), its centre uniform in x in [-0.2, -0.05], y in [-0.15, 0.15] (`CLAY_X`,
-    `CLAY_Y`).
+    lattice, 6 x 6 x 3.6 cm) is scaled by a factor uniform in `clay_scale_range` (`Clay.reset`), turned by a
+    yaw uniform in `clay_yaw_range`, its centre uniform in x in `clay_x_range`, y in `clay_y_range`.
 
     **Success:** the dent at the block's top centre (the start's, a fixed table point) is >= `min_depth`
     deep: `clay.dent_depth`, the start's top there minus the current top of the clay within
@@ -34,11 +32,8 @@ class PokeClayHandEnv(ClayTask, ManiLadderEnv):
     SUPPORTED_ROBOTS = ["ml_panda_leap"]
     max_dense_reward = 4
     TASK_REGION = (-0.25, 0.0, -0.2, 0.2)
-    PARAMS = ("block_half", "min_depth", "dent_radius")
+    PARAMS = ("block_half", "min_depth", "dent_radius") + ClayTask.CLAY_LAYOUT_PARAMS
     INDEX_LINKS = ("leap_index_dip", "leap_index_tip")
-    CLAY_X = (-0.2, -0.05)  # the block's centre: x uniform in this range (`ClayTask.reset_clay`)
-    CLAY_Y = (-0.15, 0.15)  # and y
-    CLAY_YAW = (0.0, np.pi / 2)  # its yaw
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -49,7 +44,7 @@ class PokeClayHandEnv(ClayTask, ManiLadderEnv):
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
-            self.reset_clay(env_idx, x=self.CLAY_X, y=self.CLAY_Y, yaw=self.CLAY_YAW)
+            self.reset_clay(env_idx)
 
     def dent_point(self) -> torch.Tensor:
         """The start's top centre of the block, [B, 3]: where the dent goes."""

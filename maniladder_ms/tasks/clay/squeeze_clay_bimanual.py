@@ -4,7 +4,6 @@ from __future__ import annotations
 
 from typing import Any
 
-import numpy as np
 import torch
 
 from maniladder_ms.deformables import clay
@@ -22,9 +21,8 @@ class SqueezeClayBimanualEnv(ClayTask, ManiLadderEnv):
     grippers until it is narrower along that line.
 
     **Randomisation:** the block (3 x 5 x 3 particles on a 1.2 cm lattice, 3.6 x 6 x 3.6 cm, the 6 cm side
-    along y) is scaled by a uniform factor in [1, 1.15] (`Clay.reset`), turned by a uniform yaw in
-    [-10, 10] degrees (`CLAY_YAW`), its centre uniform in x in [-0.15, -0.05], y in [-0.05, 0.05] (`CLAY_X`,
-    `CLAY_Y`).
+    along y) is scaled by a factor uniform in `clay_scale_range` (`Clay.reset`), turned by a yaw uniform in
+    `clay_yaw_range`, its centre uniform in x in `clay_x_range`, y in `clay_y_range`.
 
     **Success:** the clay's width along the squeeze axis (world y; `clay.width_along`, the particles'
     extent with their radius) is at most `max_width_ratio` of its width at the start, and at some step
@@ -36,10 +34,7 @@ class SqueezeClayBimanualEnv(ClayTask, ManiLadderEnv):
     max_dense_reward = 5
     TASK_REGION = (-0.22, 0.02, -0.15, 0.15)
     # block_half: the particle centres' half extents (3 x 5 x 3 particles, the long side along y)
-    PARAMS = ("block_half", "max_width_ratio")
-    CLAY_X = (-0.15, -0.05)  # the block's centre: x uniform in this range (`ClayTask.reset_clay`)
-    CLAY_Y = (-0.05, 0.05)  # and y
-    CLAY_YAW = (-np.deg2rad(10), np.deg2rad(10))  # its yaw
+    PARAMS = ("block_half", "max_width_ratio") + ClayTask.CLAY_LAYOUT_PARAMS
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -49,7 +44,7 @@ class SqueezeClayBimanualEnv(ClayTask, ManiLadderEnv):
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
-            self.reset_clay(env_idx, x=self.CLAY_X, y=self.CLAY_Y, yaw=self.CLAY_YAW)
+            self.reset_clay(env_idx)
 
     def width(self, points: torch.Tensor) -> torch.Tensor:
         axis = torch.tensor(SQUEEZE_AXIS, device=self.device)

@@ -13,6 +13,7 @@ from maniladder_ms.agents.effectors import TOUCH_FORCE, pair_forces
 from maniladder_ms.deformables import clay
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.geometry import yaw_of, yaw_quat
+from maniladder_ms.layout import uniform
 from maniladder_ms.objects.tabletop import place_at_rest
 from maniladder_ms.objects.tools import StarStampShape, build_star_stamp
 from maniladder_ms.tasks.clay.base import ClayTask
@@ -31,11 +32,11 @@ class StampClayEnv(ClayTask, ManiLadderEnv):
     leaving a star-shaped imprint.
 
     **Randomisation:** the slab (particles on a 1.2 cm lattice within `slab_half`: 9 x 9 x 3 of them,
-    10.8 x 10.8 x 3.6 cm, spheres included; not scaled) is turned by a uniform yaw in [0, pi/2), its centre
-    uniform in x in [-0.05, 0.05], y in [0.0, 0.06] (`CLAY_*`); the stamp (5 arms, tips at radius `outer`, valleys
-    at `inner`, a 1.2 cm plate, a 2 cm post 7 cm high) stands upright to the robot's right, its centre uniform in
-    x in [-0.1, 0.0], y in [-0.2, -0.16] (`STAMP_*`), turned by a uniform yaw in [0, 2 pi / 5) (all the star's
-    yaws).
+    10.8 x 10.8 x 3.6 cm, spheres included; scaled by a factor uniform in `clay_scale_range`: not scaled) is
+    turned by a yaw uniform in `clay_yaw_range`, its centre uniform in x in `clay_x_range`, y in `clay_y_range`;
+    the stamp (5 arms, tips at radius `outer`, valleys at `inner`, a 1.2 cm plate, a 2 cm post 7 cm high) stands
+    upright to the robot's right, its centre uniform in x in `stamp_x_range`, y in `stamp_y_range`, turned by a
+    uniform yaw in [0, 2 pi / 5) (all the star's yaws: a full turn over its arms).
 
     **Success:** the stamp was pressed into the clay while the gripper held it (at some step the held stamp
     touched the clay, `ee.holds`; episode memory `held_press`, and its pose at the lowest such step,
@@ -56,13 +57,8 @@ class StampClayEnv(ClayTask, ManiLadderEnv):
 
     max_dense_reward = 6
     TASK_REGION = (-0.17, 0.13, -0.26, 0.14)
-    PARAMS = ("outer", "inner", "slab_half", "min_depth", "min_iou", "max_offset")
-    CLAY_X = (-0.05, 0.05)  # the slab's centre: x uniform in this range (`ClayTask.reset_clay`)
-    CLAY_Y = (0.0, 0.06)  # and y
-    CLAY_YAW = (0.0, np.pi / 2)  # its yaw
-    CLAY_SCALE = (1.0, 1.0)  # not scaled
-    STAMP_X_LOW, STAMP_X_SPAN = -0.1, 0.1  # the stamp's centre x: uniform in [low, low + span]
-    STAMP_Y_LOW, STAMP_Y_SPAN = -0.2, 0.04  # and its y
+    PARAMS = ("outer", "inner", "slab_half", "min_depth", "min_iou", "max_offset", "stamp_x_range",
+              "stamp_y_range") + ClayTask.CLAY_LAYOUT_PARAMS
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -75,10 +71,9 @@ class StampClayEnv(ClayTask, ManiLadderEnv):
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
-            self.reset_clay(env_idx, x=self.CLAY_X, y=self.CLAY_Y, yaw=self.CLAY_YAW, scale=self.CLAY_SCALE)
+            self.reset_clay(env_idx)
             b = len(env_idx)
-            p = torch.stack([self.STAMP_X_LOW + self.STAMP_X_SPAN * torch.rand(b),
-                             self.STAMP_Y_LOW + self.STAMP_Y_SPAN * torch.rand(b), torch.zeros(b)], dim=1)
+            p = torch.stack([uniform(b, self.stamp_x_range), uniform(b, self.stamp_y_range), torch.zeros(b)], dim=1)
             yaw = torch.rand(b) * 2 * np.pi / self.stamp_shape.arms
             place_at_rest(self.stamp, Pose.create_from_pq(p, yaw_quat(yaw)))
 

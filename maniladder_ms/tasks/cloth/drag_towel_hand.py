@@ -12,6 +12,7 @@ from mani_skill.utils.structs.pose import Pose
 from maniladder_ms.deformables import cloth
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.geometry import yaw_quat
+from maniladder_ms.layout import symmetric_deg, uniform
 from maniladder_ms.objects.markers import MARKER_THICKNESS, build_zone_marker
 
 ROWS = COLS = 8
@@ -24,12 +25,11 @@ class DragTowelHandEnv(ManiLadderEnv):
 
     **Randomisation:**
     - the towel (`cloth.towel(8, 8)`: 2.5 cm particle spacing, particles of 1 cm radius, 17.5 cm between
-      corner centres) lies flat, its centre at x uniform in [-0.12, -0.04] (`TOWEL_X_LOW`, `TOWEL_X_SPAN`),
-      y uniform in [-0.08, 0.08] (`TOWEL_Y_LOW`, `TOWEL_Y_SPAN`), its edges turned by a yaw uniform in
-      [-pi/4, pi/4) (`TOWEL_YAW_SPAN`);
-    - the target's centre lies `drag` uniform in [0.12, 0.18] m (`DRAG_LOW`, `DRAG_SPAN`) from the towel's
-      centre, in a direction uniform in [-3 pi / 4, 3 pi / 4) from +x (`HEADING`: never towards the robot's
-      base, where a top-down hand runs out of reach).
+      corner centres) lies flat, its centre at x uniform in `towel_x_range`, y uniform in `towel_y_range`, its
+      edges turned by a yaw uniform in +-`towel_max_yaw`;
+    - the target's centre lies a distance uniform in `target_distance_range` from the towel's centre, in a
+      direction uniform in +-`target_max_bearing` from +x (never towards the robot's base, where a top-down
+      hand runs out of reach).
 
     **Success:** the towel's centroid (mean of its particle centres) is within `goal_radius` of the
     target's centre in the table plane; and the towel was dragged there by a corner: at some step the hand
@@ -44,12 +44,8 @@ class DragTowelHandEnv(ManiLadderEnv):
     max_dense_reward = 5
     TASK_REGION = (-0.34, 0.2, -0.3, 0.3)  # towel and target centres plus the towel's half diagonal
     cloth_config = cloth.ClothConfig(radius=0.010)
-    PARAMS = ("goal_radius", "drag_share")
-    TOWEL_X_LOW, TOWEL_X_SPAN = -0.12, 0.08  # the towel's centre x: uniform in [low, low + span]
-    TOWEL_Y_LOW, TOWEL_Y_SPAN = -0.08, 0.16  # the towel's centre y: uniform in [low, low + span]
-    TOWEL_YAW_SPAN = np.pi / 2  # the towel's yaw: uniform in [-span / 2, span / 2)
-    HEADING = 3 * np.pi / 4  # the target's direction from the towel's centre: uniform in +-this from +x
-    DRAG_LOW, DRAG_SPAN = 0.12, 0.06  # the target's distance from the towel's centre: uniform in [low, low + span]
+    PARAMS = ("goal_radius", "drag_share", "towel_x_range", "towel_y_range", "towel_max_yaw", "target_distance_range",
+              "target_max_bearing")
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -65,13 +61,12 @@ class DragTowelHandEnv(ManiLadderEnv):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            centre = torch.stack([torch.rand(b) * self.TOWEL_X_SPAN + self.TOWEL_X_LOW,
-                                  torch.rand(b) * self.TOWEL_Y_SPAN + self.TOWEL_Y_LOW,
+            centre = torch.stack([uniform(b, self.towel_x_range), uniform(b, self.towel_y_range),
                                   torch.full((b,), self.cloth_config.radius)], dim=1)
-            yaw = (torch.rand(b) - 0.5) * self.TOWEL_YAW_SPAN
+            yaw = symmetric_deg(b, self.towel_max_yaw)
             self.towel.set_rest_shape(Pose.create_from_pq(centre, yaw_quat(yaw)))
-            heading = (torch.rand(b) * 2 - 1) * self.HEADING
-            drag = self.DRAG_LOW + torch.rand(b) * self.DRAG_SPAN
+            heading = (torch.rand(b) * 2 - 1) * np.deg2rad(self.target_max_bearing)
+            drag = uniform(b, self.target_distance_range)
             target = centre + torch.stack([drag * torch.cos(heading), drag * torch.sin(heading), torch.zeros(b)], dim=1)
             target[:, 2] = MARKER_THICKNESS / 2
             self.target.set_pose(Pose.create_from_pq(target))

@@ -12,6 +12,7 @@ from mani_skill.utils.structs.pose import Pose
 from maniladder_ms.deformables import cloth
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.geometry import yaw_quat
+from maniladder_ms.layout import symmetric_deg, uniform
 
 ROWS = COLS = 10
 
@@ -28,9 +29,8 @@ class FlattenTowelCornerEnv(ManiLadderEnv):
       diagonal line a number of grid steps from it drawn uniformly from `fold_cells` ({6, 7}: 21 or 28 of
       the 100 particles turned over, the towel covering 86% or 80% of its flat area once the layer has
       settled);
-    - the towel's centre is at x uniform in [-0.1, 0.0] (`TOWEL_X_LOW`, `TOWEL_X_SPAN`), y uniform in
-      [-0.08, 0.08] (`TOWEL_Y`), its edges turned by a yaw uniform in [-pi/4, pi/4) (`TOWEL_YAW_SPAN`; with the
-      corner choice, the fold points any way).
+    - the towel's centre is at x uniform in `towel_x_range`, y uniform in +-`towel_max_y`, its edges turned by
+      a yaw uniform in +-`towel_max_yaw` (with the corner choice, the fold points any way).
 
     **Success:** the towel's covered area seen from above (`cloth.coverage`: particle tiles of the
     spacing's size in the towel's own grid axes) is at least `min_coverage` of its flat area; the corner
@@ -42,10 +42,7 @@ class FlattenTowelCornerEnv(ManiLadderEnv):
     max_dense_reward = 5
     TASK_REGION = (-0.28, 0.18, -0.26, 0.26)  # towel centres plus the towel's half diagonal
     cloth_config = cloth.ClothConfig(radius=0.010)
-    PARAMS = ("fold_cells", "min_coverage", "carry_share")
-    TOWEL_X_LOW, TOWEL_X_SPAN = -0.1, 0.1  # the towel's centre x: uniform in [low, low + span]
-    TOWEL_Y = 0.08  # the towel's centre y: uniform in +-this
-    TOWEL_YAW_SPAN = np.pi / 2  # the towel's yaw: uniform in [-span / 2, span / 2)
+    PARAMS = ("fold_cells", "min_coverage", "carry_share", "towel_x_range", "towel_max_y", "towel_max_yaw")
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -71,9 +68,8 @@ class FlattenTowelCornerEnv(ManiLadderEnv):
             b = len(env_idx)
             corner = torch.randint(0, 4, (b,))
             shape = torch.randint(0, len(self.fold_cells), (b,)) * 4 + corner
-            yaw = (torch.rand(b) - 0.5) * self.TOWEL_YAW_SPAN
-            xyz = torch.stack([torch.rand(b) * self.TOWEL_X_SPAN + self.TOWEL_X_LOW,
-                               (torch.rand(b) * 2 - 1) * self.TOWEL_Y,
+            yaw = symmetric_deg(b, self.towel_max_yaw)
+            xyz = torch.stack([uniform(b, self.towel_x_range), (torch.rand(b) * 2 - 1) * self.towel_max_y,
                                torch.full((b,), self.cloth_config.radius)], dim=1)
             self.towel.set_shape(self.fold_positions[shape], self.fold_quats[shape], Pose.create_from_pq(xyz, yaw_quat(yaw)))
             self.folded_corner[env_idx] = corner

@@ -18,9 +18,9 @@ class LiftTowelHandsEnv(ManiLadderEnv):
 
     **Randomisation:** the towel (`cloth.towel(8, 8)`: 2.5 cm particle spacing, particles of 1 cm radius,
     17.5 cm between corner centres, 24.7 cm across the diagonal) lies flat, its centre at x uniform in
-    [-0.14, -0.06], y uniform in [-0.03, 0.03], its edges turned by a yaw uniform in
-    [pi/4 - pi/36, pi/4 + pi/12] (the diagonal between the two hands' corners 85-105 degrees from the x axis;
-    `tasks/cloth/base.py`'s `lay_between_hands`).
+    `towel_x_range`, y uniform in `towel_y_range`, its edges turned by a yaw uniform in `towel_yaw_range` (the
+    diagonal between the two hands' corners 85-105 degrees from the x axis; `tasks/cloth/base.py`'s
+    `lay_between_hands`).
 
     **Success:** every towel particle is at least `clearance` above the table (its lowest point, centre
     minus radius), and each hand holds the corner particle on its side (`left_grasped`, `right_grasped`:
@@ -31,7 +31,7 @@ class LiftTowelHandsEnv(ManiLadderEnv):
     max_dense_reward = 6
     TASK_REGION = (-0.28, 0.08, -0.2, 0.2)  # towel centres plus the towel's half diagonal
     cloth_config = cloth.ClothConfig(radius=0.010)
-    PARAMS = ("clearance",)
+    PARAMS = ("clearance", "towel_x_range", "towel_y_range", "towel_yaw_range")
     GRID = (8, 8)  # the towel's particle rows and columns
 
     def _load_scene(self, options: dict):
@@ -43,7 +43,8 @@ class LiftTowelHandsEnv(ManiLadderEnv):
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
-            lay_between_hands(self.towel, len(env_idx))
+            lay_between_hands(self.towel, len(env_idx), x_range=self.towel_x_range, y_range=self.towel_y_range,
+                              yaw_range=self.towel_yaw_range)
 
     def _get_obs_extra(self, info: dict):
         obs = {f"{side}_tcp_pose": self.ee.tcp(side).raw_pose for side in SIDES}

@@ -14,6 +14,7 @@ from maniladder_ms.deformables import cloth, metrics
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.envs.memory import latch_held_by_both
 from maniladder_ms.geometry import yaw_quat
+from maniladder_ms.layout import uniform
 from maniladder_ms.objects.markers import MARKER_THICKNESS, build_zone_marker
 from maniladder_ms.tasks.cloth.base import SIDES
 
@@ -32,12 +33,11 @@ class SpreadTowelBimanualEnv(ManiLadderEnv):
 
     **Randomisation:**
     - the target (25 cm square, the flat towel's footprint, axis-aligned) is centred at x uniform in
-      [-0.14, -0.08] (`TARGET_X_LOW`, `TARGET_X_SPAN`), y uniform in [-0.03, 0.03] (`TARGET_Y_LOW`,
-      `TARGET_Y_SPAN`);
+      `target_x_range`, y uniform in `target_y_range`;
     - the towel (10 x 10 particles, 2.5 cm apart, radius 10 mm so folded layers rest on the sheet) is
-      centred 8-12 cm (uniform, `OFFSET_X_LOW`, `OFFSET_X_SPAN`) further from the robot (+x) than the target
-      and y uniform +-3 cm off it (`OFFSET_Y_LOW`, `OFFSET_Y_SPAN`), turned by a yaw uniform in +-15 degrees
-      (`TOWEL_YAW`); its edge strip on the robot's side (-x) is folded
+      centred further from the robot (+x) than the target by an x offset uniform in `towel_dx_range`, its y
+      offset from the target's uniform in `towel_dy_range`, turned by a yaw uniform in +-`towel_max_yaw`; its
+      edge strip on the robot's side (-x) is folded
       back over the sheet along a grid line (`cloth.fold_edge`, cells 4 or 5, uniform): 3 or 4 rows
       lie upside down one spacing (2.5 cm) above the sheet, the next row stands in the crease, so both
       near corner particles lie on top. The start never covers the target: with the offset alone at
@@ -54,12 +54,8 @@ class SpreadTowelBimanualEnv(ManiLadderEnv):
     max_dense_reward = 6
     TASK_REGION = (-0.3, 0.25, -0.3, 0.3)
     cloth_config = cloth.ClothConfig(radius=0.010)
-    PARAMS = ("target_half", "min_coverage", "on_table_height")
-    TARGET_X_LOW, TARGET_X_SPAN = -0.14, 0.06  # the target's centre x: uniform in [low, low + span]
-    TARGET_Y_LOW, TARGET_Y_SPAN = -0.03, 0.06  # the target's centre y: uniform in [low, low + span]
-    OFFSET_X_LOW, OFFSET_X_SPAN = 0.08, 0.04  # the towel's centre from the target's, x: uniform in [low, low + span]
-    OFFSET_Y_LOW, OFFSET_Y_SPAN = -0.03, 0.06  # and y: uniform in [low, low + span]
-    TOWEL_YAW = np.deg2rad(15)  # the towel's yaw: uniform in +-this
+    PARAMS = ("target_half", "min_coverage", "on_table_height", "target_x_range", "target_y_range", "towel_dx_range",
+              "towel_dy_range", "towel_max_yaw")
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -76,14 +72,12 @@ class SpreadTowelBimanualEnv(ManiLadderEnv):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            target = torch.stack([torch.rand(b) * self.TARGET_X_SPAN + self.TARGET_X_LOW,
-                                  torch.rand(b) * self.TARGET_Y_SPAN + self.TARGET_Y_LOW,
+            target = torch.stack([uniform(b, self.target_x_range), uniform(b, self.target_y_range),
                                   torch.full((b,), MARKER_THICKNESS / 2)], dim=1)
             self.target.set_pose(Pose.create_from_pq(target))
-            offset = torch.stack([self.OFFSET_X_LOW + torch.rand(b) * self.OFFSET_X_SPAN,
-                                  torch.rand(b) * self.OFFSET_Y_SPAN + self.OFFSET_Y_LOW], dim=1)
+            offset = torch.stack([uniform(b, self.towel_dx_range), uniform(b, self.towel_dy_range)], dim=1)
             centre = torch.cat([target[:, :2] + offset, torch.full((b, 1), self.cloth_config.radius)], dim=1)
-            yaw = (torch.rand(b) * 2 - 1) * self.TOWEL_YAW
+            yaw = (torch.rand(b) * 2 - 1) * np.deg2rad(self.towel_max_yaw)
             shape = torch.randint(len(self._shape_positions), (b,))
             self.towel.set_shape(self._shape_positions[shape], self._shape_quats[shape],
                                  Pose.create_from_pq(centre, yaw_quat(yaw)))

@@ -12,6 +12,7 @@ from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.geometry import yaw_quat
+from maniladder_ms.layout import uniform
 from maniladder_ms.objects.boxes import build_carton
 from maniladder_ms.objects.tabletop import build_shelf
 
@@ -28,10 +29,10 @@ class CarryBoxToShelfHandsEnv(ManiLadderEnv):
     hands squeeze the carton between their palms from its two sides, lift it together, carry it over the
     shelf, set it down on the shelf board and let go.
 
-    **Randomisation:** the carton (2 x `box_half`, `box_mass`) stands with its centre uniform in x in `BOX_X` =
-    [-0.25, -0.19], y in `BOX_Y` = [-0.03, 0.03] and its yaw uniform within +-`BOX_MAX_YAW_DEG` = 10 degrees; the
-    shelf (a board 2 x `shelf_half`, its top `shelf_height` above the table, on two side panels) stands with its
-    centre uniform in x in `SHELF_X` = [0.06, 0.12], y in `SHELF_Y` = [-0.04, 0.04], axis-aligned.
+    **Randomisation:** the carton (2 x `box_half`, `box_mass`) stands with its centre uniform in x in
+    `box_x_range`, y in `box_y_range` and its yaw uniform within +-`box_max_yaw`; the shelf (a board
+    2 x `shelf_half`, its top `shelf_height` above the table, on two side panels) stands with its centre uniform
+    in x in `shelf_x_range`, y in `shelf_y_range`, axis-aligned.
 
     **Success:** the carton was carried by both hands: at some control step each hand held it (`ee.holds` for
     the left and the right) while its lowest bottom corner was at least `lift_height` above the table and it was
@@ -51,10 +52,8 @@ class CarryBoxToShelfHandsEnv(ManiLadderEnv):
     SUPPORTED_ROBOTS = ["ml_dual_panda_leap"]
     max_dense_reward = 10
     TASK_REGION = (-0.34, 0.24, -0.3, 0.3)
-    PARAMS = ("lift_height", "shelf_height", "shelf_half", "box_half", "box_mass", "rest_tol")
-    BOX_X, BOX_Y = (-0.25, -0.19), (-0.03, 0.03)  # ranges of the carton's centre
-    BOX_MAX_YAW_DEG = 10
-    SHELF_X, SHELF_Y = (0.06, 0.12), (-0.04, 0.04)  # ranges of the shelf's centre
+    PARAMS = ("lift_height", "shelf_height", "shelf_half", "box_half", "box_mass", "rest_tol",
+              "box_x_range", "box_y_range", "box_max_yaw", "shelf_x_range", "shelf_y_range")
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -66,14 +65,10 @@ class CarryBoxToShelfHandsEnv(ManiLadderEnv):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            (x_lo, x_hi), (y_lo, y_hi) = self.BOX_X, self.BOX_Y
-            box = torch.stack([x_lo + torch.rand(b) * (x_hi - x_lo), y_lo + torch.rand(b) * (y_hi - y_lo), torch.zeros(b)],
-                              dim=1)
-            box_yaw = (torch.rand(b) * 2 - 1) * np.deg2rad(self.BOX_MAX_YAW_DEG)
+            box = torch.stack([uniform(b, self.box_x_range), uniform(b, self.box_y_range), torch.zeros(b)], dim=1)
+            box_yaw = (torch.rand(b) * 2 - 1) * np.deg2rad(self.box_max_yaw)
             self.box.set_pose(Pose.create_from_pq(box, yaw_quat(box_yaw)))
-            (x_lo, x_hi), (y_lo, y_hi) = self.SHELF_X, self.SHELF_Y
-            shelf = torch.stack([x_lo + torch.rand(b) * (x_hi - x_lo), y_lo + torch.rand(b) * (y_hi - y_lo), torch.zeros(b)],
-                                dim=1)
+            shelf = torch.stack([uniform(b, self.shelf_x_range), uniform(b, self.shelf_y_range), torch.zeros(b)], dim=1)
             self.shelf.set_pose(Pose.create_from_pq(shelf))
 
     def bottom_corners(self) -> torch.Tensor:

@@ -4,13 +4,13 @@ from __future__ import annotations
 
 from typing import Any
 
-import numpy as np
 import torch
 
 from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.geometry import yaw_quat
+from maniladder_ms.layout import uniform, uniform_deg
 from maniladder_ms.objects.mug import MUG_DENSITY, MugShape, build_mug, build_mug_tree
 
 
@@ -19,9 +19,8 @@ class HangMugEnv(ManiLadderEnv):
     """**Task:** pick up a mug (7.4 cm wide, 9 cm tall, loop handle) and hang it by its handle on the
     horizontal peg of a mug tree.
 
-    **Randomisation:** the mug stands upright at x in `MUG_X` = [-0.15, -0.05], y in `MUG_Y` = [0.05, 0.2]
-    with a uniform random yaw; the tree's post stands at x in `TREE_X` = [-0.1, 0.0], y in `TREE_Y` =
-    [-0.3, -0.26]; its peg (2 x
+    **Randomisation:** the mug stands upright at x in `mug_x_range`, y in `mug_y_range`, its yaw uniform in
+    `mug_yaw_range`; the tree's post stands at x in `tree_x_range`, y in `tree_y_range`; its peg (2 x
     `peg_radius` thick, `peg_length` long) sticks out towards +y, `peg_height` above the table.
 
     **Success:** the peg passes through the handle's opening (the point of the peg's axis nearest the
@@ -34,10 +33,9 @@ class HangMugEnv(ManiLadderEnv):
     max_dense_reward = 6
 
     TASK_REGION = (-0.26, 0.16, -0.36, 0.28)
-    PARAMS = ("peg_height", "peg_length", "peg_radius", "clearance")
+    PARAMS = ("peg_height", "peg_length", "peg_radius", "clearance",
+              "mug_x_range", "mug_y_range", "mug_yaw_range", "tree_x_range", "tree_y_range")
     mug_shape = MugShape()
-    MUG_X, MUG_Y = (-0.15, -0.05), (0.05, 0.2)  # ranges of the mug's centre
-    TREE_X, TREE_Y = (-0.1, 0.0), (-0.3, -0.26)  # ranges of the tree's post
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -50,13 +48,9 @@ class HangMugEnv(ManiLadderEnv):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            (x_lo, x_hi), (y_lo, y_hi) = self.MUG_X, self.MUG_Y
-            mug_xyz = torch.stack([x_lo + torch.rand(b) * (x_hi - x_lo), y_lo + torch.rand(b) * (y_hi - y_lo),
-                                   torch.zeros(b)], dim=1)
-            self.mug.set_pose(Pose.create_from_pq(mug_xyz, yaw_quat(torch.rand(b) * 2 * np.pi)))
-            (x_lo, x_hi), (y_lo, y_hi) = self.TREE_X, self.TREE_Y
-            tree_xyz = torch.stack([x_lo + torch.rand(b) * (x_hi - x_lo), y_lo + torch.rand(b) * (y_hi - y_lo),
-                                    torch.zeros(b)], dim=1)
+            mug_xyz = torch.stack([uniform(b, self.mug_x_range), uniform(b, self.mug_y_range), torch.zeros(b)], dim=1)
+            self.mug.set_pose(Pose.create_from_pq(mug_xyz, yaw_quat(uniform_deg(b, self.mug_yaw_range))))
+            tree_xyz = torch.stack([uniform(b, self.tree_x_range), uniform(b, self.tree_y_range), torch.zeros(b)], dim=1)
             self.tree.set_pose(Pose.create_from_pq(tree_xyz))
 
     def peg_root(self) -> torch.Tensor:

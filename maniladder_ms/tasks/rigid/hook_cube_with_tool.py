@@ -13,6 +13,7 @@ from mani_skill.utils.structs.pose import Pose
 from maniladder_ms.agents.effectors import TOUCH_FORCE, link_forces
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.geometry import yaw_quat
+from maniladder_ms.layout import uniform, uniform_deg
 from maniladder_ms.objects.markers import MARKER_THICKNESS, build_zone_marker
 from maniladder_ms.objects.tools import HookShape, build_hook
 
@@ -32,14 +33,14 @@ class HookCubeWithToolEnv(ManiLadderEnv):
     the cube back with it into a target zone near the robot.
 
     **Randomisation:**
-    - the cube (side 2 x `cube_half`) lies flat with a uniform random yaw, its centre uniform in x in
-      `CUBE_X` = [0.28, 0.36], y in `CUBE_Y` = [-0.1, 0.1]: 0.89-0.98 m ahead of the arm base, where the gripper cannot reach
+    - the cube (side 2 x `cube_half`) lies flat, its yaw uniform in `cube_yaw_range` (a cube: every yaw), its
+      centre uniform in x in `cube_x_range`, y in `cube_y_range`: 0.89-0.98 m ahead of the arm base, where the gripper cannot reach
       (the Panda reaches 0.855 m from its shoulder joint, 0.33 m above the table);
     - the target zone (square tile, side 2 x `zone_half`) lies on the cube's line (same y), its centre
-      uniform in x in `ZONE_X` = [-0.1, 0.0] (0.3-0.46 m to pull);
+      uniform in x in `zone_x_range` (0.3-0.46 m to pull);
     - the hook (handle `handle_length` long, hook `hook_length` long pointing to +y, both 2.5 cm wide and
-      3 cm high) lies flat to the robot's right, its centre uniform in x in `TOOL_X` = [-0.1, 0.0], y in
-      `TOOL_Y` = [-0.3, -0.24], its handle along +x turned by a uniform yaw within +-`TOOL_MAX_YAW_DEG` = 15 degrees.
+      3 cm high) lies flat to the robot's right, its centre uniform in x in `tool_x_range`, y in `tool_y_range`,
+      its handle along +x turned by a uniform yaw within +-`tool_max_yaw`.
 
     **Success:** the cube's centre lies inside the zone (|dx|, |dy| <= `zone_half` from its centre) and the
     cube rests on the table (centre less than `cube_half` plus one centimetre high); the cube was pulled
@@ -60,12 +61,10 @@ class HookCubeWithToolEnv(ManiLadderEnv):
 
     max_dense_reward = 8
     TASK_REGION = (-0.3, 0.42, -0.35, 0.2)
-    PARAMS = ("handle_length", "hook_length", "cube_half", "zone_half", "pull_fraction", "engage_gap")
+    PARAMS = ("handle_length", "hook_length", "cube_half", "zone_half", "pull_fraction", "engage_gap",
+              "cube_x_range", "cube_y_range", "cube_yaw_range", "zone_x_range", "tool_x_range", "tool_y_range",
+              "tool_max_yaw")
     ON_TABLE_TOL = 0.01
-    CUBE_X, CUBE_Y = (0.28, 0.36), (-0.1, 0.1)  # ranges of the cube's centre
-    ZONE_X = (-0.1, 0.0)  # range of the zone centre's x (its y is the cube's)
-    TOOL_X, TOOL_Y = (-0.1, 0.0), (-0.3, -0.24)  # ranges of the hook's centre
-    TOOL_MAX_YAW_DEG = 15
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -85,18 +84,14 @@ class HookCubeWithToolEnv(ManiLadderEnv):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            (x_lo, x_hi), (y_lo, y_hi) = self.CUBE_X, self.CUBE_Y
-            cube = torch.stack([x_lo + torch.rand(b) * (x_hi - x_lo), y_lo + torch.rand(b) * (y_hi - y_lo),
+            cube = torch.stack([uniform(b, self.cube_x_range), uniform(b, self.cube_y_range),
                                 torch.full((b,), self.cube_half)], dim=1)
-            self.cube.set_pose(Pose.create_from_pq(cube, yaw_quat(torch.rand(b) * np.pi / 2)))
-            x_lo, x_hi = self.ZONE_X
-            zone = torch.stack([x_lo + torch.rand(b) * (x_hi - x_lo), cube[:, 1], torch.full((b,), MARKER_THICKNESS / 2)],
-                               dim=1)
+            self.cube.set_pose(Pose.create_from_pq(cube, yaw_quat(uniform_deg(b, self.cube_yaw_range))))
+            zone = torch.stack([uniform(b, self.zone_x_range), cube[:, 1], torch.full((b,), MARKER_THICKNESS / 2)], dim=1)
             self.zone.set_pose(Pose.create_from_pq(zone))
-            (x_lo, x_hi), (y_lo, y_hi) = self.TOOL_X, self.TOOL_Y
-            tool = torch.stack([x_lo + torch.rand(b) * (x_hi - x_lo), y_lo + torch.rand(b) * (y_hi - y_lo),
+            tool = torch.stack([uniform(b, self.tool_x_range), uniform(b, self.tool_y_range),
                                 torch.full((b,), self.hook_shape.height / 2)], dim=1)
-            tool_yaw = (torch.rand(b) * 2 - 1) * np.deg2rad(self.TOOL_MAX_YAW_DEG)
+            tool_yaw = (torch.rand(b) * 2 - 1) * np.deg2rad(self.tool_max_yaw)
             self.tool.set_pose(Pose.create_from_pq(tool, yaw_quat(tool_yaw)))
             self.memory.store("cube_last", cube[:, :2], env_idx)
             self.memory.store("start_gap", torch.linalg.norm(cube[:, :2] - zone[:, :2], dim=1, keepdim=True), env_idx)

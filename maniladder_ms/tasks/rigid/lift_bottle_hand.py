@@ -4,7 +4,6 @@ from __future__ import annotations
 
 from typing import Any
 
-import numpy as np
 import torch
 
 from mani_skill.utils.structs.pose import Pose
@@ -12,6 +11,7 @@ from mani_skill.utils.structs.pose import Pose
 from maniladder_ms.agents.effectors import contact_forces
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.geometry import yaw_quat
+from maniladder_ms.layout import uniform, uniform_deg
 from maniladder_ms.objects import containers
 
 
@@ -20,8 +20,8 @@ class LiftBottleHandEnv(ManiLadderEnv):
     """**Task:** power-grasp a standing bottle with the LEAP hand and lift it off the table.
 
     **Randomisation:** the bottle (6 cm body diameter, 14.5 cm tall: 10 cm body, 2 cm shoulder, 2.5 cm
-    neck; `bottle_mass`) stands upright, its centre uniform in x in `BOTTLE_X` = [-0.2, -0.1], y in `BOTTLE_Y` =
-    [-0.1, 0.1], with a uniform random yaw (visible only in its lighting; the bottle is round).
+    neck; `bottle_mass`) stands upright, its centre uniform in x in `bottle_x_range`, y in `bottle_y_range`, its
+    yaw uniform in `bottle_yaw_range` (visible only in its lighting; the bottle is round).
 
     **Success:** the bottle's base is >= `lift_height` above its start height (the table top), the hand
     holds it (`ee.holds`: a finger pressing against the thumb or palm, or the index / middle scissor
@@ -31,9 +31,8 @@ class LiftBottleHandEnv(ManiLadderEnv):
     SUPPORTED_ROBOTS = ["ml_panda_leap"]
     max_dense_reward = 5
     TASK_REGION = (-0.25, -0.05, -0.15, 0.15)
-    PARAMS = ("lift_height", "bottle_mass")
+    PARAMS = ("lift_height", "bottle_mass", "bottle_x_range", "bottle_y_range", "bottle_yaw_range")
     bottle_shape = containers.bottle()
-    BOTTLE_X, BOTTLE_Y = (-0.2, -0.1), (-0.1, 0.1)  # ranges of the bottle's centre
     # where the power grasp closes, above the bottle's base: on the body 3.5 cm below the shoulder (as the
     # 12 cm can is held 3.5 cm below its top), which leaves the neck under the palm
     grasp_height = bottle_shape.inner[1][0] - 0.035
@@ -47,10 +46,8 @@ class LiftBottleHandEnv(ManiLadderEnv):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            (x_lo, x_hi), (y_lo, y_hi) = self.BOTTLE_X, self.BOTTLE_Y
-            xyz = torch.stack([x_lo + torch.rand(b) * (x_hi - x_lo), y_lo + torch.rand(b) * (y_hi - y_lo), torch.zeros(b)],
-                              dim=1)
-            self.bottle.set_pose(Pose.create_from_pq(xyz, yaw_quat(torch.rand(b) * 2 * np.pi)))
+            xyz = torch.stack([uniform(b, self.bottle_x_range), uniform(b, self.bottle_y_range), torch.zeros(b)], dim=1)
+            self.bottle.set_pose(Pose.create_from_pq(xyz, yaw_quat(uniform_deg(b, self.bottle_yaw_range))))
 
     def _get_obs_extra(self, info: dict):
         obs = dict(tcp_pose=self.ee.tcp().raw_pose, is_grasped=info["is_grasped"])

@@ -14,6 +14,7 @@ from mani_skill.utils.structs.pose import Pose
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.envs.scene import TABLE_HALF_SIZE
 from maniladder_ms.geometry import tilt, yaw_quat
+from maniladder_ms.layout import uniform, uniform_deg
 from maniladder_ms.objects.markers import MARKER_THICKNESS, build_zone_marker
 from maniladder_ms.objects.mug import MUG_DENSITY, MugShape, build_mug
 
@@ -26,10 +27,10 @@ class MobileFetchMugEnv(ManiLadderEnv):
 
     **Randomisation:** the side table (50 x 50 cm, its top level with the main table's, its near edge in
     line with the main table's) stands with its centre at x = `SIDE_TABLE_X` = -0.5, y uniform in
-    `SIDE_TABLE_Y` = [1.1, 1.2] (15-25 cm of floor between the tables); the mug (7.4 cm wide, 9 cm tall, loop
-    handle, ~0.2 kg) stands upright on it at x uniform in `MUG_X` = [-0.55, -0.42], y within `MUG_MAX_DY` = 6 cm
-    of the side table's centre, with a uniform random yaw; the zone's centre is uniform in x in `ZONE_X` =
-    [-0.5, -0.38], y within +-`ZONE_MAX_Y` = 0.15 on the main table. The robot
+    `side_table_y_range` (15-25 cm of floor between the tables); the mug (7.4 cm wide, 9 cm tall, loop handle,
+    ~0.2 kg) stands upright on it at x uniform in `mug_x_range`, y within +-`mug_max_dy` of the side table's
+    centre, its yaw uniform in `mug_yaw_range`; the zone's centre is uniform in x in `zone_x_range`, y within
+    +-`zone_max_y` on the main table. The robot
     starts at its rest pose (arm joints with the usual noise), the base at y = 0.
 
     Out of reach from the start: the arm's shoulder (Panda joint 2) stands at (-0.955, 0, 0.003); the TCP
@@ -55,13 +56,11 @@ class MobileFetchMugEnv(ManiLadderEnv):
     SUPPORTED_ROBOTS = ["ml_tidybot"]
     max_dense_reward = 10
     TASK_REGION = (-0.55, -0.33, -0.2, 0.2)
-    PARAMS = ("zone_half", "lift_height", "rest_tol", "max_tilt")
+    PARAMS = ("zone_half", "lift_height", "rest_tol", "max_tilt",
+              "side_table_y_range", "mug_x_range", "mug_max_dy", "mug_yaw_range", "zone_x_range", "zone_max_y")
     mug_shape = MugShape()
     SIDE_TABLE_HALF = (0.25, 0.25)  # x, y half extents of the side table's top (its top is level with the main table's)
     SIDE_TABLE_X = -0.5  # its near edge in line with the main table's (x = -0.75), which the base drives along
-    SIDE_TABLE_Y = (1.1, 1.2)  # range of its centre's y: 15-25 cm of floor between the two tables
-    MUG_X, MUG_MAX_DY = (-0.55, -0.42), 0.06  # the mug's centre: range of x, and of y about the side table's centre
-    ZONE_X, ZONE_MAX_Y = (-0.5, -0.38), 0.15  # the zone's centre on the main table: range of x, |y| at most
     # the cameras look over both tables (the side table lies 0.85-1.45 m to the left of the robot's axis)
     CAMERA_VIEWS = {
         "front_camera": ([0.65, 0.3, 0.85], [-0.75, 0.55, -0.1]),
@@ -82,7 +81,7 @@ class MobileFetchMugEnv(ManiLadderEnv):
         if self.scene.can_render():
             mat = sapien.render.RenderMaterial(base_color=[0.45, 0.5, 0.55, 1], roughness=0.7, metallic=0.0)
             builder.add_box_visual(half_size=[hx, hy, hz], material=mat)
-        builder.initial_pose = sapien.Pose(p=[self.SIDE_TABLE_X, float(np.mean(self.SIDE_TABLE_Y)), -hz])
+        builder.initial_pose = sapien.Pose(p=[self.SIDE_TABLE_X, float(np.mean(self.side_table_y_range)), -hz])
         self.side_table = builder.build_kinematic(name="side_table")
         self.mug = build_mug(self.scene, "mug", self.mug_shape, color=(0.9, 0.85, 0.7, 1), friction=1.0,
                              density=MUG_DENSITY)
@@ -93,17 +92,14 @@ class MobileFetchMugEnv(ManiLadderEnv):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            y_lo, y_hi = self.SIDE_TABLE_Y
-            side_y = y_lo + torch.rand(b) * (y_hi - y_lo)
+            side_y = uniform(b, self.side_table_y_range)
             hz = TABLE_HALF_SIZE[2]
             self.side_table.set_pose(Pose.create_from_pq(
                 torch.stack([torch.full((b,), self.SIDE_TABLE_X), side_y, torch.full((b,), -hz)], dim=1)))
-            x_lo, x_hi = self.MUG_X
-            mug = torch.stack([x_lo + torch.rand(b) * (x_hi - x_lo), side_y + (torch.rand(b) * 2 - 1) * self.MUG_MAX_DY,
+            mug = torch.stack([uniform(b, self.mug_x_range), side_y + (torch.rand(b) * 2 - 1) * self.mug_max_dy,
                                torch.zeros(b)], dim=1)
-            self.mug.set_pose(Pose.create_from_pq(mug, yaw_quat(torch.rand(b) * 2 * np.pi)))
-            x_lo, x_hi = self.ZONE_X
-            zone = torch.stack([x_lo + torch.rand(b) * (x_hi - x_lo), (torch.rand(b) * 2 - 1) * self.ZONE_MAX_Y,
+            self.mug.set_pose(Pose.create_from_pq(mug, yaw_quat(uniform_deg(b, self.mug_yaw_range))))
+            zone = torch.stack([uniform(b, self.zone_x_range), (torch.rand(b) * 2 - 1) * self.zone_max_y,
                                 torch.full((b,), MARKER_THICKNESS / 2)], dim=1)
             self.zone.set_pose(Pose.create_from_pq(zone))
 

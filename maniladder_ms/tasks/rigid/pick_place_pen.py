@@ -4,13 +4,13 @@ from __future__ import annotations
 
 from typing import Any
 
-import numpy as np
 import torch
 
 from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.geometry import yaw_quat
+from maniladder_ms.layout import symmetric_deg, uniform, uniform_deg
 from maniladder_ms.objects import build_pen, build_tray
 
 
@@ -19,10 +19,10 @@ class PickPlacePenEnv(ManiLadderEnv):
     """**Task:** pick up a pen lying on the table and put it down inside an open tray.
 
     **Randomisation:**
-    - the pen (`pen_length` long, 2 x `pen_radius` thick) lies flat with a uniform random yaw, its centre uniform in
-      x in `PEN_X` = [-0.12, 0.08], |y| in `PEN_ABS_Y` = [0.06, 0.2] on a random side of the robot's centre line;
+    - the pen (`pen_length` long, 2 x `pen_radius` thick) lies flat, its yaw uniform in `pen_yaw_range`, its centre
+      uniform in x in `pen_x_range`, |y| in `pen_abs_y_range` on a random side of the robot's centre line;
     - the tray (inner 2 x `tray_inner_half`, walls `tray_wall_height` high) stands on the other side, centre x in
-      `TRAY_X` = [-0.1, 0.1], |y| in `TRAY_ABS_Y` = [0.1, 0.2], yaw uniform in +-`TRAY_MAX_YAW` = +-pi/4.
+      `tray_x_range`, |y| in `tray_abs_y_range`, yaw uniform in +-`tray_max_yaw`.
 
     **Success:** the pen centre, in the tray's frame, lies inside the tray's inner footprint shrunk by
     `margin` on every side; the pen centre is below the rim (top of the walls); and the gripper does not
@@ -32,12 +32,10 @@ class PickPlacePenEnv(ManiLadderEnv):
     max_dense_reward = 6
 
     TASK_REGION = (-0.25, 0.24, -0.32, 0.32)
-    PARAMS = ("pen_length", "pen_radius", "tray_inner_half", "tray_wall_height", "margin")
+    PARAMS = ("pen_length", "pen_radius", "tray_inner_half", "tray_wall_height", "margin",
+              "pen_x_range", "pen_abs_y_range", "pen_yaw_range", "tray_x_range", "tray_abs_y_range", "tray_max_yaw")
     tray_wall_thickness = 0.008
     tray_base_thickness = 0.006
-    PEN_X, PEN_ABS_Y = (-0.12, 0.08), (0.06, 0.2)  # ranges of the pen centre's x and |y|
-    TRAY_X, TRAY_ABS_Y = (-0.1, 0.1), (0.1, 0.2)  # ranges of the tray centre's x and |y| (|y| on the pen's other side)
-    TRAY_MAX_YAW = np.pi / 4
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -54,14 +52,12 @@ class PickPlacePenEnv(ManiLadderEnv):
         with torch.device(self.device):
             b = len(env_idx)
             side = torch.where(torch.rand(b) < 0.5, -1.0, 1.0)
-            (x_lo, x_hi), (y_lo, y_hi) = self.PEN_X, self.PEN_ABS_Y
-            pen_xyz = torch.stack([x_lo + torch.rand(b) * (x_hi - x_lo), side * (y_lo + torch.rand(b) * (y_hi - y_lo)),
+            pen_xyz = torch.stack([uniform(b, self.pen_x_range), side * uniform(b, self.pen_abs_y_range),
                                    torch.full((b,), self.pen_radius)], dim=1)
-            self.pen.set_pose(Pose.create_from_pq(pen_xyz, yaw_quat(torch.rand(b) * np.pi)))
-            (x_lo, x_hi), (y_lo, y_hi) = self.TRAY_X, self.TRAY_ABS_Y
-            tray_xyz = torch.stack([x_lo + torch.rand(b) * (x_hi - x_lo), -side * (y_lo + torch.rand(b) * (y_hi - y_lo)),
+            self.pen.set_pose(Pose.create_from_pq(pen_xyz, yaw_quat(uniform_deg(b, self.pen_yaw_range))))
+            tray_xyz = torch.stack([uniform(b, self.tray_x_range), -side * uniform(b, self.tray_abs_y_range),
                                     torch.zeros(b)], dim=1)
-            self.tray.set_pose(Pose.create_from_pq(tray_xyz, yaw_quat((torch.rand(b) - 0.5) * 2 * self.TRAY_MAX_YAW)))
+            self.tray.set_pose(Pose.create_from_pq(tray_xyz, yaw_quat(symmetric_deg(b, self.tray_max_yaw))))
 
     def _pen_in_tray_frame(self) -> torch.Tensor:
         return (self.tray.pose.inv() * self.pen.pose).p

@@ -23,9 +23,9 @@ class PivotBookEnv(ManiLadderEnv):
     far end against a wall; pivot it about that end until it stands upright against the wall.
     Non-prehensile: the book is too flat to grasp from the table.
 
-    **Randomisation:** the book's centre y is uniform in +-`BOOK_MAX_Y` = +-0.1, its yaw uniform in
-    +-`BOOK_MAX_YAW_DEG` = +-8 deg, and its far end between 0 and `MAX_WALL_GAP` = 5 mm from the wall (a 2 cm
-    thick wall 8 cm high whose face is at x = 0.05).
+    **Randomisation:** the book's centre y is uniform in +-`book_max_y`, its yaw uniform in +-`book_max_yaw`, and
+    its far end between 0 and `max_start_wall_gap` from the wall (a 2 cm thick wall 8 cm high whose face is at
+    x = 0.05).
 
     **Success:** the book's long axis is within `upright_tol` of vertical, its lower end's centre within
     `wall_gap` of the wall's face (it stands against the wall it was pivoted on, not anywhere on the
@@ -38,12 +38,10 @@ class PivotBookEnv(ManiLadderEnv):
 
     TASK_REGION = (-0.2, 0.1, -0.31, 0.31)
     # book_half_size: long axis along local x; upright_tol in degrees
-    PARAMS = ("book_half_size", "upright_tol", "wall_gap", "rest_speed", "rest_ang")
+    PARAMS = ("book_half_size", "upright_tol", "wall_gap", "rest_speed", "rest_ang",
+              "book_max_y", "book_max_yaw", "max_start_wall_gap")
     wall_face_x = 0.05
     wall_half_size = (0.01, 0.3, 0.04)  # 8 cm: enough to stop the book's foot, low enough for the front camera to see over
-    BOOK_MAX_Y = 0.1  # the book's centre y within +- this
-    BOOK_MAX_YAW_DEG = 8
-    MAX_WALL_GAP = 0.005  # the far end stops short of the wall by up to this
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -68,11 +66,11 @@ class PivotBookEnv(ManiLadderEnv):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            yaw = torch.deg2rad((torch.rand(b) - 0.5) * (2 * self.BOOK_MAX_YAW_DEG))
+            yaw = torch.deg2rad((torch.rand(b) - 0.5) * (2 * self.book_max_yaw))
             # the far end's corners touch the wall (or stop short by the gap) whatever the yaw
             reach = self.book_half_size[0] * torch.cos(yaw) + self.book_half_size[1] * torch.sin(yaw.abs())
-            x = self.wall_face_x - reach - torch.rand(b) * self.MAX_WALL_GAP
-            y = (torch.rand(b) - 0.5) * (2 * self.BOOK_MAX_Y)
+            x = self.wall_face_x - reach - torch.rand(b) * self.max_start_wall_gap
+            y = (torch.rand(b) - 0.5) * (2 * self.book_max_y)
             xyz = torch.stack([x, y, torch.full((b,), self.book_half_size[2])], dim=1)
             self.book.set_pose(Pose.create_from_pq(xyz, yaw_quat(yaw)))
 

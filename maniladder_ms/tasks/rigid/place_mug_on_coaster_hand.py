@@ -11,6 +11,7 @@ from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.geometry import tilt, yaw_quat
+from maniladder_ms.layout import uniform, uniform_deg
 from maniladder_ms.objects.mug import (MUG_DENSITY, MugShape, build_coaster, build_mug, mug_body_centre,
                                        placed_on_coaster)
 from maniladder_ms.objects.tabletop import place_at_rest
@@ -22,9 +23,9 @@ class PlaceMugOnCoasterHandEnv(ManiLadderEnv):
     mug by its body, lifts it, carries it over the coaster, sets it down upright on it and lets go.
 
     **Randomisation:** the mug (8.4 cm wide, 9 cm tall, loop handle; ~0.13 kg; `objects.mug`) stands upright,
-    its centre uniform in x in `MUG_X` = [-0.2, -0.1], y in `MUG_Y` = [0.05, 0.15], its handle pointing anywhere
-    (yaw uniform in [0, 2 pi)); the coaster (11 cm across, 5 mm thick, fixed to the table) has its centre uniform
-    in x in `COASTER_X` = [-0.2, -0.1], y in `COASTER_Y` = [-0.15, -0.07] (a 12-30 cm carry).
+    its centre uniform in x in `mug_x_range`, y in `mug_y_range`, its yaw uniform in `mug_yaw_range` (the handle
+    pointing anywhere); the coaster (11 cm across, 5 mm thick, fixed to the table) has its centre uniform in x in
+    `coaster_x_range`, y in `coaster_y_range` (a 12-30 cm carry).
 
     **Success:** the mug was carried: at some control step the hand held it (`ee.holds`: a finger pressing
     against the thumb or palm) with its body at least `lift_height` clear of the table (its lowest point; episode
@@ -43,10 +44,9 @@ class PlaceMugOnCoasterHandEnv(ManiLadderEnv):
     SUPPORTED_ROBOTS = ["ml_panda_leap"]
     max_dense_reward = 8
     TASK_REGION = (-0.29, -0.01, -0.21, 0.24)  # the mug with its handle (8 cm from the axis) and the coaster
-    PARAMS = ("lift_height", "max_tilt", "centre_tol", "rest_tol")
+    PARAMS = ("lift_height", "max_tilt", "centre_tol", "rest_tol",
+              "mug_x_range", "mug_y_range", "mug_yaw_range", "coaster_x_range", "coaster_y_range")
     mug_shape = MugShape()
-    MUG_X, MUG_Y = (-0.2, -0.1), (0.05, 0.15)  # ranges of the mug's centre
-    COASTER_X, COASTER_Y = (-0.2, -0.1), (-0.15, -0.07)  # ranges of the coaster's centre
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -59,13 +59,10 @@ class PlaceMugOnCoasterHandEnv(ManiLadderEnv):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            (x_lo, x_hi), (y_lo, y_hi) = self.MUG_X, self.MUG_Y
-            mug = torch.stack([x_lo + torch.rand(b) * (x_hi - x_lo), y_lo + torch.rand(b) * (y_hi - y_lo), torch.zeros(b)],
-                              dim=1)
-            place_at_rest(self.mug, Pose.create_from_pq(mug, yaw_quat(torch.rand(b) * 2 * np.pi)))
-            (x_lo, x_hi), (y_lo, y_hi) = self.COASTER_X, self.COASTER_Y
-            coaster = torch.stack([x_lo + torch.rand(b) * (x_hi - x_lo), y_lo + torch.rand(b) * (y_hi - y_lo),
-                                   torch.zeros(b)], dim=1)
+            mug = torch.stack([uniform(b, self.mug_x_range), uniform(b, self.mug_y_range), torch.zeros(b)], dim=1)
+            place_at_rest(self.mug, Pose.create_from_pq(mug, yaw_quat(uniform_deg(b, self.mug_yaw_range))))
+            coaster = torch.stack([uniform(b, self.coaster_x_range), uniform(b, self.coaster_y_range), torch.zeros(b)],
+                                  dim=1)
             self.coaster.set_pose(Pose.create_from_pq(coaster))
 
     def mug_centre(self) -> torch.Tensor:

@@ -12,6 +12,7 @@ from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.geometry import yaw_quat
+from maniladder_ms.layout import uniform, uniform_deg
 from maniladder_ms.objects.markers import MARKER_THICKNESS, build_zone_marker
 
 SIDES = {"left": 1.0, "right": -1.0}  # sign of y on each arm's side of the table
@@ -26,11 +27,11 @@ class PushBlocksBimanualEnv(ManiLadderEnv):
     not be lifted).
 
     **Randomisation:** per side (left: y > 0, right: y < 0, mirrored ranges):
-    - the block (5 cm cube) has its centre uniform in x in `BLOCK_X` = [-0.2, -0.1], |y| in `BLOCK_ABS_Y` =
-      [0.15, 0.3], and a uniform random yaw;
-    - its zone (12 cm square tile, axis-aligned) is centred `ZONE_DISTANCE` = 10-15 cm (uniform) away from the
-      block, in a direction within `ZONE_MAX_TURN_DEG` = 30 degrees (uniform) of straight ahead (+x), turned away
-      from the centre line.
+    - the block (5 cm cube) has its centre uniform in x in `block_x_range`, |y| in `block_abs_y_range`, and its
+      yaw uniform in `block_yaw_range` (a cube: every yaw);
+    - its zone (12 cm square tile, axis-aligned) is centred a distance uniform in `zone_distance_range` away from
+      the block, in a direction within `zone_max_turn` (uniform) of straight ahead (+x), turned away from the
+      centre line.
 
     **Success:** each block's centre lies inside its own zone shrunk by `margin` on every side (|dx|, |dy|
     <= `zone_half` - `margin` from the zone centre) and the block is on the table (centre less than
@@ -42,10 +43,8 @@ class PushBlocksBimanualEnv(ManiLadderEnv):
     SUPPORTED_ROBOTS = ["ml_dual_panda"]
     max_dense_reward = 8
     TASK_REGION = (-0.25, 0.1, -0.4, 0.4)
-    PARAMS = ("block_half", "zone_half", "margin", "on_table_tol")
-    BLOCK_X, BLOCK_ABS_Y = (-0.2, -0.1), (0.15, 0.3)  # ranges of each block's centre x and |y|
-    ZONE_DISTANCE = (0.1, 0.15)  # range of the zone centre's distance from its block's
-    ZONE_MAX_TURN_DEG = 30  # the zone's direction from the block: up to this far from +x, away from the centre line
+    PARAMS = ("block_half", "zone_half", "margin", "on_table_tol",
+              "block_x_range", "block_abs_y_range", "block_yaw_range", "zone_distance_range", "zone_max_turn")
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -63,13 +62,12 @@ class PushBlocksBimanualEnv(ManiLadderEnv):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            (x_lo, x_hi), (y_lo, y_hi), (d_lo, d_hi) = self.BLOCK_X, self.BLOCK_ABS_Y, self.ZONE_DISTANCE
             for side, sign in SIDES.items():
-                block = torch.stack([x_lo + torch.rand(b) * (x_hi - x_lo), sign * (y_lo + torch.rand(b) * (y_hi - y_lo)),
+                block = torch.stack([uniform(b, self.block_x_range), sign * uniform(b, self.block_abs_y_range),
                                      torch.full((b,), self.block_half)], dim=1)
-                self.blocks[side].set_pose(Pose.create_from_pq(block, yaw_quat(torch.rand(b) * np.pi / 2)))
-                heading = sign * torch.rand(b) * np.pi / (180 / self.ZONE_MAX_TURN_DEG)  # pi / 6: float32 as drawn
-                distance = d_lo + torch.rand(b) * (d_hi - d_lo)
+                self.blocks[side].set_pose(Pose.create_from_pq(block, yaw_quat(uniform_deg(b, self.block_yaw_range))))
+                heading = sign * torch.rand(b) * np.pi / (180 / self.zone_max_turn)  # pi / 6: float32 as drawn
+                distance = uniform(b, self.zone_distance_range)
                 zone = block + torch.stack([torch.cos(heading), torch.sin(heading), torch.zeros(b)], dim=1) * distance[:, None]
                 zone[:, 2] = MARKER_THICKNESS / 2
                 self.zones[side].set_pose(Pose.create_from_pq(zone))

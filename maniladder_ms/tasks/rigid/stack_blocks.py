@@ -4,7 +4,6 @@ from __future__ import annotations
 
 from typing import Any
 
-import numpy as np
 import torch
 
 from mani_skill.utils.building import actors
@@ -12,6 +11,7 @@ from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.geometry import spaced_xy, yaw_quat
+from maniladder_ms.layout import uniform_deg
 
 # metres from the TCP: a block the gripper (hand or fingers) touches has its centre within this; the
 # Panda hand is about 20 cm wide and its fingers 5 cm long
@@ -26,9 +26,8 @@ BLOCK_COLORS = [
 class StackBlocksEnv(ManiLadderEnv):
     """**Task:** stack `num_blocks` cubes (2 x `half_size`) into a single tower (any order).
 
-    **Randomisation:** block centres are sampled uniformly between `BLOCK_XY_LOW` and `BLOCK_XY_HIGH` (x in
-    [-0.15, 0.15], y in [-0.25, 0.25]) with at least `min_spacing` = 8 cm between any two, each with a uniform
-    random yaw.
+    **Randomisation:** block centres are sampled uniformly in x in `block_x_range`, y in `block_y_range`, with
+    at least `min_block_spacing` between any two, each with a yaw uniform in `block_yaw_range` (a cube: every yaw).
 
     **Success:** all `num_blocks` blocks form one tower: with the blocks sorted by height, the lowest rests on the table (centre within
     `z_tol` of one half-size) and each next block's centre is within `xy_tol` of the one below
@@ -47,9 +46,8 @@ class StackBlocksEnv(ManiLadderEnv):
     """
 
     TASK_REGION = (-0.2, 0.2, -0.3, 0.3)
-    PARAMS = ("num_blocks", "half_size", "xy_tol", "z_tol", "static_lin", "static_ang")
-    min_spacing = 0.08
-    BLOCK_XY_LOW, BLOCK_XY_HIGH = (-0.15, -0.25), (0.15, 0.25)  # corners of the region of the block centres
+    PARAMS = ("num_blocks", "half_size", "xy_tol", "z_tol", "static_lin", "static_ang",
+              "block_x_range", "block_y_range", "block_yaw_range", "min_block_spacing")
 
     @property
     def max_dense_reward(self) -> float:
@@ -72,11 +70,12 @@ class StackBlocksEnv(ManiLadderEnv):
             xy = self._sample_spaced_xy(b)
             for i, block in enumerate(self.blocks):
                 xyz = torch.cat([xy[:, i], torch.full((b, 1), self.half_size)], dim=1)
-                block.set_pose(Pose.create_from_pq(xyz, yaw_quat(torch.rand(b) * np.pi / 2)))
+                block.set_pose(Pose.create_from_pq(xyz, yaw_quat(uniform_deg(b, self.block_yaw_range))))
 
     def _sample_spaced_xy(self, b: int) -> torch.Tensor:
-        """(b, num_blocks, 2) positions, pairwise at least `min_spacing` apart."""
-        return spaced_xy(b, self.num_blocks, self.BLOCK_XY_LOW, self.BLOCK_XY_HIGH, self.min_spacing)
+        """(b, num_blocks, 2) positions, pairwise at least `min_block_spacing` apart."""
+        (x_lo, x_hi), (y_lo, y_hi) = self.block_x_range, self.block_y_range
+        return spaced_xy(b, self.num_blocks, (x_lo, y_lo), (x_hi, y_hi), self.min_block_spacing)
 
     def _block_positions(self) -> torch.Tensor:
         return torch.stack([blk.pose.p for blk in self.blocks], dim=1)  # (b, n, 3)

@@ -8,6 +8,7 @@ import numpy as np
 import torch
 
 from maniladder_ms.deformables import rope
+from maniladder_ms.layout import uniform
 
 
 class RopeTask:
@@ -29,14 +30,17 @@ class RopeTask:
 
 class RopeBetweenArmsTask(RopeTask):
     """`RopeTask` for two-arm tasks whose rope lies across the table between the arms: the rope
-    (`rope_config`) lies flat along y in a gentle S (`rope.wavy_turns`, amp up to 0.15 rad), the mean of its
-    capsule centres at x uniform in [-0.15, -0.05], y uniform in [-0.03, 0.03], its first capsule heading
-    within +-15 degrees (uniform) of +y or of -y. The task defines `end_points()` ({"left", "right"} -> [B, 3],
+    (`rope_config`) lies flat along y in a gentle S (`rope.wavy_turns`, amp uniform up to `rope_max_amp`), the
+    mean of its capsule centres at x uniform in `rope_x_range`, y uniform in `rope_y_range`, its first capsule
+    heading within +-`rope_max_yaw` (uniform) of +y or of -y: the catalog params `ROPE_LAYOUT_PARAMS`, which
+    the task's `PARAMS` include. The task defines `end_points()` ({"left", "right"} -> [B, 3],
     where each arm takes the rope) and the param `end_capsules`; `end_holds()` says whether each end effector
     holds (`ee.holds`) one of the `end_capsules` outermost capsules at the end on its side, which the task
     reports as `left_grasped` / `right_grasped` in its info."""
 
     SIDES = ("left", "right")
+    # the rope's layout ranges (catalog params, degrees for angles): read by `lay_rope`
+    ROPE_LAYOUT_PARAMS = ("rope_x_range", "rope_y_range", "rope_max_yaw", "rope_max_amp")
 
     def first_is_left(self) -> torch.Tensor:
         """(B,) bool: the rope's first capsule lies on the left (+y) arm's side."""
@@ -81,10 +85,10 @@ class RopeBetweenArmsTask(RopeTask):
     def lay_rope(self, b: int) -> torch.Tensor:
         """Lay the rope of the `b` sub-scenes being reset (on torch's default device) as the class docstring
         says; returns its capsule centres, [b, segments, 3] (`rope.Rope.lay_flat`)."""
-        turns = rope.wavy_turns(b, self.rope_config.segments, 0.15)
-        heading = (np.pi / 2 + (torch.rand(b) * 2 - 1) * np.deg2rad(15)
+        turns = rope.wavy_turns(b, self.rope_config.segments, np.deg2rad(self.rope_max_amp))
+        heading = (np.pi / 2 + (torch.rand(b) * 2 - 1) * np.deg2rad(self.rope_max_yaw)
                    + torch.where(torch.rand(b) < 0.5, 0.0, np.pi))
-        middle = torch.stack([torch.rand(b) * 0.1 - 0.15, torch.rand(b) * 0.06 - 0.03], dim=1)
+        middle = torch.stack([uniform(b, self.rope_x_range), uniform(b, self.rope_y_range)], dim=1)
         return self.rope.lay_flat(middle, heading, turns)
 
     def _get_obs_extra(self, info: dict):

@@ -12,14 +12,12 @@ from mani_skill.utils.structs.pose import Pose
 from maniladder_ms.deformables import rope
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.geometry import yaw_quat
+from maniladder_ms.layout import uniform, uniform_deg
 from maniladder_ms.objects.tabletop import Channel
 from maniladder_ms.tasks.rope.base import RopeTask
 
 CLIP_WALL = 0.008  # thickness of each of the clip's two walls
 CLIP_FLOOR = 0.004  # the clip's base plate: the slot's floor lies this high above the table
-CLIP_GAP = (0.09, 0.12)  # metres from the cable's middle capsule to the clip's axis, sideways: the open scissor
-CLIP_TURN = 20  # degrees: the clip's axis lies within this of the middle capsule's heading
-ROPE_WAVE = 0.1  # rad: amplitude bound of the cable's in-plane S (`rope.wavy_turns`)
 CLIP_COLOR, CLIP_FLOOR_COLOR = (0.15, 0.35, 0.75, 1), (0.1, 0.2, 0.45, 1)
 
 
@@ -31,12 +29,12 @@ class CableIntoClipHandEnv(RopeTask, ManiLadderEnv):
 
     **Randomisation:** the cable (`rope.RopeConfig()`: 40 cm, 20 capsules of 1.6 cm diameter, both ends free)
     lies flat in a gentle S (the in-plane turn between capsules k and k + 1 is amp * sin(2 pi (k + 1) / 20 +
-    phase), amp uniform in [0, 0.1] rad, phase uniform), the mean of its capsule centres at x uniform in
-    [-0.15, -0.05], y uniform in [-0.08, 0.08], its first capsule's heading uniform in [0, 2 pi); the clip (a
-    4 mm base plate and two 8 mm thick walls, `slot_width` apart, `clip_depth` high above the plate and
-    `clip_length` long, open at both ends) has its centre on the table a distance uniform in [0.09, 0.12] m to
+    phase), amp uniform in [0, `rope_max_amp`], phase uniform), the mean of its capsule centres at x uniform in
+    `rope_x_range`, y uniform in `rope_y_range`, its first capsule's heading uniform in `rope_yaw_range`; the
+    clip (a 4 mm base plate and two 8 mm thick walls, `slot_width` apart, `clip_depth` high above the plate and
+    `clip_length` long, open at both ends) has its centre on the table a distance uniform in `clip_gap_range` to
     the left or the right (equally likely) of the cable's middle capsule (index 10), at right angles to that
-    capsule's heading, and its axis within +-20 degrees (uniform) of that heading.
+    capsule's heading, and its axis within +-`clip_max_yaw` (uniform) of that heading.
 
     **Success:** at least `min_segments` of the cable's capsules lie inside the clip's slot (`metrics.
     inside_channel_fraction` times the capsule count: the capsule's centre between the walls, at most half of
@@ -63,9 +61,8 @@ class CableIntoClipHandEnv(RopeTask, ManiLadderEnv):
     # cable and clip: the cable's middle within x [-0.15, -0.05], |y| <= 0.08, its tips up to 20 cm further,
     # the clip up to 12 cm (and its 3.5 cm half length) beyond the middle
     TASK_REGION = (-0.4, 0.2, -0.35, 0.35)
-    PARAMS = ("min_segments", "slot_width", "clip_depth", "clip_length")
-    ROPE_X_LOW, ROPE_X_SPAN = -0.15, 0.1  # the cable's centroid x: uniform in [low, low + span]
-    ROPE_Y_LOW, ROPE_Y_SPAN = -0.08, 0.16  # and its y
+    PARAMS = ("min_segments", "slot_width", "clip_depth", "clip_length", "rope_x_range", "rope_y_range",
+              "rope_yaw_range", "rope_max_amp", "clip_gap_range", "clip_max_yaw")
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)  # the cable (RopeTask)
@@ -77,19 +74,18 @@ class CableIntoClipHandEnv(RopeTask, ManiLadderEnv):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            turns = rope.wavy_turns(b, self.rope_config.segments, ROPE_WAVE)
-            heading = torch.rand(b) * 2 * np.pi
-            middle = torch.stack([torch.rand(b) * self.ROPE_X_SPAN + self.ROPE_X_LOW,
-                                  torch.rand(b) * self.ROPE_Y_SPAN + self.ROPE_Y_LOW], dim=1)
+            turns = rope.wavy_turns(b, self.rope_config.segments, np.deg2rad(self.rope_max_amp))
+            heading = uniform_deg(b, self.rope_yaw_range)
+            middle = torch.stack([uniform(b, self.rope_x_range), uniform(b, self.rope_y_range)], dim=1)
             centres = self.rope.lay_flat(middle, heading, turns)
             k = self.grasp_segment
             along = centres[:, k + 1, :2] - centres[:, k - 1, :2]
             yaw = torch.atan2(along[:, 1], along[:, 0])
             side = torch.where(torch.rand(b) < 0.5, 1.0, -1.0)
-            gap = CLIP_GAP[0] + torch.rand(b) * (CLIP_GAP[1] - CLIP_GAP[0])
+            gap = uniform(b, self.clip_gap_range)
             normal = torch.stack([-torch.sin(yaw), torch.cos(yaw)], dim=1)
             xy = centres[:, k, :2] + (side * gap)[:, None] * normal
-            axis = yaw + (torch.rand(b) * 2 - 1) * np.deg2rad(CLIP_TURN)
+            axis = yaw + (torch.rand(b) * 2 - 1) * np.deg2rad(self.clip_max_yaw)
             self.clip.set_pose(Pose.create_from_pq(torch.cat([xy, torch.zeros(b, 1)], dim=1), yaw_quat(axis)))
 
     def inside_count(self) -> torch.Tensor:

@@ -11,6 +11,7 @@ from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.deformables import rope
 from maniladder_ms.envs import ManiLadderEnv, register_task
+from maniladder_ms.layout import symmetric_deg, uniform
 from maniladder_ms.objects.markers import MARKER_THICKNESS, build_zone_marker
 from maniladder_ms.tasks.rope.base import RopeTask
 
@@ -23,11 +24,11 @@ class DragRopeToGoalEnv(RopeTask, ManiLadderEnv):
     **Randomisation:**
     - the rope (`rope.RopeConfig()`: 40 cm, 20 capsules of 1.6 cm diameter) lies flat in a gentle S:
       the in-plane turn between capsules k and k + 1 is amp * sin(2 pi (k + 1) / 20 + phase), amp
-      uniform in [0, `ROPE_MAX_AMP` = 0.2] rad, phase uniform; the mean of its capsule centres is at x
-      uniform in [-0.12, 0.0] (`ROPE_X_*`), |y| uniform in [0.12, 0.18] (`ROPE_ABS_Y_*`) on a random side; its
-      first capsule heads within +-0.35 rad (uniform, `HEADING_SPAN`) of +x or of -x;
+      uniform in [0, `rope_max_amp`], phase uniform; the mean of its capsule centres is at x uniform in
+      `rope_x_range`, |y| uniform in `rope_abs_y_range` on a random side; its first capsule heads within
+      +-`rope_max_yaw` (uniform) of +x or of -x;
     - the goal zone (a square tile of half side `zone_half`, axis-aligned) is centred at x uniform in
-      [-0.1, 0.02] (`ZONE_X_*`), |y| uniform in [0.08, 0.12] (`ZONE_ABS_Y_*`) on the other side.
+      `zone_x_range`, |y| uniform in `zone_abs_y_range` on the other side.
 
     **Success:** at least `min_inside` of the rope's segments (capsule centres) lie inside the zone's
     square footprint and on the table (centre at most `on_table_height` up); and the rope was dragged:
@@ -38,13 +39,8 @@ class DragRopeToGoalEnv(RopeTask, ManiLadderEnv):
 
     max_dense_reward = 5
     TASK_REGION = (-0.35, 0.25, -0.35, 0.35)
-    PARAMS = ("zone_half", "min_inside", "on_table_height", "grip_segments", "drag_share")
-    ROPE_MAX_AMP = 0.2  # rad: largest amplitude of the rope's S (`rope.wavy_turns`)
-    HEADING_SPAN = 0.7  # rad: the first capsule heads within half of it of +x or -x
-    ROPE_X_LOW, ROPE_X_SPAN = -0.12, 0.12  # the rope's centroid x: uniform in [low, low + span]
-    ROPE_ABS_Y_LOW, ROPE_ABS_Y_SPAN = 0.12, 0.06  # |y| of the rope's centroid, on a random side
-    ZONE_X_LOW, ZONE_X_SPAN = -0.1, 0.12  # the zone centre's x
-    ZONE_ABS_Y_LOW, ZONE_ABS_Y_SPAN = 0.08, 0.04  # |y| of the zone centre, on the other side
+    PARAMS = ("zone_half", "min_inside", "on_table_height", "grip_segments", "drag_share", "rope_x_range",
+              "rope_abs_y_range", "rope_max_yaw", "rope_max_amp", "zone_x_range", "zone_abs_y_range")
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)  # the rope (RopeTask)
@@ -60,13 +56,11 @@ class DragRopeToGoalEnv(RopeTask, ManiLadderEnv):
             b = len(env_idx)
             cfg = self.rope_config
             side = torch.where(torch.rand(b) < 0.5, -1.0, 1.0)
-            turns = rope.wavy_turns(b, cfg.segments, self.ROPE_MAX_AMP)
-            heading = (torch.rand(b) - 0.5) * self.HEADING_SPAN + torch.where(torch.rand(b) < 0.5, 0.0, np.pi)
-            middle = torch.stack([torch.rand(b) * self.ROPE_X_SPAN + self.ROPE_X_LOW,
-                                  side * (self.ROPE_ABS_Y_LOW + torch.rand(b) * self.ROPE_ABS_Y_SPAN)], dim=1)
+            turns = rope.wavy_turns(b, cfg.segments, np.deg2rad(self.rope_max_amp))
+            heading = symmetric_deg(b, self.rope_max_yaw) + torch.where(torch.rand(b) < 0.5, 0.0, np.pi)
+            middle = torch.stack([uniform(b, self.rope_x_range), side * uniform(b, self.rope_abs_y_range)], dim=1)
             self.rope.lay_flat(middle, heading, turns)
-            zone = torch.stack([torch.rand(b) * self.ZONE_X_SPAN + self.ZONE_X_LOW,
-                                -side * (self.ZONE_ABS_Y_LOW + torch.rand(b) * self.ZONE_ABS_Y_SPAN),
+            zone = torch.stack([uniform(b, self.zone_x_range), -side * uniform(b, self.zone_abs_y_range),
                                 torch.full((b,), MARKER_THICKNESS / 2)], dim=1)
             self.zone.set_pose(Pose.create_from_pq(zone))
             # lay_flat puts the mean of the capsule centres on `middle`

@@ -18,9 +18,9 @@ class LiftRopeBimanualEnv(RopeBetweenArmsTask, ManiLadderEnv):
 
     **Randomisation:** the rope (`rope.RopeConfig()`: 40 cm, 20 capsules of 1.6 cm diameter) lies flat
     across the table (along y) in a gentle S: the in-plane turn between capsules k and k + 1 is
-    amp * sin(2 pi (k + 1) / 20 + phase), amp uniform in [0, 0.15] rad, phase uniform; the mean of its
-    capsule centres is at x uniform in [-0.15, -0.05], y uniform in [-0.03, 0.03]; its first capsule
-    heads within +-15 degrees (uniform) of +y or of -y.
+    amp * sin(2 pi (k + 1) / 20 + phase), amp uniform in [0, `rope_max_amp`], phase uniform; the mean of its
+    capsule centres is at x uniform in `rope_x_range`, y uniform in `rope_y_range`; its first capsule heads
+    within +-`rope_max_yaw` (uniform) of +y or of -y.
 
     **Success:** both rope ends (the outer tips of the end capsules) are at least `lift_height` above the
     table, the distance between them is at least `min_spread` of the rope's length, and each gripper holds
@@ -31,7 +31,7 @@ class LiftRopeBimanualEnv(RopeBetweenArmsTask, ManiLadderEnv):
     SUPPORTED_ROBOTS = ["ml_dual_panda"]
     max_dense_reward = 6
     TASK_REGION = (-0.3, 0.1, -0.32, 0.32)
-    PARAMS = ("lift_height", "min_spread", "end_capsules")
+    PARAMS = ("lift_height", "min_spread", "end_capsules") + RopeBetweenArmsTask.ROPE_LAYOUT_PARAMS
 
     def end_points(self) -> dict[str, torch.Tensor]:
         """Centres of the two end capsules, keyed by the arm on whose side each lies, [B, 3] each."""

@@ -9,6 +9,7 @@ import torch
 
 from maniladder_ms.deformables import rope
 from maniladder_ms.envs import ManiLadderEnv, register_task
+from maniladder_ms.layout import uniform, uniform_deg
 from maniladder_ms.tasks.rope.base import RopeTask
 
 
@@ -19,8 +20,8 @@ class LiftRopeHandEnv(RopeTask, ManiLadderEnv):
 
     **Randomisation:** the rope (`rope.RopeConfig()`: 40 cm, 20 capsules of 1.6 cm diameter) lies flat in
     a gentle S: the in-plane turn between capsules k and k + 1 is amp * sin(2 pi (k + 1) / 20 + phase), amp
-    uniform in [0, 0.15] rad, phase uniform; the mean of its capsule centres is at x uniform in
-    [-0.15, -0.05], y uniform in [-0.1, 0.1]; its first capsule's heading is uniform in [0, 2 pi).
+    uniform in [0, `rope_max_amp`], phase uniform; the mean of its capsule centres is at x uniform in
+    `rope_x_range`, y uniform in `rope_y_range`; its first capsule's heading is uniform in `rope_yaw_range`.
 
     **Success:** at least `min_lifted` of the rope's segments (capsule centres) are at least
     `lift_height` above the table, and the hand holds the rope (`ee.holds` on any of its capsules: a
@@ -33,19 +34,15 @@ class LiftRopeHandEnv(RopeTask, ManiLadderEnv):
     SUPPORTED_ROBOTS = ["ml_panda_leap"]
     max_dense_reward = 4
     TASK_REGION = (-0.35, 0.15, -0.3, 0.3)
-    PARAMS = ("lift_height", "min_lifted")
-    ROPE_MAX_AMP = 0.15  # rad: largest amplitude of the rope's S (`rope.wavy_turns`)
-    ROPE_X_LOW, ROPE_X_SPAN = -0.15, 0.1  # the rope's centroid x: uniform in [low, low + span]
-    ROPE_Y_LOW, ROPE_Y_SPAN = -0.1, 0.2  # and its y
+    PARAMS = ("lift_height", "min_lifted", "rope_x_range", "rope_y_range", "rope_yaw_range", "rope_max_amp")
 
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            turns = rope.wavy_turns(b, self.rope_config.segments, self.ROPE_MAX_AMP)
-            heading = torch.rand(b) * 2 * np.pi
-            middle = torch.stack([torch.rand(b) * self.ROPE_X_SPAN + self.ROPE_X_LOW,
-                                  torch.rand(b) * self.ROPE_Y_SPAN + self.ROPE_Y_LOW], dim=1)
+            turns = rope.wavy_turns(b, self.rope_config.segments, np.deg2rad(self.rope_max_amp))
+            heading = uniform_deg(b, self.rope_yaw_range)
+            middle = torch.stack([uniform(b, self.rope_x_range), uniform(b, self.rope_y_range)], dim=1)
             self.rope.lay_flat(middle, heading, turns)
 
     def _segments(self) -> torch.Tensor:

@@ -11,14 +11,13 @@ from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.geometry import yaw_quat
+from maniladder_ms.layout import uniform
 from maniladder_ms.objects.tabletop import Channel
 from maniladder_ms.tasks.rope.base import RopeBetweenArmsTask
 
 GROOVE_LENGTH = 0.46  # the rope's 40 cm and 3 cm to spare at each end
 GROOVE_WALL = 0.015  # thickness of each wall
 GROOVE_FLOOR = 0.004  # the plate the walls stand on: the groove's floor lies this high
-GROOVE_TURN = 20  # degrees: the groove's axis lies within this of the y axis
-GROOVE_GAP = (0.03, 0.06)  # metres from the rope's farthest point to the groove's near wall, along x
 GROOVE_COLOR, GROOVE_FLOOR_COLOR = (0.55, 0.45, 0.35, 1), (0.3, 0.25, 0.2, 1)
 
 
@@ -31,13 +30,13 @@ class RopeIntoGrooveEnv(RopeBetweenArmsTask, ManiLadderEnv):
     **Randomisation:**
     - the rope as in LiftRopeBimanual (`RopeBetweenArmsTask`; `rope.RopeConfig()`: 40 cm, 20 capsules of
       1.6 cm diameter): flat across the table (along y) in a gentle S (the in-plane turn between capsules k and
-      k + 1 is amp * sin(2 pi (k + 1) / 20 + phase), amp uniform in [0, 0.15] rad, phase uniform), the mean of its
-      capsule centres at x uniform in [-0.15, -0.05], y uniform in [-0.03, 0.03], its first capsule heading within
-      +-15 degrees (uniform) of +y or of -y;
+      k + 1 is amp * sin(2 pi (k + 1) / 20 + phase), amp uniform in [0, `rope_max_amp`], phase uniform), the mean
+      of its capsule centres at x uniform in `rope_x_range`, y uniform in `rope_y_range`, its first capsule
+      heading within +-`rope_max_yaw` (uniform) of +y or of -y;
     - the groove (46 cm long, open at both ends: a 4 mm plate and two 1.5 cm thick walls, `groove_width` apart
-      and `groove_depth` high above the plate) has its axis within +-20 degrees (uniform) of the y axis and its
-      centre at y uniform in [-0.03, 0.03]; along x it lies beyond the rope: at the y of every capsule, the
-      groove's outer face of the near wall is at least a gap uniform in [0.03, 0.06] m (one per episode) further
+      and `groove_depth` high above the plate) has its axis within +-`groove_max_yaw` (uniform) of the y axis and
+      its centre at y uniform in `groove_y_range`; along x it lies beyond the rope: at the y of every capsule, the
+      groove's outer face of the near wall is at least a gap uniform in `groove_gap_range` (one per episode) further
       along +x than that capsule's far side (so the groove's centre lands at x in [-0.07, 0.13] in 98% of
       episodes, 8-23 cm from the rope's middle; the extremes over 200k draws: x up to 0.21, 5-28 cm).
 
@@ -65,8 +64,8 @@ class RopeIntoGrooveEnv(RopeBetweenArmsTask, ManiLadderEnv):
     max_dense_reward = 8
     # x up to 0.31: the groove's far corner reaches x = 0.305 at the extremes of its draw (numpy, 200k draws)
     TASK_REGION = (-0.3, 0.31, -0.32, 0.32)
-    PARAMS = ("min_fraction", "groove_width", "groove_depth", "end_capsules")
-    GROOVE_Y_LOW, GROOVE_Y_SPAN = -0.03, 0.06  # the groove centre's y: uniform in [low, low + span]
+    PARAMS = ("min_fraction", "groove_width", "groove_depth", "end_capsules", "groove_max_yaw", "groove_y_range",
+              "groove_gap_range") + RopeBetweenArmsTask.ROPE_LAYOUT_PARAMS
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)  # the rope (RopeBetweenArmsTask)
@@ -77,11 +76,11 @@ class RopeIntoGrooveEnv(RopeBetweenArmsTask, ManiLadderEnv):
     def place_by_rope(self, centres: torch.Tensor):
         """The groove beyond the rope just laid (`RopeBetweenArmsTask`), its `centres` [b, segments, 3]."""
         b = len(centres)
-        axis = np.pi / 2 + (torch.rand(b) * 2 - 1) * np.deg2rad(GROOVE_TURN)
-        y = torch.rand(b) * self.GROOVE_Y_SPAN + self.GROOVE_Y_LOW
+        axis = np.pi / 2 + (torch.rand(b) * 2 - 1) * np.deg2rad(self.groove_max_yaw)
+        y = uniform(b, self.groove_y_range)
         # the groove's centre line (x at each capsule's y) lies beyond every capsule by the capsule's radius, the
         # groove's half width (inner half width and a wall) and the gap, all measured along x
-        gap = GROOVE_GAP[0] + torch.rand(b) * (GROOVE_GAP[1] - GROOVE_GAP[0])
+        gap = uniform(b, self.groove_gap_range)
         slope = torch.cos(axis) / torch.sin(axis)  # x per y along the groove's axis
         farthest = (centres[..., 0] - (centres[..., 1] - y[:, None]) * slope[:, None]).amax(dim=1)
         x = farthest + self.rope_config.radius + (self.groove_width / 2 + GROOVE_WALL) / torch.sin(axis) + gap

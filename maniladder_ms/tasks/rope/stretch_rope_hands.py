@@ -18,9 +18,9 @@ class StretchRopeHandsEnv(RopeBetweenArmsTask, ManiLadderEnv):
 
     **Randomisation** (`RopeBetweenArmsTask`): the rope (`rope.RopeConfig()`: 40 cm, 20 capsules of
     1.6 cm diameter) lies flat across the table (along y) in a gentle S: the in-plane turn between capsules
-    k and k + 1 is amp * sin(2 pi (k + 1) / 20 + phase), amp uniform in [0, 0.15] rad, phase uniform; the mean of its
-    capsule centres is at x uniform in [-0.15, -0.05], y uniform in [-0.03, 0.03]; its first capsule
-    heads within +-15 degrees (uniform) of +y or of -y.
+    k and k + 1 is amp * sin(2 pi (k + 1) / 20 + phase), amp uniform in [0, `rope_max_amp`], phase uniform; the
+    mean of its capsule centres is at x uniform in `rope_x_range`, y uniform in `rope_y_range`; its first
+    capsule heads within +-`rope_max_yaw` (uniform) of +y or of -y.
 
     **Success:** the rope's straightness (`rope.straightness`: tip-to-tip distance over arc length) is at
     least `min_straightness`, every point of it (capsule centres and the two tips) is at least `lift_height`
@@ -32,7 +32,7 @@ class StretchRopeHandsEnv(RopeBetweenArmsTask, ManiLadderEnv):
     SUPPORTED_ROBOTS = ["ml_dual_panda_leap"]
     max_dense_reward = 6
     TASK_REGION = (-0.3, 0.1, -0.32, 0.32)
-    PARAMS = ("min_straightness", "lift_height", "end_capsules")
+    PARAMS = ("min_straightness", "lift_height", "end_capsules") + RopeBetweenArmsTask.ROPE_LAYOUT_PARAMS
 
     def end_points(self) -> dict[str, torch.Tensor]:
         """Centres of the second capsule from each end (where the solver pinches), keyed by side, [B, 3]."""

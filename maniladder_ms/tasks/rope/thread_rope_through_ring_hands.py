@@ -11,6 +11,7 @@ from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.deformables import rope
 from maniladder_ms.envs import ManiLadderEnv, register_task
+from maniladder_ms.layout import uniform
 from maniladder_ms.objects.tabletop import build_standing_ring
 from maniladder_ms.tasks.rope.base import RopeTask
 
@@ -29,11 +30,12 @@ class ThreadRopeThroughRingHandsEnv(RopeTask, ManiLadderEnv):
     it beyond the ring and pulls.
 
     **Randomisation:** the ring (inner radius `ring_radius`, its centre 6 cm above the table) stands at x
-    uniform in [-0.12, -0.06], y uniform in [-0.03, 0.03]; the rope (40 cm, 20 capsules of 1.6 cm
-    diameter, stiffer than the default rope: a cord) lies flat in a gentle S (in-plane turns amp * sin(2 pi
-    (k + 1) / 20 + phase), amp uniform in [0, 0.05] rad, phase uniform) on the right (-y) side of the ring: its
-    first tip 4-7 cm (uniform) from the ring's plane and within +-1.5 cm (uniform) of the ring's centre along x,
-    from there it runs away from the ring, its first capsule heading within +-10 degrees (uniform) of -y.
+    uniform in `ring_x_range`, y uniform in `ring_y_range`; the rope (40 cm, 20 capsules of 1.6 cm diameter,
+    stiffer than the default rope: a cord) lies flat in a gentle S (in-plane turns amp * sin(2 pi (k + 1) / 20
+    + phase), amp uniform in [0, `rope_max_amp`], phase uniform) on the right (-y) side of the ring: its first
+    tip a gap uniform in `tip_gap_range` from the ring's plane and within +-`tip_max_dx` (uniform) of the
+    ring's centre along x, from there it runs away from the ring, its first capsule heading within
+    +-`rope_max_yaw` (uniform) of -y.
 
     **Success:** the rope passes through the ring's disc exactly once (`rope.through_ring` with the ring's inner
     radius `ring_radius`) with at least `min_side` of its length on each side of the crossing; the rope was
@@ -56,17 +58,12 @@ class ThreadRopeThroughRingHandsEnv(RopeTask, ManiLadderEnv):
     SUPPORTED_ROBOTS = ["ml_dual_panda_leap"]
     max_dense_reward = 6
     TASK_REGION = (-0.3, 0.1, -0.52, 0.32)  # the rope lies up to 51 cm right (-y) of the ring
-    PARAMS = ("ring_radius", "min_side")
+    PARAMS = ("ring_radius", "min_side", "ring_x_range", "ring_y_range", "rope_max_yaw", "tip_gap_range", "tip_max_dx",
+              "rope_max_amp")
     # a cord 40 times stiffer in bending than the default rope: the end the feeding hand holds out (5 capsules
     # beyond the pinch) must stay roughly straight to enter the ring (the default rope's end hangs straight down;
     # at 10x it drooped 4.5 cm over 8 cm and poked only 1.5 cm through)
     rope_config = rope.RopeConfig(bend_stiffness=0.08, bend_damping=0.016)
-    RING_X_LOW, RING_X_SPAN = -0.12, 0.06  # the ring's x: uniform in [low, low + span]
-    RING_Y_LOW, RING_Y_SPAN = -0.03, 0.06  # and its y
-    HEADING_SPREAD = np.deg2rad(10)  # the rope's first capsule heads within this of the feed direction
-    TIP_GAP_LOW, TIP_GAP_SPAN = 0.04, 0.03  # the rope's end tip from the ring's centre plane, along y
-    TIP_X_SPREAD = 0.015  # the end tip's x: within this of the ring's
-    ROPE_MAX_AMP = 0.05  # rad: largest amplitude of the rope's S (`rope.wavy_turns`)
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)  # the rope (RopeTask)
@@ -78,14 +75,13 @@ class ThreadRopeThroughRingHandsEnv(RopeTask, ManiLadderEnv):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            ring = torch.stack([torch.rand(b) * self.RING_X_SPAN + self.RING_X_LOW,
-                                torch.rand(b) * self.RING_Y_SPAN + self.RING_Y_LOW, torch.zeros(b)], dim=1)
+            ring = torch.stack([uniform(b, self.ring_x_range), uniform(b, self.ring_y_range), torch.zeros(b)], dim=1)
             self.ring.set_pose(Pose.create_from_pq(ring))
-            heading = FEED_SIDE * np.pi / 2 + (torch.rand(b) * 2 - 1) * self.HEADING_SPREAD
-            gap = self.TIP_GAP_LOW + torch.rand(b) * self.TIP_GAP_SPAN
-            tip = torch.stack([ring[:, 0] + (torch.rand(b) * 2 - 1) * self.TIP_X_SPREAD, ring[:, 1] + FEED_SIDE * gap],
+            heading = FEED_SIDE * np.pi / 2 + (torch.rand(b) * 2 - 1) * np.deg2rad(self.rope_max_yaw)
+            gap = uniform(b, self.tip_gap_range)
+            tip = torch.stack([ring[:, 0] + (torch.rand(b) * 2 - 1) * self.tip_max_dx, ring[:, 1] + FEED_SIDE * gap],
                               dim=1)
-            turns = rope.wavy_turns(b, self.rope_config.segments, self.ROPE_MAX_AMP)
+            turns = rope.wavy_turns(b, self.rope_config.segments, np.deg2rad(self.rope_max_amp))
             self.rope.lay_flat(tip, heading, turns, from_tip=True)
             self.memory.store("start_side", torch.full((b, 1), FEED_SIDE), env_idx)
 

@@ -12,6 +12,7 @@ from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.deformables import rope
 from maniladder_ms.envs import ManiLadderEnv, register_task
+from maniladder_ms.layout import uniform
 from maniladder_ms.objects.tabletop import build_upright_cylinder
 from maniladder_ms.tasks.rope.base import RopeTask
 
@@ -27,14 +28,14 @@ class WrapRopeAroundPostEnv(RopeTask, ManiLadderEnv):
 
     **Randomisation:**
     - the post (radius `post_radius`, height `post_height`, fixed to the table) stands at x uniform in
-      [0.0, 0.06], y uniform in [-0.04, 0.04];
+      `post_x_range`, y uniform in `post_y_range`;
     - the rope (48 cm, 24 capsules of 1.6 cm diameter) is anchored at its first tip,
-      which lies at a distance uniform in [0.08, 0.11] m from the post axis, on a random side (+y or -y)
-      at a bearing within +-20 degrees (uniform) of that side; from there it lies flat towards the robot
-      and outwards, its first capsule heading 35-55 degrees (uniform) from that side towards -x (the free
-      end 0.45-0.6 m from the arm's base), in a gentle S (the in-plane turn
-      between capsules k and k + 1 is amp * sin(2 pi (k + 1) / 24 + phase), amp uniform in [0, 0.15]
-      rad, phase uniform).
+      which lies at a distance uniform in `tip_distance_range` from the post axis, on a random side (+y or -y)
+      at a bearing within +-`tip_max_bearing` (uniform) of that side; from there it lies flat towards the robot
+      and outwards, its first capsule heading uniform in `rope_yaw_range` measured from that side towards -x
+      (the free end 0.45-0.6 m from the arm's base), in a gentle S (the in-plane turn
+      between capsules k and k + 1 is amp * sin(2 pi (k + 1) / 24 + phase), amp uniform in
+      [0, `rope_max_amp`], phase uniform).
 
     **Success:** the rope winds about the post's axis at least `min_turns` times (the winding number of
     the rope's polyline, anchored tip to free tip, about the vertical axis through the post centre, either
@@ -53,18 +54,13 @@ class WrapRopeAroundPostEnv(RopeTask, ManiLadderEnv):
 
     max_dense_reward = 5
     TASK_REGION = (-0.45, 0.2, -0.56, 0.56)
-    PARAMS = ("post_radius", "post_height", "min_turns")
+    PARAMS = ("post_radius", "post_height", "min_turns", "post_x_range", "post_y_range", "tip_distance_range",
+              "tip_max_bearing", "rope_yaw_range", "rope_max_amp")
     rope_anchored = True
     # 48 cm (the default 40 cm in 2 cm capsules, 4 capsules longer): the standing part, one turn round the
     # post and the carried end need ~40 cm, and friction round the post (capstan) stops the rope sliding
     # on once wound; at 40 cm the carried end was pulled out of the fingers short of the turn
     rope_config = rope.RopeConfig(length=0.48, segments=24)
-    POST_X_SPAN = 0.06  # the post's x: uniform in [0, span]
-    POST_Y_LOW, POST_Y_SPAN = -0.04, 0.08  # its y: uniform in [low, low + span]
-    TIP_DISTANCE_LOW, TIP_DISTANCE_SPAN = 0.08, 0.03  # the anchored tip's distance from the post axis
-    TIP_BEARING_SPREAD = np.deg2rad(20)  # the tip's bearing from the post: within this of +y or -y
-    HEADING_LOW, HEADING_SPAN = np.deg2rad(35), np.deg2rad(20)  # the first capsule's heading, from that side towards -x
-    ROPE_MAX_AMP = 0.15  # rad: largest amplitude of the rope's S (`rope.wavy_turns`)
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)  # the anchored rope (RopeTask)
@@ -81,15 +77,16 @@ class WrapRopeAroundPostEnv(RopeTask, ManiLadderEnv):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            post = torch.stack([torch.rand(b) * self.POST_X_SPAN, torch.rand(b) * self.POST_Y_SPAN + self.POST_Y_LOW,
+            post = torch.stack([uniform(b, self.post_x_range), uniform(b, self.post_y_range),
                                 torch.full((b,), self.post_height / 2)], dim=1)
             self.post.set_pose(Pose.create_from_pq(post))
             side = torch.where(torch.rand(b) < 0.5, -1.0, 1.0)
-            bearing = side * (np.pi / 2 + (torch.rand(b) * 2 - 1) * self.TIP_BEARING_SPREAD)
-            distance = self.TIP_DISTANCE_LOW + torch.rand(b) * self.TIP_DISTANCE_SPAN
+            bearing = side * (np.pi / 2 + (torch.rand(b) * 2 - 1) * np.deg2rad(self.tip_max_bearing))
+            distance = uniform(b, self.tip_distance_range)
             tip = post[:, :2] + distance[:, None] * torch.stack([torch.cos(bearing), torch.sin(bearing)], dim=1)
-            heading = side * (np.pi / 2 + self.HEADING_LOW + torch.rand(b) * self.HEADING_SPAN)
-            turns = rope.wavy_turns(b, self.rope_config.segments, self.ROPE_MAX_AMP)
+            low, high = self.rope_yaw_range
+            heading = side * (np.pi / 2 + np.deg2rad(low) + torch.rand(b) * np.deg2rad(high - low))
+            turns = rope.wavy_turns(b, self.rope_config.segments, np.deg2rad(self.rope_max_amp))
             self.rope.lay_flat(tip, heading, turns, from_tip=True)
             first = self.rope.links[0].pose
             clamp_at = first.p.clone()

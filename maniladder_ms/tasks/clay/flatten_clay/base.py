@@ -13,20 +13,15 @@ class FlattenClayTask(ClayTask, ManiLadderEnv):
     """A ball of clay (plastic: it keeps the shape it is pressed into; particles on a 1.2 cm lattice within
     `ball_radius`) lies on the table; flatten it.
 
-    **Randomisation:** the ball's bottom centre uniform in `CLAY_X` and `CLAY_Y` on the table, turned by a yaw
-    uniform in `CLAY_YAW` and scaled by a factor uniform in `CLAY_SCALE` (`ClayTask.reset_clay`); a variant sets
-    the ranges.
+    **Randomisation:** the ball's bottom centre uniform in x in `clay_x_range` and y in `clay_y_range` on the
+    table, turned by a yaw uniform in `clay_yaw_range` and scaled by a factor uniform in `clay_scale_range`
+    (`ClayTask.reset_clay`); each variant's catalog row gives the ranges.
 
     **Success** (the family's rule; a variant adds how the clay must have been flattened): the clay's height
     (`clay.height`: top of the highest particle above the bottom of the lowest) is <= `max_height_ratio` of its
     height at the start (`is_flat`), and its top-down footprint (`metrics.footprint_area`, one lattice-spacing
     tile per particle) is >= `min_area_ratio` times its footprint at the start (`is_spread`).
     """
-
-    CLAY_X: tuple[float, float]
-    CLAY_Y: tuple[float, float]
-    CLAY_YAW: tuple[float, float]
-    CLAY_SCALE: tuple[float, float]
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -35,7 +30,7 @@ class FlattenClayTask(ClayTask, ManiLadderEnv):
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
-            self.reset_clay(env_idx, x=self.CLAY_X, y=self.CLAY_Y, yaw=self.CLAY_YAW, scale=self.CLAY_SCALE)
+            self.reset_clay(env_idx)
 
     def height_ratio(self) -> torch.Tensor:
         """The clay's height now over its height at the start, [B]."""

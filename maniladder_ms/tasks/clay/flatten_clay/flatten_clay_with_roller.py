@@ -4,7 +4,6 @@ from __future__ import annotations
 
 from typing import Any
 
-import numpy as np
 import torch
 
 from mani_skill.utils.structs.pose import Pose
@@ -12,6 +11,7 @@ from mani_skill.utils.structs.pose import Pose
 from maniladder_ms.agents.effectors import TOUCH_FORCE, pair_forces
 from maniladder_ms.envs import register_task
 from maniladder_ms.geometry import yaw_quat
+from maniladder_ms.layout import uniform
 from maniladder_ms.objects.tools import RollingPinShape, build_rolling_pin
 from maniladder_ms.tasks.clay.flatten_clay.base import FlattenClayTask
 
@@ -30,10 +30,10 @@ class FlattenClayWithRollerEnv(FlattenClayTask):
     until the clay is a flat sheet.
 
     **Randomisation:** the ball (particles on a 1.2 cm lattice within `ball_radius`: 81 of them, 6 cm
-    across, not scaled) is turned by a uniform yaw in [0, pi/2), its centre uniform in x in [-0.12, -0.06], y in
-    [-0.03, 0.03] (`CLAY_X`, `CLAY_Y`); the pin (barrel 4 cm across and 14 cm long, handles 2.4 cm across and 7 cm
-    long) lies along y, its centre 14-18 cm (uniform, `PIN_BEHIND_*`) nearer the robot than the ball's, y uniform
-    in [-0.02, 0.02] (`PIN_Y_*`).
+    across, scaled by a factor uniform in `clay_scale_range`: not scaled) is turned by a yaw uniform in
+    `clay_yaw_range`, its centre uniform in x in `clay_x_range`, y in `clay_y_range`; the pin (barrel 4 cm across
+    and 14 cm long, handles 2.4 cm across and 7 cm long) lies along y, its centre nearer the robot than the
+    ball's by a distance uniform in `pin_behind_range` (x), its y uniform in `pin_y_range`.
 
     **Success:** the clay's height (`clay.height`) is <= `max_height_ratio` of its start height and its
     top-down footprint (`metrics.footprint_area`) >= `min_area_ratio` times its start footprint; and the
@@ -52,14 +52,9 @@ class FlattenClayWithRollerEnv(FlattenClayTask):
     SUPPORTED_ROBOTS = ["ml_dual_panda"]
     max_dense_reward = 6
     TASK_REGION = (-0.36, 0.06, -0.22, 0.22)
-    PARAMS = ("ball_radius", "max_height_ratio", "min_area_ratio", "min_roll")
+    PARAMS = ("ball_radius", "max_height_ratio", "min_area_ratio", "min_roll", "pin_behind_range",
+              "pin_y_range") + FlattenClayTask.CLAY_LAYOUT_PARAMS
     pin_shape = RollingPinShape()
-    CLAY_X = (-0.12, -0.06)
-    CLAY_Y = (-0.03, 0.03)
-    CLAY_YAW = (0.0, np.pi / 2)
-    CLAY_SCALE = (1.0, 1.0)
-    PIN_BEHIND_LOW, PIN_BEHIND_SPAN = 0.14, 0.04  # the pin's centre this far nearer the robot than the ball's (x)
-    PIN_Y_LOW, PIN_Y_SPAN = -0.02, 0.04  # the pin centre's y: uniform in [low, low + span]
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -73,8 +68,9 @@ class FlattenClayWithRollerEnv(FlattenClayTask):
         with torch.device(self.device):
             b = len(env_idx)
             centre = self.clay.start[env_idx].mean(dim=1)
-            p = torch.stack([centre[:, 0] - self.PIN_BEHIND_LOW - self.PIN_BEHIND_SPAN * torch.rand(b),
-                             self.PIN_Y_LOW + self.PIN_Y_SPAN * torch.rand(b),
+            behind_lo, behind_hi = self.pin_behind_range  # drawn as x - low - (high - low) * U
+            p = torch.stack([centre[:, 0] - behind_lo - (behind_hi - behind_lo) * torch.rand(b),
+                             uniform(b, self.pin_y_range),
                              torch.full((b,), self.pin_shape.barrel_radius)], dim=1)
             self.pin.set_pose(Pose.create_from_pq(p, yaw_quat(torch.zeros(b))))
             self.pin.set_linear_velocity(torch.zeros(b, 3))

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 from typing import Any
 
-import numpy as np
 import torch
 
 from maniladder_ms.envs import register_task
@@ -17,9 +16,9 @@ class PressClayFlatEnv(FlattenClayTask):
     it into a flat disk with the closed gripper's fingertips.
 
     **Randomisation:** the ball (particles on a 1.2 cm lattice within `ball_radius`: 81 of them, 6 cm
-    across) is scaled by a uniform factor in [1, 1.15] (6 to 6.8 cm across; `CLAY_SCALE`, `Clay.reset`), turned
-    by a uniform yaw in [0, pi/2) (the lattice's axes), its centre uniform in x in [-0.1, 0.05], y in
-    [-0.15, 0.15] (`CLAY_X`, `CLAY_Y`).
+    across) is scaled by a factor uniform in `clay_scale_range` (`Clay.reset`), turned by a yaw uniform in
+    `clay_yaw_range` (the lattice's axes: a quarter turn), its centre uniform in x in `clay_x_range`, y in
+    `clay_y_range`.
 
     **Success:** the clay's height (`clay.height`: top of the highest particle above the bottom of the
     lowest) is <= `max_height_ratio` of its height at the start, and its top-down footprint
@@ -31,11 +30,7 @@ class PressClayFlatEnv(FlattenClayTask):
 
     max_dense_reward = 5
     TASK_REGION = (-0.17, 0.12, -0.22, 0.22)  # ball centres plus a flattened disk's radius
-    PARAMS = ("ball_radius", "max_height_ratio", "min_area_ratio", "closed_opening")
-    CLAY_X = (-0.1, 0.05)
-    CLAY_Y = (-0.15, 0.15)
-    CLAY_YAW = (0.0, np.pi / 2)
-    CLAY_SCALE = (1.0, 1.15)
+    PARAMS = ("ball_radius", "max_height_ratio", "min_area_ratio", "closed_opening") + FlattenClayTask.CLAY_LAYOUT_PARAMS
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)

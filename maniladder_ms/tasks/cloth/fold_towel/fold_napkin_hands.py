@@ -22,9 +22,9 @@ class FoldNapkinHandsEnv(FoldTowelTask):
 
     **Randomisation:** the napkin (`cloth.towel(8, 8)`: 2.5 cm particle spacing, particles of 1 cm radius,
     17.5 cm between corner centres, 24.7 cm across the diagonal) lies flat, its centre at x uniform in
-    [-0.14, -0.06], y uniform in [-0.03, 0.03], its edges turned by a yaw uniform in
-    [pi/4 - pi/36, pi/4 + pi/12] (its hand-to-hand diagonal 85-105 degrees from the x axis), as LiftTowelHands
-    (`tasks/cloth/base.py`'s `lay_between_hands`).
+    `towel_x_range`, y uniform in `towel_y_range`, its edges turned by a yaw uniform in `towel_yaw_range` (its
+    hand-to-hand diagonal 85-105 degrees from the x axis), as LiftTowelHands (`tasks/cloth/base.py`'s
+    `lay_between_hands`).
 
     **Success:** folded along a diagonal: for one of the napkin's two diagonal folds, the particles it pairs
     (`cloth.diagonal_fold_pairs`: each particle with its mirror image across the diagonal, opposite corners
@@ -52,6 +52,7 @@ class FoldNapkinHandsEnv(FoldTowelTask):
     max_dense_reward = 6
     TASK_REGION = (-0.28, 0.08, -0.2, 0.2)  # napkin centres plus its half diagonal (as LiftTowelHands)
     GRID = (8, 8)  # particles along each edge of the napkin
+    PARAMS = FoldTowelTask.PARAMS + ("towel_x_range", "towel_y_range", "towel_yaw_range")
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -61,7 +62,8 @@ class FoldNapkinHandsEnv(FoldTowelTask):
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
-            lay_between_hands(self.towel, len(env_idx))
+            lay_between_hands(self.towel, len(env_idx), x_range=self.towel_x_range, y_range=self.towel_y_range,
+                              yaw_range=self.towel_yaw_range)
 
     def fold_pair_sets(self) -> list:
         """The two diagonal folds, each particle with its mirror image across the diagonal."""

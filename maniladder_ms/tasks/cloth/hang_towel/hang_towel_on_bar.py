@@ -12,6 +12,7 @@ from mani_skill.utils.structs.pose import Pose
 from maniladder_ms.envs import register_task
 from maniladder_ms.envs.memory import latch_held_by_both
 from maniladder_ms.geometry import yaw_quat
+from maniladder_ms.layout import uniform
 from maniladder_ms.tasks.cloth.base import SIDES
 from .base import ROWS, HangTowelTask
 
@@ -27,12 +28,11 @@ class HangTowelOnBarEnv(HangTowelTask):
 
     **Randomisation:**
     - the bar (top 20 cm above the table, a 2 cm rod 40 cm long between its posts) stands with its axis at
-      x uniform in [-0.06, -0.02] (`BAR_X_LOW`, `BAR_X_SPAN`), y 0;
+      x uniform in `bar_x_range`, y 0;
     - the towel (`cloth.towel(10, 8)`: 10 x 8 particles 2.5 cm apart, 22.5 cm across the bar by 17.5 cm
       along it between particle centres, particles of 10 mm radius) lies flat on the robot's side of the
-      bar, its edge nearest the bar 10-13 cm (uniform, `TOWEL_GAP`, `TOWEL_GAP_SPAN`) short of the bar's
-      axis, centred at y uniform in [-0.03, 0.03] (`TOWEL_Y_LOW`, `TOWEL_Y_SPAN`), turned by a yaw uniform in
-      +-15 degrees (`TOWEL_YAW`).
+      bar, its edge nearest the bar short of the bar's axis by a gap uniform in `towel_gap_range`, centred at y
+      uniform in `towel_y_range`, turned by a yaw uniform in +-`towel_max_yaw`.
 
     **Success:** the towel hangs over the bar: at least `min_side` of its particles on each side of the bar
     (beyond the vertical plane through the bar's axis, and lower than the bar's top `bar_height`; the
@@ -56,11 +56,7 @@ class HangTowelOnBarEnv(HangTowelTask):
     HOLD_MEMORY = "corners_held"
     TASK_REGION = (-0.45, 0.08, -0.26, 0.26)  # towel start (centre plus its half diagonal) and the bar with its feet
     # (its feet reach 9.5 cm past the axis in x: 0.075 with the axis at its largest x, -0.02)
-    BAR_X_LOW, BAR_X_SPAN = -0.06, 0.04  # the bar's axis x: uniform in [low, low + span]
-    # the towel's edge nearest the bar short of the bar's axis: uniform in [gap, gap + span]
-    TOWEL_GAP, TOWEL_GAP_SPAN = 0.10, 0.03
-    TOWEL_Y_LOW, TOWEL_Y_SPAN = -0.03, 0.06  # the towel's centre y: uniform in [low, low + span]
-    TOWEL_YAW = np.deg2rad(15)  # the towel's yaw: uniform in +-this
+    PARAMS = HangTowelTask.PARAMS + ("bar_x_range", "towel_gap_range", "towel_y_range", "towel_max_yaw")
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -70,13 +66,13 @@ class HangTowelOnBarEnv(HangTowelTask):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            bar_x = torch.rand(b) * self.BAR_X_SPAN + self.BAR_X_LOW
+            bar_x = uniform(b, self.bar_x_range)
             self.bar.set_pose(Pose.create_from_pq(torch.stack([bar_x, torch.zeros(b), torch.zeros(b)], dim=1)))
             half = (ROWS - 1) / 2 * self.cloth_config.spacing
-            centre = torch.stack([bar_x - self.TOWEL_GAP - torch.rand(b) * self.TOWEL_GAP_SPAN - half,
-                                  torch.rand(b) * self.TOWEL_Y_SPAN + self.TOWEL_Y_LOW,
-                                  torch.full((b,), self.cloth_config.radius)], dim=1)
-            yaw = (torch.rand(b) * 2 - 1) * self.TOWEL_YAW
+            gap_lo, gap_hi = self.towel_gap_range  # drawn as bar_x - low - U * (high - low)
+            centre = torch.stack([bar_x - gap_lo - torch.rand(b) * (gap_hi - gap_lo) - half,
+                                  uniform(b, self.towel_y_range), torch.full((b,), self.cloth_config.radius)], dim=1)
+            yaw = (torch.rand(b) * 2 - 1) * np.deg2rad(self.towel_max_yaw)
             self.towel.set_rest_shape(Pose.create_from_pq(centre, yaw_quat(yaw)))
 
     def corner_particles(self) -> dict:

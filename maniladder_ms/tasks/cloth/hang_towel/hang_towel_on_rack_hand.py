@@ -12,6 +12,7 @@ from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.envs import register_task
 from maniladder_ms.geometry import yaw_quat
+from maniladder_ms.layout import uniform
 from .base import HangTowelTask
 
 
@@ -23,10 +24,10 @@ class HangTowelOnRackHandEnv(HangTowelTask):
 
     **Randomisation:**
     - the rack (bar top 20 cm above the table, a 2 cm rod 40 cm long between its posts) stands with its
-      axis at x uniform in [0.0, 0.06] (`BAR_X_SPAN`), y uniform in [-0.05, 0.05] (`BAR_Y_LOW`, `BAR_Y_SPAN`);
+      axis at x uniform in `bar_x_range`, y uniform in `bar_y_range`;
     - the towel (`cloth.towel(10, 8)`: 10 x 8 particles 2.5 cm apart, particles of 10 mm radius) lies flat,
-      its centre at x uniform in [-0.22, -0.16] (`TOWEL_X_LOW`, `TOWEL_X_SPAN`), y uniform in [-0.05, 0.05]
-      (`TOWEL_Y_LOW`, `TOWEL_Y_SPAN`), turned by a yaw uniform in +-30 degrees (`TOWEL_YAW`).
+      its centre at x uniform in `towel_x_range`, y uniform in `towel_y_range`, turned by a yaw uniform in
+      +-`towel_max_yaw`.
 
     **Success:** the towel hangs over the bar: at least `min_side` of its particles on each side of the bar
     (beyond the vertical plane through the bar's axis, and lower than the bar's top `bar_height`; the
@@ -50,11 +51,7 @@ class HangTowelOnRackHandEnv(HangTowelTask):
     HOLD_MEMORY = "lifted"
     # towel start (centre plus its half diagonal) and the rack with its feet (bar axis x <= 0.06, feet 9.5 cm either side)
     TASK_REGION = (-0.38, 0.16, -0.28, 0.28)
-    BAR_X_SPAN = 0.06  # the bar's axis x: uniform in [0, span]
-    BAR_Y_LOW, BAR_Y_SPAN = -0.05, 0.1  # the bar's middle y: uniform in [low, low + span]
-    TOWEL_X_LOW, TOWEL_X_SPAN = -0.22, 0.06  # the towel's centre x: uniform in [low, low + span]
-    TOWEL_Y_LOW, TOWEL_Y_SPAN = -0.05, 0.1  # the towel's centre y: uniform in [low, low + span]
-    TOWEL_YAW = np.deg2rad(30)  # the towel's yaw: uniform in +-this
+    PARAMS = HangTowelTask.PARAMS + ("bar_x_range", "bar_y_range", "towel_x_range", "towel_y_range", "towel_max_yaw")
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -64,13 +61,11 @@ class HangTowelOnRackHandEnv(HangTowelTask):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            bar = torch.stack([torch.rand(b) * self.BAR_X_SPAN, torch.rand(b) * self.BAR_Y_SPAN + self.BAR_Y_LOW,
-                               torch.zeros(b)], dim=1)
+            bar = torch.stack([uniform(b, self.bar_x_range), uniform(b, self.bar_y_range), torch.zeros(b)], dim=1)
             self.bar.set_pose(Pose.create_from_pq(bar))
-            centre = torch.stack([torch.rand(b) * self.TOWEL_X_SPAN + self.TOWEL_X_LOW,
-                                  torch.rand(b) * self.TOWEL_Y_SPAN + self.TOWEL_Y_LOW,
+            centre = torch.stack([uniform(b, self.towel_x_range), uniform(b, self.towel_y_range),
                                   torch.full((b,), self.cloth_config.radius)], dim=1)
-            yaw = (torch.rand(b) * 2 - 1) * self.TOWEL_YAW
+            yaw = (torch.rand(b) * 2 - 1) * np.deg2rad(self.towel_max_yaw)
             self.towel.set_rest_shape(Pose.create_from_pq(centre, yaw_quat(yaw)))
 
     def _update_memory(self):

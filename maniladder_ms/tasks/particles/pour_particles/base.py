@@ -40,10 +40,11 @@ class CupToBowl:
     bowl_shape: ClassVar = containers.bowl()
     cup_name: ClassVar[str] = "cup"
     bowl_name: ClassVar[str] = "bowl"
-    # where the containers stand: {"cup" / "bowl": ((x low, x high), (y low, y high))}, each uniform, drawn
-    # in this dict's order; with `cup_either_side` the cup's y range is mirrored to a random side of y = 0
-    # (that side drawn first)
-    placement: ClassVar[dict[str, tuple]]
+    # where the containers stand: `placement`, {"cup" / "bowl": ((x low, x high), (y low, y high))}, each
+    # uniform, drawn in this dict's order; with `cup_either_side` the cup's y range is mirrored to a random side
+    # of y = 0 (that side drawn first). By default the task's catalog params give it (`placement`, below), the
+    # roles drawn in `placement_roles`' order; a task may set the dict itself instead
+    placement_roles: ClassVar[tuple[str, ...]] = ("cup", "bowl")
     cup_either_side: ClassVar[bool] = False
     # the particles: `particle_material`'s spheres, `particle_radius` each, the task's `particle_count` param of
     # them (`particle_config`; a task whose params name them otherwise overrides that property)
@@ -65,6 +66,18 @@ class CupToBowl:
     @property
     def particle_config(self) -> particles.ParticleConfig:
         return dataclasses.replace(self.particle_material, count=self.particle_count, radius=self.particle_radius)
+
+    @property
+    def placement(self) -> dict[str, tuple]:
+        """{role: (x range, y range)} from the catalog params `<name>_x_range` and `<name>_y_range` of each
+        container (`<name>_abs_y_range` for the cup with `cup_either_side`), <name> its `cup_name` /
+        `bowl_name`, in `placement_roles`' order."""
+        out = {}
+        for role in self.placement_roles:
+            name = getattr(self, role + "_name")
+            y = "abs_y" if role == "cup" and self.cup_either_side else "y"
+            out[role] = (getattr(self, f"{name}_x_range"), getattr(self, f"{name}_{y}_range"))
+        return out
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)

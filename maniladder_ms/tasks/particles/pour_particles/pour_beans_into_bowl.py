@@ -20,12 +20,12 @@ class PourBeansIntoBowlEnv(CupToBowl, ManiLadderEnv):
     """**Task:** pick up a cup of beans and pour the beans into a bowl.
 
     **Randomisation:**
-    - the cup (plastic, inner radius 2.5 cm, 8 cm tall, 5.8 cm wide outside) stands at x in
-      [-0.16, -0.1], |y| in [0.08, 0.16] on a random side of the robot's centre line, holding `bean_count`
+    - the cup (plastic, inner radius 2.5 cm, 8 cm tall, 5.8 cm wide outside) stands at x in `cup_x_range`,
+      |y| in `cup_abs_y_range` on a random side of the robot's centre line, holding `bean_count`
       beans (granular spheres of radius `bean_radius`; 80 of 4 mm: 4 layers) packed from its floor with a
       small random jitter;
-    - the bowl (inner radius 8 cm at the rim, 5 cm tall) stands in front of it, x in [0, 0.08],
-      y in [-0.05, 0.05].
+    - the bowl (inner radius 8 cm at the rim, 5 cm tall) stands in front of it, x in `bowl_x_range`,
+      y in `bowl_y_range`.
 
     **Success:** at least `success_fraction` of the beans lie inside the bowl's inner volume (below its
     rim, `particles.fraction_inside`), and they were poured from the held cup: the gripper holds the cup
@@ -38,9 +38,9 @@ class PourBeansIntoBowlEnv(CupToBowl, ManiLadderEnv):
     max_dense_reward = 6
 
     TASK_REGION = (-0.2, 0.18, -0.25, 0.25)
-    PARAMS = ("bean_count", "bean_radius", "success_fraction")
+    PARAMS = ("bean_count", "bean_radius", "success_fraction", "cup_x_range", "cup_abs_y_range", "bowl_x_range",
+              "bowl_y_range")
     particle_name = "beans"
-    placement = {"cup": ((-0.16, -0.1), (0.08, 0.16)), "bowl": ((0.0, 0.08), (-0.05, 0.05))}
     cup_either_side = True
 
     @property

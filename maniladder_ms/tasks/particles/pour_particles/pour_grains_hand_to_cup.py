@@ -30,9 +30,9 @@ class PourGrainsHandToCupEnv(CupToBowl, ManiLadderEnv):
 
     **Randomisation:**
     - the cup (plastic, inner radius 3.5 cm, 11 cm tall, 7.8 cm wide outside) stands in front of the right
-      arm, x in [-0.06, 0], y in [-0.06, 0];
+      arm, x in `cup_x_range`, y in `cup_y_range`;
     - the glass (inner radius 2.7 cm at the floor widening to 2.9 cm at the rim, 13 cm tall) stands to the
-      left behind it, x in [-0.16, -0.1], y in [0.14, 0.2], holding 60 grains (granular spheres, radius 4 mm)
+      left behind it, x in `glass_x_range`, y in `glass_y_range`, holding 60 grains (granular spheres, radius 4 mm)
       packed from its floor with a small random jitter;
     - the arms start in a ready pose (`READY_JOINTS`, plus the usual joint noise): each hand raised above its
       container, palm turned in for a side grasp.
@@ -57,13 +57,13 @@ class PourGrainsHandToCupEnv(CupToBowl, ManiLadderEnv):
     bowl_shape = containers.cup(radius=0.035, height=0.11, wall=0.004)
     cup_name = "glass"
     bowl_name = "cup"
-    PARAMS = ("success_fraction", "particle_count")
+    PARAMS = ("success_fraction", "particle_count", "cup_x_range", "cup_y_range", "glass_x_range", "glass_y_range")
     particle_name = "grains"
     # the receiving cup (`self.bowl`) by the holder, the pouring glass (`self.cup`) by the pourer
     held_containers = {"bowl": HOLDER, "cup": POURER}
     bowl_density = CupToBowl.cup_density  # a light plastic cup, as the glass
     bowl_color = (0.8, 0.35, 0.3, 1)
-    placement = {"bowl": ((-0.06, 0.0), (-0.06, 0.0)), "cup": ((-0.16, -0.1), (0.14, 0.2))}
+    placement_roles = ("bowl", "cup")  # the receiving cup's place drawn first
 
     particle_material = particles.GRANULAR
     particle_radius = 0.004

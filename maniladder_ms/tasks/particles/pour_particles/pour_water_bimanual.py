@@ -22,10 +22,10 @@ class PourWaterBimanualEnv(CupToBowl, ManiLadderEnv):
 
     **Randomisation:**
     - the source cup (plastic, inner radius 2.5 cm, 8 cm tall, 5.8 cm wide outside) stands to the right,
-      x in [-0.16, -0.1], y in [-0.26, -0.18], holding 80 liquid particles (low-friction spheres, radius
+      x in `source_cup_x_range`, y in `source_cup_y_range`, holding 80 liquid particles (low-friction spheres, radius
       4 mm) packed from its floor with a small random jitter;
     - the receiving cup (plastic, inner radius 3 cm, 8 cm tall, 6.8 cm wide outside), empty, stands to the
-      left, x in [-0.16, -0.1], y in [0.18, 0.26].
+      left, x in `receiving_cup_x_range`, y in `receiving_cup_y_range`.
 
     **Success:** (`CupToBowl.held_pour_metrics`, the PourParticles rule, with the receiving cup in the
     bowl's role) at least `success_fraction` of the `particle_count` particles lie inside the receiving
@@ -49,14 +49,15 @@ class PourWaterBimanualEnv(CupToBowl, ManiLadderEnv):
     SUPPORTED_ROBOTS = ["ml_dual_panda"]
     max_dense_reward = 6
     TASK_REGION = (-0.25, 0.1, -0.32, 0.32)
-    PARAMS = ("success_fraction", "particle_count", "lift_height", "max_tilt")
+    PARAMS = ("success_fraction", "particle_count", "lift_height", "max_tilt", "source_cup_x_range",
+              "source_cup_y_range", "receiving_cup_x_range", "receiving_cup_y_range")
     cup_name = "source_cup"
     bowl_name = "receiving_cup"
     bowl_shape = containers.cup(radius=0.03, height=0.08, wall=0.004)
     bowl_density = CupToBowl.cup_density
     bowl_color = (0.85, 0.45, 0.35, 1)
     held_containers = {"bowl": "left", "cup": "right"}
-    placement = {"bowl": ((-0.16, -0.1), (0.18, 0.26)), "cup": ((-0.16, -0.1), (-0.26, -0.18))}
+    placement_roles = ("bowl", "cup")  # the receiving cup's place drawn first
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)

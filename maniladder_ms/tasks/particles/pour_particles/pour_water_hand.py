@@ -26,10 +26,10 @@ class PourWaterHandEnv(CupToBowl, ManiLadderEnv):
 
     **Randomisation:**
     - the cup (inner radius 2.7 cm at the floor widening to 2.9 cm at the rim, 13 cm tall, ~50 g) stands
-      to the right, x in [-0.2, -0.14], y in [-0.1, -0.04], holding 80 liquid particles (low-friction
+      to the right, x in `cup_x_range`, y in `cup_y_range`, holding 80 liquid particles (low-friction
       spheres, radius 4 mm) packed from its floor with a small random jitter;
-    - the bowl (ceramic, inner radius 8 cm at the rim, 5 cm tall) stands to the left, x in [-0.06, 0],
-      y in [0.08, 0.14];
+    - the bowl (ceramic, inner radius 8 cm at the rim, 5 cm tall) stands to the left, x in `bowl_x_range`,
+      y in `bowl_y_range`;
     - the arm starts in a ready pose (`READY_JOINTS`, plus the usual joint noise): the hand raised beside the
       cup, palm turned in for a side grasp.
 
@@ -52,11 +52,11 @@ class PourWaterHandEnv(CupToBowl, ManiLadderEnv):
     SUPPORTED_ROBOTS = ["ml_panda_leap"]
     max_dense_reward = 6
     TASK_REGION = (-0.25, 0.1, -0.15, 0.25)
-    PARAMS = ("success_fraction", "particle_count", "lift_height")
+    PARAMS = ("success_fraction", "particle_count", "lift_height", "cup_x_range", "cup_y_range", "bowl_x_range",
+              "bowl_y_range")
     READY_JOINTS = {f"panda_joint{i}": angle for i, angle in enumerate(READY_ARM_JOINTS, 1)}
     # PourGrainsHandToCup's glass (a tall, slightly flared cup): tall enough for a LEAP side grasp below the water's surface
     cup_shape = containers.glass(bottom_radius=0.027, top_radius=0.029, height=0.13)
-    placement = {"cup": ((-0.2, -0.14), (-0.1, -0.04)), "bowl": ((-0.06, 0.0), (0.08, 0.14))}
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)

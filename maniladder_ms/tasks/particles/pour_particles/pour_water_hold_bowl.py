@@ -17,10 +17,10 @@ class PourWaterHoldBowlEnv(CupToBowl, ManiLadderEnv):
     and pours it into the bowl.
 
     **Randomisation:**
-    - the bowl (inner radius 8 cm at the rim, 5 cm tall, ~0.1 kg) stands at x in [0, 0.06],
-      y in [-0.04, 0.04];
+    - the bowl (inner radius 8 cm at the rim, 5 cm tall, ~0.1 kg) stands at x in `bowl_x_range`,
+      y in `bowl_y_range`;
     - the cup (plastic, inner radius 2.5 cm, 8 cm tall, 5.8 cm wide outside) stands to the right behind
-      it, x in [-0.16, -0.1], y in [-0.26, -0.18], holding 80 liquid particles (low-friction spheres,
+      it, x in `cup_x_range`, y in `cup_y_range`, holding 80 liquid particles (low-friction spheres,
       radius 4 mm) packed from its floor with a small random jitter.
 
     **Success:** (`CupToBowl.held_pour_metrics`, the PourParticles rule) at least `success_fraction` of the
@@ -33,11 +33,11 @@ class PourWaterHoldBowlEnv(CupToBowl, ManiLadderEnv):
     SUPPORTED_ROBOTS = ["ml_dual_panda"]
     max_dense_reward = 6
     TASK_REGION = (-0.25, 0.15, -0.32, 0.15)
-    PARAMS = ("success_fraction", "particle_count")
+    PARAMS = ("success_fraction", "particle_count", "bowl_x_range", "bowl_y_range", "cup_x_range", "cup_y_range")
     held_containers = {"bowl": "left", "cup": "right"}
     bowl_density = CupToBowl.cup_density  # ~0.1 kg: light, worth holding
     bowl_color = (0.85, 0.75, 0.55, 1)
-    placement = {"bowl": ((0.0, 0.06), (-0.04, 0.04)), "cup": ((-0.16, -0.1), (-0.26, -0.18))}
+    placement_roles = ("bowl", "cup")  # the bowl's place drawn first
 
     def rim_point(self) -> torch.Tensor:
         """The middle of the bowl's wall at its left (+y) rim, 1 cm below the rim: where the left arm holds it."""

@@ -30,6 +30,9 @@ TRAY_OVERHANG, TRAY_SLAB = 0.04, 0.01  # the floor slab's -y edge this far in fr
 # partial top layer at the far wall: the middle 8 cm (3.3 layers) lost 1-3 beans over the lip in 120 idle steps on
 # each of seeds 100-109, this band 0-1
 PILE_DEPTH, PILE_Y = 0.09, 0.015
+# the pile's lattice, in bean radii (as `particles.pack_in_container`): spacing, clearance from the floor's edges,
+# the first layer's centres above the floor, and the jitter's width
+PILE_SPACING, PILE_CLEARANCE, PILE_LIFT, PILE_JITTER = 2.1, 1.2, 1.05, 0.1
 CUP_DENSITY = 400.0  # a light plastic cup
 # the left holds the cup with the left hand's measured side grasp (`solvers.side_grasps`: left Panda, thumb low,
 # joint 7 >= 0.8 rad from its limits); the right's joint 7 is at its limit for that grasp, so the right scoops
@@ -52,11 +55,10 @@ class CupBeansHandsEnv(ScoopBeansTask, ManiLadderEnv):
     **Randomisation:**
     - the tray (a ledge on a fixed stand: its 14 x 12 cm floor 38 cm above the table, a 1 cm slab overhanging
       the stand by 4 cm on the right hand's (-y) side, 3 cm walls, a 6 mm lip on that side) stands at x in
-      [-0.04, 0], y in [-0.07, -0.03] (`TRAY_X`, `TRAY_Y`), holding `bean_count` beans (granular spheres of
+      `tray_x_range`, y in `tray_y_range`, holding `bean_count` beans (granular spheres of
       radius `bean_radius`) packed in a 9 cm band (along y) 1.5 cm behind the floor's middle with a small
       random jitter;
-    - the cup (plastic, inner radius 3.5 cm, 11 cm tall) stands at x in [-0.16, -0.1], y in [0.14, 0.2]
-      (`CUP_X`, `CUP_Y`);
+    - the cup (plastic, inner radius 3.5 cm, 11 cm tall) stands at x in `cup_x_range`, y in `cup_y_range`;
     - the left arm starts in a ready pose (`READY_JOINTS`: its hand raised above the cup, turned for a side
       grasp), the right at rest, plus the usual joint noise.
 
@@ -80,15 +82,14 @@ class CupBeansHandsEnv(ScoopBeansTask, ManiLadderEnv):
     SUPPORTED_ROBOTS = ["ml_dual_panda_leap"]
     max_dense_reward = 6
     TASK_REGION = (-0.25, 0.12, -0.25, 0.25)
-    PARAMS = ("bean_count", "bean_radius", "min_beans", "cup_lift")
+    PARAMS = ("bean_count", "bean_radius", "min_beans", "cup_lift", "tray_x_range", "tray_y_range", "cup_x_range",
+              "cup_y_range")
     # piles of beans: PhysX contact caches are not env state (as the pour tasks)
     RESTORES_NEED_FRESH_SCENE = True
     READY_JOINTS = {f"{HOLDER}_panda_joint{i}": angle for i, angle in enumerate(READY_ARM_JOINTS[HOLDER], 1)}
     cup_shape = containers.cup(radius=0.035, height=0.11, wall=0.004)
-    # where things stand (x, y ranges, uniform): the tray's centre (the right hand at rest clears its stand) and
-    # the cup's bottom centre
-    TRAY_X, TRAY_Y = (-0.04, 0.0), (-0.07, -0.03)
-    CUP_X, CUP_Y = (-0.16, -0.1), (0.14, 0.2)
+    # where things stand: the catalog's tray_x_range / tray_y_range (the tray's centre: there the right hand at
+    # rest clears its stand) and cup_x_range / cup_y_range (the cup's bottom centre)
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -105,8 +106,9 @@ class CupBeansHandsEnv(ScoopBeansTask, ManiLadderEnv):
         with torch.device(self.device):
             b = len(env_idx)
             # (x, y, z) uniform in [low, high] per env: the tray, then the cup
-            low = torch.tensor([[self.TRAY_X[0], self.TRAY_Y[0], 0.0], [self.CUP_X[0], self.CUP_Y[0], 0.0]])
-            high = torch.tensor([[self.TRAY_X[1], self.TRAY_Y[1], 0.0], [self.CUP_X[1], self.CUP_Y[1], 0.0]])
+            (tx, ty), (cx, cy) = (self.tray_x_range, self.tray_y_range), (self.cup_x_range, self.cup_y_range)
+            low = torch.tensor([[tx[0], ty[0], 0.0], [cx[0], cy[0], 0.0]])
+            high = torch.tensor([[tx[1], ty[1], 0.0], [cx[1], cy[1], 0.0]])
             tray, cup = (low + (high - low) * torch.rand(b, 2, 3)).unbind(dim=1)
             self.tray.set_pose(Pose.create_from_pq(tray))
             self.cup.set_pose(Pose.create_from_pq(cup))
@@ -117,14 +119,14 @@ class CupBeansHandsEnv(ScoopBeansTask, ManiLadderEnv):
         round `PILE_Y` of the tray's floor layer by layer, far rows first, jittered by 0.05 radius (as
         `particles.pack_in_container`)."""
         r = self.bean_radius
-        spacing = 2.1 * r
-        kx, ky = (int((half - 1.2 * r) // spacing) for half in (TRAY_INNER[0], PILE_DEPTH / 2))
+        spacing = PILE_SPACING * r
+        kx, ky = (int((half - PILE_CLEARANCE * r) // spacing) for half in (TRAY_INNER[0], PILE_DEPTH / 2))
         xy = np.stack(np.meshgrid(np.arange(-kx, kx + 1) * spacing, PILE_Y + np.arange(ky, -ky - 1, -1) * spacing), -1).reshape(-1, 2)
         layers = -(-self.bean_count // len(xy))
-        z = np.repeat(TRAY_FLOOR + 1.05 * r + spacing * np.arange(layers), len(xy))[:, None]
+        z = np.repeat(TRAY_FLOOR + PILE_LIFT * r + spacing * np.arange(layers), len(xy))[:, None]
         pts = np.concatenate([np.tile(xy, (layers, 1)), z], axis=1)[: self.bean_count]
         out = torch.tensor(pts, dtype=torch.float32, device=tray.device).expand(len(tray), -1, 3)
-        out = out + (torch.rand(out.shape, device=tray.device) - 0.5) * 0.1 * r
+        out = out + (torch.rand(out.shape, device=tray.device) - 0.5) * PILE_JITTER * r
         return out + tray[:, None]
 
     # ---- what the rule reads --------------------------------------------------------------------------

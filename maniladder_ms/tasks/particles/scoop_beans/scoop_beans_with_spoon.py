@@ -30,15 +30,15 @@ class ScoopBeansWithSpoonEnv(ScoopBeansTask, ManiLadderEnv):
     beans out of the bowl with its head, carry them level to the cup and tip them into it.
 
     **Randomisation:**
-    - the bowl (inner radius 8 cm at the rim, 5 cm tall) stands at x in [-0.04, 0.04], y in [-0.04, 0.0]
-      (`BOWL_X`, `BOWL_Y`), holding `bean_count` beans (granular spheres of radius `bean_radius`) packed from
-      its floor with a small random jitter;
-    - the cup (inner radius 4 cm, 9 cm tall) stands to the robot's left, x in [-0.04, 0.04], y in
-      [0.15, 0.19] (`CUP_X`, `CUP_Y`);
+    - the bowl (inner radius 8 cm at the rim, 5 cm tall) stands at x in `bowl_x_range`, y in `bowl_y_range`,
+      holding `bean_count` beans (granular spheres of radius `bean_radius`) packed from its floor with a small
+      random jitter;
+    - the cup (inner radius 4 cm, 9 cm tall) stands to the robot's left, x in `cup_x_range`, y in
+      `cup_y_range`;
     - the spoon (a scoop: a flat head 5 x 4.4 cm inside, walled at the back and the sides, open at its
       bevelled front edge; a 10 cm handle 5 cm up on a riser behind it) lies level to the robot's right, its
-      head's centre at x in [-0.1, -0.02], y in [-0.23, -0.2] (`SPOON_X`, `SPOON_Y`), pointing to +y (towards
-      the bowl) turned by a uniform yaw in [-8, 8] degrees (`SPOON_YAW_SPREAD`).
+      head's centre at x in `spoon_x_range`, y in `spoon_y_range`, pointing to +y (towards the bowl) turned by
+      a uniform yaw in +-`spoon_max_yaw`.
 
     **Success:** at least `min_beans` beans lie inside the cup's inner volume (below its rim) that were
     carried there by the spoon: each of them rested in the spoon's head (`particles.inside_box` of the
@@ -62,18 +62,13 @@ class ScoopBeansWithSpoonEnv(ScoopBeansTask, ManiLadderEnv):
 
     max_dense_reward = 6
     TASK_REGION = (-0.17, 0.13, -0.38, 0.24)
-    PARAMS = ("bean_count", "bean_radius", "min_beans")
+    PARAMS = ("bean_count", "bean_radius", "min_beans", "bowl_x_range", "bowl_y_range", "cup_x_range", "cup_y_range",
+              "spoon_x_range", "spoon_y_range", "spoon_max_yaw")
     # piles of beans: PhysX contact caches are not env state (as the pour tasks)
     RESTORES_NEED_FRESH_SCENE = True
     spoon_shape = SpoonShape()
     bowl_shape = containers.bowl()
     cup_shape = containers.cup(radius=0.04, height=0.09)
-    # where things stand (x, y ranges, uniform): the bowl's and the cup's bottom centres, the spoon's head centre,
-    # its yaw +-SPOON_YAW_SPREAD about +y
-    BOWL_X, BOWL_Y = (-0.04, 0.04), (-0.04, 0.0)
-    CUP_X, CUP_Y = (-0.04, 0.04), (0.15, 0.19)
-    SPOON_X, SPOON_Y = (-0.1, -0.02), (-0.23, -0.2)
-    SPOON_YAW_SPREAD = np.radians(8)
     HANDLE_GRASP_BACK = 0.03  # the handle's grasp point this far behind the head's back rim (reward, solver)
 
     def _load_scene(self, options: dict):
@@ -95,10 +90,11 @@ class ScoopBeansWithSpoonEnv(ScoopBeansTask, ManiLadderEnv):
             def uniform(low, high):
                 return low + (high - low) * torch.rand(b)
 
-            bowl = torch.stack([uniform(*self.BOWL_X), uniform(*self.BOWL_Y), torch.zeros(b)], dim=1)
-            cup = torch.stack([uniform(*self.CUP_X), uniform(*self.CUP_Y), torch.zeros(b)], dim=1)
-            spoon = torch.stack([uniform(*self.SPOON_X), uniform(*self.SPOON_Y), torch.zeros(b)], dim=1)
-            yaw = np.pi / 2 + uniform(-self.SPOON_YAW_SPREAD, self.SPOON_YAW_SPREAD)
+            bowl = torch.stack([uniform(*self.bowl_x_range), uniform(*self.bowl_y_range), torch.zeros(b)], dim=1)
+            cup = torch.stack([uniform(*self.cup_x_range), uniform(*self.cup_y_range), torch.zeros(b)], dim=1)
+            spoon = torch.stack([uniform(*self.spoon_x_range), uniform(*self.spoon_y_range), torch.zeros(b)], dim=1)
+            max_yaw = np.deg2rad(self.spoon_max_yaw)
+            yaw = np.pi / 2 + uniform(-max_yaw, max_yaw)
             self.bowl.set_pose(Pose.create_from_pq(bowl))
             self.cup.set_pose(Pose.create_from_pq(cup))
             place_at_rest(self.spoon, Pose.create_from_pq(spoon, yaw_quat(yaw)))

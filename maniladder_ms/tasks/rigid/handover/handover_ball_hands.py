@@ -13,6 +13,7 @@ import torch
 from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.envs import register_task
+from maniladder_ms.layout import uniform
 from maniladder_ms.objects.tabletop import place_at_rest
 
 from .base import HandoverTask
@@ -24,6 +25,7 @@ BALL_FRICTION = 0.8  # felt
 STAND_RING_RADIUS = 0.02  # to the boxes' centres
 STAND_HEIGHT = 0.015
 STAND_SEGMENTS = 12
+BALL_DROP = 0.001  # the ball starts this far above its rest height in the stand and settles onto it (`place_at_rest`)
 
 
 def build_ball(scene, name: str, color=(0.8, 0.95, 0.2, 1)):
@@ -66,7 +68,7 @@ class HandoverBallHandsEnv(HandoverTask):
     passes it to the right LEAP hand in mid-air.
 
     **Randomisation:** the ball (6.7 cm, 58 g) sits in its ring stand (4 cm ring, 1.5 cm tall, fixed to
-    the table), the stand's centre uniform in x in [-0.15, -0.05], y in [0.12, 0.22] (`STAND_X`, `STAND_Y`).
+    the table), the stand's centre uniform in x in `stand_x_range`, y in `stand_y_range`.
 
     **Success:** (the Handover family rule, `HandoverTask`) the ball was handed over: the right hand held it
     (`ee.holds`: a finger against the thumb or palm, or the index/middle pinch) while the left hand neither
@@ -78,8 +80,7 @@ class HandoverBallHandsEnv(HandoverTask):
     SUPPORTED_ROBOTS = ["ml_dual_panda_leap"]
     max_dense_reward = 8
     TASK_REGION = (-0.25, 0.05, -0.3, 0.3)
-    PARAMS = HandoverTask.PARAMS
-    STAND_X, STAND_Y = (-0.15, 0.1), (0.12, 0.1)  # layout ranges as (low, span)
+    PARAMS = HandoverTask.PARAMS + ("stand_x_range", "stand_y_range")
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -91,10 +92,9 @@ class HandoverBallHandsEnv(HandoverTask):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            xy = torch.stack([torch.rand(b) * self.STAND_X[1] + self.STAND_X[0],
-                              torch.rand(b) * self.STAND_Y[1] + self.STAND_Y[0]], dim=1)
+            xy = torch.stack([uniform(b, self.stand_x_range), uniform(b, self.stand_y_range)], dim=1)
             self.stand.set_pose(Pose.create_from_pq(torch.cat([xy, torch.zeros(b, 1)], dim=1)))
-            ball = torch.cat([xy, torch.full((b, 1), ball_rest_height() + 0.001)], dim=1)
+            ball = torch.cat([xy, torch.full((b, 1), ball_rest_height() + BALL_DROP)], dim=1)
             place_at_rest(self.ball, Pose.create_from_pq(ball))
 
     def _get_obs_extra(self, info: dict):

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 from typing import Any
 
-import numpy as np
 import torch
 
 from mani_skill.utils.building import actors
@@ -12,6 +11,7 @@ from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.envs import register_task
 from maniladder_ms.geometry import yaw_quat
+from maniladder_ms.layout import uniform, uniform_deg
 from maniladder_ms.objects.markers import MARKER_THICKNESS, build_zone_marker
 
 from .base import HandoverTask
@@ -23,10 +23,10 @@ class HandoverCubeEnv(HandoverTask):
     in mid-air; the right arm puts it down in a square target zone on the right.
 
     **Randomisation:**
-    - the cube (side 2 x `cube_half`) lies with a uniform random yaw, its centre uniform in x in [-0.15, 0.0],
-      y in [0.15, 0.3] (`CUBE_X`, `CUBE_Y`: in front of the left arm);
+    - the cube (side 2 x `cube_half`) lies with its yaw uniform in `cube_yaw_range` (a cube: every yaw), its
+      centre uniform in x in `cube_x_range`, y in `cube_y_range` (in front of the left arm);
     - the target zone (visual-only square tile, side 2 x `zone_half`, axis-aligned) has its centre uniform in
-      x in [-0.15, 0.0], y in [-0.32, -0.22] (`ZONE_X`, `ZONE_Y`: in front of the right arm).
+      x in `zone_x_range`, y in `zone_y_range` (in front of the right arm).
 
     **Success:** (the Handover family rule, `HandoverTask`) the cube was handed over: the right gripper held
     it (`ee.holds`) while the left gripper neither held nor touched it and its centre was at least
@@ -38,10 +38,9 @@ class HandoverCubeEnv(HandoverTask):
     SUPPORTED_ROBOTS = ["ml_dual_panda"]
     max_dense_reward = 9
     TASK_REGION = (-0.25, 0.1, -0.4, 0.4)
-    PARAMS = HandoverTask.PARAMS + ("cube_half", "zone_half", "on_table_tol")
+    PARAMS = HandoverTask.PARAMS + ("cube_half", "zone_half", "on_table_tol", "cube_x_range", "cube_y_range",
+                                    "cube_yaw_range", "zone_x_range", "zone_y_range")
     # layout ranges as (low, span)
-    CUBE_X, CUBE_Y = (-0.15, 0.15), (0.15, 0.15)
-    ZONE_X, ZONE_Y = (-0.15, 0.15), (-0.32, 0.1)
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -54,12 +53,10 @@ class HandoverCubeEnv(HandoverTask):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            cube_xyz = torch.stack([torch.rand(b) * self.CUBE_X[1] + self.CUBE_X[0],
-                                    self.CUBE_Y[0] + torch.rand(b) * self.CUBE_Y[1],
+            cube_xyz = torch.stack([uniform(b, self.cube_x_range), uniform(b, self.cube_y_range),
                                     torch.full((b,), self.cube_half)], dim=1)
-            self.cube.set_pose(Pose.create_from_pq(cube_xyz, yaw_quat(torch.rand(b) * np.pi / 2)))
-            zone_xyz = torch.stack([torch.rand(b) * self.ZONE_X[1] + self.ZONE_X[0],
-                                    self.ZONE_Y[0] + torch.rand(b) * self.ZONE_Y[1],
+            self.cube.set_pose(Pose.create_from_pq(cube_xyz, yaw_quat(uniform_deg(b, self.cube_yaw_range))))
+            zone_xyz = torch.stack([uniform(b, self.zone_x_range), uniform(b, self.zone_y_range),
                                     torch.full((b,), MARKER_THICKNESS / 2)], dim=1)
             self.zone.set_pose(Pose.create_from_pq(zone_xyz))
 

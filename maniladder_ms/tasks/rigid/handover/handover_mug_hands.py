@@ -12,6 +12,7 @@ from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.envs import register_task
 from maniladder_ms.geometry import yaw_quat
+from maniladder_ms.layout import uniform
 from maniladder_ms.objects.mug import (MUG_DENSITY, MugShape, build_coaster, build_mug, mug_body_centre,
                                        placed_on_coaster)
 from maniladder_ms.objects.tabletop import place_at_rest
@@ -29,10 +30,10 @@ class HandoverMugHandsEnv(HandoverTask):
 
     **Randomisation:**
     - the mug (8.4 cm wide, 9 cm tall, loop handle; ~0.13 kg) stands upside down on its rim, its centre uniform
-      in x in [-0.15, -0.05], y in [0.12, 0.22] (`MUG_X`, `MUG_Y`), its handle pointing away from the robot give
-      or take 20 degrees (uniform, `HANDLE_YAW`);
-    - the coaster (11 cm across, 5 mm thick, fixed to the table) has its centre uniform in x in [-0.15, -0.05],
-      y in [-0.28, -0.2] (`COASTER_X`, `COASTER_Y`).
+      in x in `mug_x_range`, y in `mug_y_range`, its handle pointing away from the robot give or take
+      `mug_max_yaw` (uniform);
+    - the coaster (11 cm across, 5 mm thick, fixed to the table) has its centre uniform in x in
+      `coaster_x_range`, y in `coaster_y_range`.
 
     **Success:** (the Handover family rule, `HandoverTask`, hand to hand) the mug was handed over: both hands
     held it at once (`ee.holds` for the left and the right) with its centre at least `lift_height` above the
@@ -52,13 +53,10 @@ class HandoverMugHandsEnv(HandoverTask):
     SUPPORTED_ROBOTS = ["ml_dual_panda_leap"]
     max_dense_reward = 10
     TASK_REGION = (-0.25, 0.05, -0.35, 0.3)
-    PARAMS = HandoverTask.PARAMS + ("max_tilt", "centre_tol", "rest_tol")
+    PARAMS = HandoverTask.PARAMS + ("max_tilt", "centre_tol", "rest_tol", "mug_x_range", "mug_y_range",
+                                    "mug_max_yaw", "coaster_x_range", "coaster_y_range")
     HAND_TO_HAND = True
     mug_shape = MugShape()
-    # layout ranges as (low, span)
-    MUG_X, MUG_Y = (-0.15, 0.1), (0.12, 0.1)
-    COASTER_X, COASTER_Y = (-0.15, 0.1), (-0.28, 0.08)
-    HANDLE_YAW = 20.0  # degrees: the handle's direction is uniform within this of pointing away from the robot
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -71,16 +69,15 @@ class HandoverMugHandsEnv(HandoverTask):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            xyz = torch.stack([torch.rand(b) * self.MUG_X[1] + self.MUG_X[0],
-                               self.MUG_Y[0] + torch.rand(b) * self.MUG_Y[1],
+            xyz = torch.stack([uniform(b, self.mug_x_range), uniform(b, self.mug_y_range),
                                torch.full((b,), self.mug_shape.body.height)], dim=1)
-            # the handle (the mug's -x side) points away from the robot (world +x), give or take HANDLE_YAW; flipped
-            # about x, the mug's -x stays -x: a yaw of pi turns it to +x
-            handle_yaw = (torch.rand(b) * 2 - 1) * np.deg2rad(self.HANDLE_YAW)
+            # the handle (the mug's -x side) points away from the robot (world +x), give or take mug_max_yaw;
+            # flipped about x, the mug's -x stays -x: a yaw of pi turns it to +x
+            handle_yaw = (torch.rand(b) * 2 - 1) * np.deg2rad(self.mug_max_yaw)
             flip = torch.tensor(UPSIDE_DOWN).expand(b, 4)
             place_at_rest(self.mug, Pose.create_from_pq(xyz, quaternion_multiply(yaw_quat(handle_yaw + np.pi), flip)))
-            coaster = torch.stack([torch.rand(b) * self.COASTER_X[1] + self.COASTER_X[0],
-                                   self.COASTER_Y[0] + torch.rand(b) * self.COASTER_Y[1], torch.zeros(b)], dim=1)
+            coaster = torch.stack([uniform(b, self.coaster_x_range), uniform(b, self.coaster_y_range), torch.zeros(b)],
+                                  dim=1)
             self.coaster.set_pose(Pose.create_from_pq(coaster))
 
     def item_centre(self) -> torch.Tensor:

@@ -11,6 +11,7 @@ from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.envs import register_task
 from maniladder_ms.geometry import yaw_quat
+from maniladder_ms.layout import uniform, uniform_deg
 from .base import InsertPegTask
 
 
@@ -23,11 +24,10 @@ class InsertPegBimanualEnv(InsertPegTask):
     **Randomisation:**
     - the block (1 cm walls around a hole of side 2 x `peg_half` + `clearance`, `hole_depth` deep over a
       1 cm floor, and a 12 cm handle as tall as the walls on one side; about 0.24 kg) lies on the left
-      half of the table, its handle pointing left (+y) within [-15, 15] degrees (`BLOCK_YAW`), the hole's
-      centre uniform in x in [-0.12, -0.02], y in [0.02, 0.08] (`BLOCK_X`, `BLOCK_Y`);
+      half of the table, its handle pointing left (+y) within +-`block_max_yaw` (uniform), the hole's centre
+      uniform in x in `block_x_range`, y in `block_y_range`;
     - the peg (a box of square section 2 x `peg_half`, `peg_length` long) stands upright on the right
-      half with a uniform random yaw, its centre uniform in x in [-0.15, -0.03], y in [-0.25, -0.13]
-      (`PEG_X`, `PEG_Y`).
+      half, its yaw uniform in `peg_yaw_range`, its centre uniform in x in `peg_x_range`, y in `peg_y_range`.
 
     **Success:** (the InsertPeg family rule, `InsertPegTask`) the centre of the peg's lower end, in the
     block's frame, lies at least `insert_depth` below the hole's rim and inside the hole's square opening
@@ -43,29 +43,25 @@ class InsertPegBimanualEnv(InsertPegTask):
     """
 
     SUPPORTED_ROBOTS = ["ml_dual_panda"]
-    PARAMS = InsertPegTask.PARAMS + ("lift_height",)
+    PARAMS = InsertPegTask.PARAMS + ("lift_height", "block_x_range", "block_y_range", "block_max_yaw", "peg_x_range",
+                                     "peg_y_range", "peg_yaw_range")
     max_dense_reward = 9
     TASK_REGION = (-0.25, 0.1, -0.35, 0.35)
     BLOCK_FIXED = False
     BLOCK_HANDLE = 0.12
     HANDLE_GRIP = 0.02  # the left gripper holds the handle this far from its free end (clear of the peg's hand)
-    # layout ranges as (low, span)
-    BLOCK_X, BLOCK_Y = (-0.12, 0.1), (0.02, 0.06)
-    BLOCK_YAW = 15  # degrees either side of the handle pointing +y
-    PEG_X, PEG_Y = (-0.15, 0.12), (-0.25, 0.12)
 
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            block_xyz = torch.stack([torch.rand(b) * self.BLOCK_X[1] + self.BLOCK_X[0],
-                                     self.BLOCK_Y[0] + torch.rand(b) * self.BLOCK_Y[1], torch.zeros(b)], dim=1)
-            yaw = np.pi / 2 + (torch.rand(b) * 2 - 1) * np.deg2rad(self.BLOCK_YAW)
+            block_xyz = torch.stack([uniform(b, self.block_x_range), uniform(b, self.block_y_range), torch.zeros(b)],
+                                    dim=1)
+            yaw = np.pi / 2 + (torch.rand(b) * 2 - 1) * np.deg2rad(self.block_max_yaw)
             self.block.set_pose(Pose.create_from_pq(block_xyz, yaw_quat(yaw)))
-            peg_xyz = torch.stack([torch.rand(b) * self.PEG_X[1] + self.PEG_X[0],
-                                   self.PEG_Y[0] + torch.rand(b) * self.PEG_Y[1],
+            peg_xyz = torch.stack([uniform(b, self.peg_x_range), uniform(b, self.peg_y_range),
                                    torch.full((b,), self.peg_length / 2)], dim=1)
-            self.peg.set_pose(Pose.create_from_pq(peg_xyz, yaw_quat(torch.rand(b) * np.pi / 2)))
+            self.peg.set_pose(Pose.create_from_pq(peg_xyz, yaw_quat(uniform_deg(b, self.peg_yaw_range))))
 
     def handle_point(self) -> torch.Tensor:
         """(b, 3) world position where the left gripper holds the handle: `HANDLE_GRIP` from its free end,

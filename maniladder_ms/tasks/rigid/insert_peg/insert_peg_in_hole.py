@@ -4,13 +4,13 @@ from __future__ import annotations
 
 from typing import Any
 
-import numpy as np
 import torch
 
 from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.envs import register_task
 from maniladder_ms.geometry import yaw_quat
+from maniladder_ms.layout import symmetric_deg, uniform, uniform_deg
 from .base import InsertPegTask
 
 
@@ -20,12 +20,12 @@ class InsertPegInHoleEnv(InsertPegTask):
     square blind hole of a block fixed to the table; let go of it there.
 
     **Randomisation:**
-    - the peg (a box of square section 2 x `peg_half`, `peg_length` long) stands upright with a uniform
-      random yaw, its centre uniform in x in [-0.12, 0.05], |y| in [0.08, 0.2] (`PEG_X`, `PEG_Y`) on a random
-      side of the robot's centre line;
+    - the peg (a box of square section 2 x `peg_half`, `peg_length` long) stands upright, its yaw uniform in
+      `peg_yaw_range` (a square section: every yaw), its centre uniform in x in `peg_x_range`, |y| in
+      `peg_abs_y_range` on a random side of the robot's centre line;
     - the block (a fixture: 1 cm walls around a hole of side 2 x `peg_half` + `clearance`, `hole_depth`
-      deep over a 1 cm floor) stands on the other side, centre x in [-0.1, 0.08], |y| in [0.08, 0.2]
-      (`BLOCK_X`, `BLOCK_Y`), yaw uniform in [-pi/4, pi/4].
+      deep over a 1 cm floor) stands on the other side, centre x in `block_x_range`, |y| in
+      `block_abs_y_range`, yaw uniform in +-`block_max_yaw`.
 
     **Success:** (the InsertPeg family rule, `InsertPegTask`) the centre of the peg's lower end, in the
     block's frame, lies at least `insert_depth` below the hole's rim and inside the hole's square opening
@@ -40,23 +40,20 @@ class InsertPegInHoleEnv(InsertPegTask):
 
     max_dense_reward = 7
     TASK_REGION = (-0.2, 0.15, -0.3, 0.3)
-    # layout ranges as (low, span); y is the distance from the robot's centre line, on opposite sides
-    PEG_X, PEG_Y = (-0.12, 0.17), (0.08, 0.12)
-    BLOCK_X, BLOCK_Y = (-0.1, 0.18), (0.08, 0.12)
+    PARAMS = InsertPegTask.PARAMS + ("peg_x_range", "peg_abs_y_range", "peg_yaw_range", "block_x_range",
+                                     "block_abs_y_range", "block_max_yaw")
 
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
             side = torch.where(torch.rand(b) < 0.5, -1.0, 1.0)
-            peg_xyz = torch.stack([torch.rand(b) * self.PEG_X[1] + self.PEG_X[0],
-                                   side * (self.PEG_Y[0] + torch.rand(b) * self.PEG_Y[1]),
+            peg_xyz = torch.stack([uniform(b, self.peg_x_range), side * uniform(b, self.peg_abs_y_range),
                                    torch.full((b,), self.peg_length / 2)], dim=1)
-            self.peg.set_pose(Pose.create_from_pq(peg_xyz, yaw_quat(torch.rand(b) * np.pi / 2)))
-            block_xyz = torch.stack([torch.rand(b) * self.BLOCK_X[1] + self.BLOCK_X[0],
-                                     -side * (self.BLOCK_Y[0] + torch.rand(b) * self.BLOCK_Y[1]),
+            self.peg.set_pose(Pose.create_from_pq(peg_xyz, yaw_quat(uniform_deg(b, self.peg_yaw_range))))
+            block_xyz = torch.stack([uniform(b, self.block_x_range), -side * uniform(b, self.block_abs_y_range),
                                      torch.zeros(b)], dim=1)
-            self.block.set_pose(Pose.create_from_pq(block_xyz, yaw_quat((torch.rand(b) - 0.5) * np.pi / 2)))
+            self.block.set_pose(Pose.create_from_pq(block_xyz, yaw_quat(symmetric_deg(b, self.block_max_yaw))))
 
     def _get_obs_extra(self, info: dict):
         obs = dict(tcp_pose=self.ee.tcp().raw_pose, is_grasped=info["is_grasped"])

@@ -11,6 +11,7 @@ from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.envs import register_task
 from maniladder_ms.geometry import yaw_quat
+from maniladder_ms.layout import uniform
 from maniladder_ms.objects.basket import BasketShape, build_basket
 
 from .base import SIDE_SIGNS, LiftTwoHandedTask
@@ -21,8 +22,8 @@ class LiftBasketHandsEnv(LiftTwoHandedTask):
     """**Task:** lift a basket off the table by its two side handles, one LEAP hand on each, keeping it level.
 
     **Randomisation:** the basket (inner 16 x 22 cm at the floor, 16 x 22 -> 18 x 24 cm tapered, 10 cm
-    deep, `basket_mass`; bar handles on the +-y sides) stands with its centre uniform in x in [-0.13, -0.07],
-    y in [-0.03, 0.03] (`BASKET_X`, `BASKET_Y`) and its yaw uniform in [-15, 15] degrees (`BASKET_YAW`).
+    deep, `basket_mass`; bar handles on the +-y sides) stands with its centre uniform in x in `basket_x_range`,
+    y in `basket_y_range` and its yaw uniform in +-`basket_max_yaw`.
 
     **Success:** (the LiftTwoHanded family rule, `LiftTwoHandedTask`) the basket's bottom is at least
     `lift_height` above the table, it is tilted by less than `max_tilt`, and each hand holds it (`ee.holds`
@@ -32,11 +33,9 @@ class LiftBasketHandsEnv(LiftTwoHandedTask):
     SUPPORTED_ROBOTS = ["ml_dual_panda_leap"]
     max_dense_reward = 5
     TASK_REGION = (-0.25, 0.05, -0.3, 0.3)
-    PARAMS = LiftTwoHandedTask.PARAMS + ("basket_mass",)
+    PARAMS = LiftTwoHandedTask.PARAMS + ("basket_mass", "basket_x_range", "basket_y_range", "basket_max_yaw")
     basket_shape = BasketShape()
     # layout ranges as (low, span)
-    BASKET_X, BASKET_Y = (-0.13, 0.06), (-0.03, 0.06)
-    BASKET_YAW = 15  # degrees either side of square
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -48,9 +47,8 @@ class LiftBasketHandsEnv(LiftTwoHandedTask):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            xyz = torch.stack([torch.rand(b) * self.BASKET_X[1] + self.BASKET_X[0],
-                               torch.rand(b) * self.BASKET_Y[1] + self.BASKET_Y[0], torch.zeros(b)], dim=1)
-            yaw = (torch.rand(b) * 2 - 1) * np.deg2rad(self.BASKET_YAW)
+            xyz = torch.stack([uniform(b, self.basket_x_range), uniform(b, self.basket_y_range), torch.zeros(b)], dim=1)
+            yaw = (torch.rand(b) * 2 - 1) * np.deg2rad(self.basket_max_yaw)
             self.basket.set_pose(Pose.create_from_pq(xyz, yaw_quat(yaw)))
 
     def handle_centres(self) -> dict[str, torch.Tensor]:

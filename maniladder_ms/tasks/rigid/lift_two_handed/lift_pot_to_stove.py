@@ -11,6 +11,7 @@ from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.envs import register_task
 from maniladder_ms.geometry import tilt, yaw_quat
+from maniladder_ms.layout import uniform
 from maniladder_ms.objects.pot import PotShape, build_pot, build_stove_plate
 
 from .base import SIDE_SIGNS, LiftTwoHandedTask
@@ -25,10 +26,10 @@ class LiftPotToStoveEnv(LiftTwoHandedTask):
     there, level, and let go.
 
     **Randomisation:** the pot (19 cm across, 9 cm high, ~0.9 kg; flat tab handles 5 cm long and 3 cm wide
-    at +-y, 1.5 cm below the rim) stands with its centre uniform in x in [-0.3, -0.22], y in [-0.04, 0.04]
-    (`POT_X`, `POT_Y`) and its yaw uniform in [-10, 10] degrees (`POT_YAW`); the stove plate (11 cm radius,
-    1.2 cm high) stands 0.24-0.3 m (uniform, `PLATE_DX`) farther in x, its y uniform in [-0.05, 0.05]
-    (`PLATE_Y`; both arms carry it 24-31 cm).
+    at +-y, 1.5 cm below the rim) stands with its centre uniform in x in `pot_x_range`, y in `pot_y_range` and
+    its yaw uniform in +-`pot_max_yaw`; the stove plate (11 cm radius, 1.2 cm high) stands farther in x by a
+    distance uniform in `plate_dx_range` (from the pot's x), its y uniform in `plate_y_range` (both arms carry it
+    24-31 cm).
 
     **Success:** the pot was carried by both handles: at some control step each gripper held it (`ee.holds`
     for the left and the right) with its TCP within `handle_tol` of its own handle's centre while the pot's
@@ -47,13 +48,11 @@ class LiftPotToStoveEnv(LiftTwoHandedTask):
     SUPPORTED_ROBOTS = ["ml_dual_panda"]
     max_dense_reward = 10
     TASK_REGION = (-0.42, 0.2, -0.3, 0.3)
-    PARAMS = LiftTwoHandedTask.PARAMS + ("centre_tol", "rest_tol", "handle_tol")
+    PARAMS = LiftTwoHandedTask.PARAMS + ("centre_tol", "rest_tol", "handle_tol", "pot_x_range", "pot_y_range",
+                                         "pot_max_yaw", "plate_dx_range", "plate_y_range")
     pot_shape = PotShape()
     plate_radius, plate_height = 0.11, 0.012
     # layout ranges as (low, span)
-    POT_X, POT_Y = (-0.3, 0.08), (-0.04, 0.08)
-    POT_YAW = 10  # degrees either side of square
-    PLATE_DX, PLATE_Y = (0.24, 0.06), (-0.05, 0.1)  # the plate's x from the pot's
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -68,11 +67,11 @@ class LiftPotToStoveEnv(LiftTwoHandedTask):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            pot = torch.stack([torch.rand(b) * self.POT_X[1] + self.POT_X[0],
-                               torch.rand(b) * self.POT_Y[1] + self.POT_Y[0], torch.zeros(b)], dim=1)
-            self.pot.set_pose(Pose.create_from_pq(pot, yaw_quat((torch.rand(b) * 2 - 1) * np.deg2rad(self.POT_YAW))))
-            plate = torch.stack([pot[:, 0] + self.PLATE_DX[0] + torch.rand(b) * self.PLATE_DX[1],
-                                 torch.rand(b) * self.PLATE_Y[1] + self.PLATE_Y[0], torch.zeros(b)], dim=1)
+            pot = torch.stack([uniform(b, self.pot_x_range), uniform(b, self.pot_y_range), torch.zeros(b)], dim=1)
+            self.pot.set_pose(Pose.create_from_pq(pot, yaw_quat((torch.rand(b) * 2 - 1) * np.deg2rad(self.pot_max_yaw))))
+            (dx_lo, dx_hi) = self.plate_dx_range
+            plate = torch.stack([pot[:, 0] + dx_lo + torch.rand(b) * (dx_hi - dx_lo), uniform(b, self.plate_y_range),
+                                 torch.zeros(b)], dim=1)
             self.plate.set_pose(Pose.create_from_pq(plate))
 
     def handle_centres(self) -> dict[str, torch.Tensor]:

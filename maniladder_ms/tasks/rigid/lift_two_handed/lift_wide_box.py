@@ -11,6 +11,7 @@ from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.envs import register_task
 from maniladder_ms.geometry import yaw_quat
+from maniladder_ms.layout import uniform
 from maniladder_ms.objects import build_tray
 
 from .base import LiftTwoHandedTask
@@ -23,8 +24,7 @@ class LiftWideBoxEnv(LiftTwoHandedTask):
 
     **Randomisation:** the box (inner 2 x `inner_half`, walls `wall_height` high and `wall_thickness` thick,
     open top, about 1.1 kg) lies with its long side across the table (along y), its centre uniform in
-    x in [-0.15, -0.05], y in [-0.03, 0.03] (`BOX_X`, `BOX_Y`), its yaw uniform in [-15, 15] degrees about that
-    (`BOX_YAW`).
+    x in `box_x_range`, y in `box_y_range`, its yaw uniform in +-`box_max_yaw` about that.
 
     **Success:** (the LiftTwoHanded family rule, `LiftTwoHandedTask`) the box bottom is at least
     `lift_height` above the table, the box is tilted by less than `max_tilt` (angle between its up axis and
@@ -34,11 +34,10 @@ class LiftWideBoxEnv(LiftTwoHandedTask):
     SUPPORTED_ROBOTS = ["ml_dual_panda"]
     max_dense_reward = 6
     TASK_REGION = (-0.3, 0.1, -0.3, 0.3)
-    PARAMS = LiftTwoHandedTask.PARAMS + ("inner_half", "wall_height", "wall_thickness")
+    PARAMS = LiftTwoHandedTask.PARAMS + ("inner_half", "wall_height", "wall_thickness",
+                                         "box_x_range", "box_y_range", "box_max_yaw")
     base_thickness = 0.008
     # layout ranges as (low, span)
-    BOX_X, BOX_Y = (-0.15, 0.1), (-0.03, 0.06)
-    BOX_YAW = 15  # degrees either side of the long side along y
     # inner_half: long side along the box's local x
 
     def _load_scene(self, options: dict):
@@ -51,9 +50,8 @@ class LiftWideBoxEnv(LiftTwoHandedTask):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            xyz = torch.stack([torch.rand(b) * self.BOX_X[1] + self.BOX_X[0],
-                               torch.rand(b) * self.BOX_Y[1] + self.BOX_Y[0], torch.zeros(b)], dim=1)
-            yaw = np.pi / 2 + (torch.rand(b) * 2 - 1) * np.deg2rad(self.BOX_YAW)
+            xyz = torch.stack([uniform(b, self.box_x_range), uniform(b, self.box_y_range), torch.zeros(b)], dim=1)
+            yaw = np.pi / 2 + (torch.rand(b) * 2 - 1) * np.deg2rad(self.box_max_yaw)
             self.box.set_pose(Pose.create_from_pq(xyz, yaw_quat(yaw)))
 
     def lip_points(self) -> dict[str, torch.Tensor]:

@@ -12,6 +12,7 @@ from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.envs import register_task
 from maniladder_ms.geometry import tilt, yaw_quat
+from maniladder_ms.layout import uniform
 from maniladder_ms.objects.markers import MARKER_THICKNESS, build_zone_marker
 from maniladder_ms.objects.tabletop import build_ping_pong_ball, build_serving_tray, place_at_rest
 
@@ -27,12 +28,11 @@ class PingPongTransportEnv(LiftTwoHandedTask):
     it down there, keeping the ball on the tray.
 
     **Randomisation:** the tray (floor 20 x 30 cm inside, low rims `rim_height` high along its front and back,
-    6 cm end walls at +-y, ~0.45 kg) stands with its centre uniform in x in [-0.26, -0.2], y in [-0.03, 0.03]
-    (`TRAY_X`, `TRAY_Y`) and its yaw uniform in [-5, 5] degrees (`TRAY_YAW`); the ball (`ball_radius`,
-    `ball_mass`, a hollow shell) lies on the tray floor, uniform in [-0.04, 0.04] x [-0.06, 0.06] about the
-    tray's centre (`BALL_X`, `BALL_Y`, tray frame); the target zone (a visual tile, the tray's outline grown by
-    `zone_margin` on every side, axis-aligned) has its centre uniform in x in [0.05, 0.1], y in [-0.05, 0.05]
-    (`ZONE_X`, `ZONE_Y`: a 25-36 cm carry).
+    6 cm end walls at +-y, ~0.45 kg) stands with its centre uniform in x in `tray_x_range`, y in `tray_y_range`
+    and its yaw uniform in +-`tray_max_yaw`; the ball (`ball_radius`, `ball_mass`, a hollow shell) lies on the
+    tray floor, uniform in `ball_dx_range` x `ball_dy_range` about the tray's centre (tray frame); the target
+    zone (a visual tile, the tray's outline grown by `zone_margin` on every side, axis-aligned) has its centre
+    uniform in x in `zone_x_range`, y in `zone_y_range` (a 25-36 cm carry).
 
     **Success:** the tray was carried by both arms: at some control step each gripper held it (`ee.holds` for
     the left and the right) while its bottom was at least `lift_height` above the table and it was tilted by
@@ -56,12 +56,10 @@ class PingPongTransportEnv(LiftTwoHandedTask):
     SUPPORTED_ROBOTS = ["ml_dual_panda"]
     max_dense_reward = 10
     TASK_REGION = (-0.4, 0.3, -0.3, 0.3)
-    PARAMS = LiftTwoHandedTask.PARAMS + ("zone_margin", "rest_tol", "rim_height", "ball_radius", "ball_mass")
+    PARAMS = LiftTwoHandedTask.PARAMS + ("zone_margin", "rest_tol", "rim_height", "ball_radius", "ball_mass",
+                                         "tray_x_range", "tray_y_range", "tray_max_yaw", "ball_dx_range",
+                                         "ball_dy_range", "zone_x_range", "zone_y_range")
     # layout ranges as (low, span)
-    TRAY_X, TRAY_Y = (-0.26, 0.06), (-0.03, 0.06)
-    TRAY_YAW = 5  # degrees either side of square
-    BALL_X, BALL_Y = (-0.04, 0.08), (-0.06, 0.12)  # tray frame
-    ZONE_X, ZONE_Y = (0.05, 0.05), (-0.05, 0.1)
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
@@ -80,16 +78,13 @@ class PingPongTransportEnv(LiftTwoHandedTask):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            tray = torch.stack([torch.rand(b) * self.TRAY_X[1] + self.TRAY_X[0],
-                                torch.rand(b) * self.TRAY_Y[1] + self.TRAY_Y[0], torch.zeros(b)], dim=1)
-            tray_q = yaw_quat((torch.rand(b) * 2 - 1) * np.deg2rad(self.TRAY_YAW))
+            tray = torch.stack([uniform(b, self.tray_x_range), uniform(b, self.tray_y_range), torch.zeros(b)], dim=1)
+            tray_q = yaw_quat((torch.rand(b) * 2 - 1) * np.deg2rad(self.tray_max_yaw))
             self.tray.set_pose(Pose.create_from_pq(tray, tray_q))
-            local = torch.stack([torch.rand(b) * self.BALL_X[1] + self.BALL_X[0],
-                                 torch.rand(b) * self.BALL_Y[1] + self.BALL_Y[0],
+            local = torch.stack([uniform(b, self.ball_dx_range), uniform(b, self.ball_dy_range),
                                  torch.full((b,), TRAY_BASE + self.ball_radius)], dim=1)
             place_at_rest(self.ball, Pose.create_from_pq(tray + quaternion_apply(tray_q, local)))
-            zone = torch.stack([torch.rand(b) * self.ZONE_X[1] + self.ZONE_X[0],
-                                torch.rand(b) * self.ZONE_Y[1] + self.ZONE_Y[0], torch.zeros(b)], dim=1)
+            zone = torch.stack([uniform(b, self.zone_x_range), uniform(b, self.zone_y_range), torch.zeros(b)], dim=1)
             zone[:, 2] = MARKER_THICKNESS / 2
             self.zone.set_pose(Pose.create_from_pq(zone))
 

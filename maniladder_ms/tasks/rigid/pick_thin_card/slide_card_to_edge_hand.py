@@ -12,6 +12,7 @@ from mani_skill.utils.structs.pose import Pose
 from maniladder_ms.agents.effectors import leap_fingertip
 from maniladder_ms.envs import register_task
 from maniladder_ms.geometry import tilt, yaw_quat
+from maniladder_ms.layout import uniform
 from maniladder_ms.objects.tabletop import build_flat_box
 
 from .base import PickThinCardTask
@@ -29,10 +30,10 @@ class SlideCardToEdgeHandEnv(PickThinCardTask):
     out, then take the overhang in the hand (fingers curled up under it, the palm on it), and lift.
 
     **Randomisation:** the stand (24 x 30 cm, `stand_height` tall) stands with its far edge (the one away
-    from the robot) uniform in x in [-0.2, -0.14] (`EDGE_X`), its centre's y in [-0.08, 0.08] (`STAND_Y`); the
-    card (`card_length` x `card_width` x `card_thickness`, ~14 g) lies on it with its centre within +-4 cm (y)
-    of the stand's (`CARD_Y`), its far end 3-7 cm (uniform, `CARD_GAP`) short of the far edge, yawed uniform in
-    [-15, 15] degrees (`CARD_YAW`).
+    from the robot) uniform in x in `stand_edge_x_range`, its centre's y uniform in +-`stand_edge_max_y`; the
+    card (`card_length` x `card_width` x `card_thickness`, ~14 g) lies on it with its centre's y within
+    +-`card_max_dy` of the stand's (uniform), its far end short of the far edge by a gap uniform in
+    `card_gap_range`, yawed uniform in +-`card_max_yaw`.
 
     **Success:** the card was slid over the edge: at some control step it lay on the stand (tilted by less
     than `FLAT_TILT`, its lowest corner within `LYING_TOL` of the stand's top) with a corner at least
@@ -50,13 +51,9 @@ class SlideCardToEdgeHandEnv(PickThinCardTask):
 
     max_dense_reward = 6
     TASK_REGION = (-0.45, -0.05, -0.25, 0.25)
-    PARAMS = PickThinCardTask.PARAMS + ("stand_height", "min_overhang")
+    PARAMS = PickThinCardTask.PARAMS + ("stand_height", "min_overhang", "stand_edge_x_range", "stand_edge_max_y",
+                                        "card_gap_range", "card_max_dy", "card_max_yaw")
     # layout ranges: (low, span), or the half width of a range centred on 0
-    EDGE_X = (-0.2, 0.06)
-    STAND_Y = 0.08
-    CARD_GAP = (0.03, 0.04)  # the card's far end short of the far edge
-    CARD_Y = 0.04  # the card's centre from the stand's
-    CARD_YAW = 15  # degrees
 
     @property
     def surface_height(self) -> float:
@@ -72,14 +69,14 @@ class SlideCardToEdgeHandEnv(PickThinCardTask):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            edge = self.EDGE_X[0] + torch.rand(b) * self.EDGE_X[1]
-            stand_y = (torch.rand(b) * 2 - 1) * self.STAND_Y
+            edge = uniform(b, self.stand_edge_x_range)
+            stand_y = (torch.rand(b) * 2 - 1) * self.stand_edge_max_y
             stand = torch.stack([edge - STAND_HALF[0], stand_y, torch.full((b,), self.stand_height / 2)], dim=1)
             self.stand.set_pose(Pose.create_from_pq(stand))
-            gap = self.CARD_GAP[0] + torch.rand(b) * self.CARD_GAP[1]
-            card = torch.stack([edge - gap - self.card_length / 2, stand_y + (torch.rand(b) * 2 - 1) * self.CARD_Y,
+            gap = uniform(b, self.card_gap_range)
+            card = torch.stack([edge - gap - self.card_length / 2, stand_y + (torch.rand(b) * 2 - 1) * self.card_max_dy,
                                 torch.full((b,), self.stand_height + self.card_thickness / 2)], dim=1)
-            self.card.set_pose(Pose.create_from_pq(card, yaw_quat((torch.rand(b) * 2 - 1) * np.deg2rad(self.CARD_YAW))))
+            self.card.set_pose(Pose.create_from_pq(card, yaw_quat((torch.rand(b) * 2 - 1) * np.deg2rad(self.card_max_yaw))))
 
     def far_edge(self) -> torch.Tensor:
         """(b,) x of the stand's far edge."""
