@@ -18,10 +18,6 @@ from maniladder_ms.layout import ObjectBreadth, breadth_tables, layout_breadth, 
 REPO = Path(__file__).resolve().parents[1]
 POLICY = REPO / "docs" / "calibration" / "layout-policy.md"
 
-# Level 1-2 tasks whose layout is still class constants of a family base they share with a Level 3 task
-# (UnscrewCapTask.JAR_REGION: TwistOpenBottleHands; TowelInHalfTask.TOWEL_*: FoldTowelHand): their ranges move to
-# the catalog together with that task's row and class
-LAYOUT_NOT_YET_IN_CATALOG = {"UnscrewCapHand", "OpenJarBimanual", "OpenJarHands", "FoldTowelInHalf"}
 
 
 def _low_levels():
@@ -119,7 +115,7 @@ def test_the_layout_scan_follows_helpers_and_bases():
 
 
 def test_every_level_1_2_row_names_its_layout_ranges_by_the_scheme():
-    """Each Level 1-2 row (but the few listed) places at least one object by `<obj>_x_range`-style params;
+    """Each Level 1-2 row places at least one object by `<obj>_x_range`-style params;
     every `_range` param is [low, high] with low <= high, every `_max_` param a number >= 0, angles within a turn."""
     missing = []
     for spec in _low_levels():
@@ -132,7 +128,7 @@ def test_every_level_1_2_row_names_its_layout_ranges_by_the_scheme():
                 assert value >= 0, (spec.id, name, value)
             if name.endswith("yaw_range"):
                 assert value[1] - value[0] <= 360, (spec.id, name, value)
-    assert set(missing) == LAYOUT_NOT_YET_IN_CATALOG
+    assert not missing
 
 
 def test_object_breadths_read_the_naming_scheme():

@@ -18,6 +18,7 @@ from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.envs import ManiLadderEnv
 from maniladder_ms.geometry import yaw_quat
+from maniladder_ms.layout import uniform, uniform_deg
 from maniladder_ms.objects.jar import JarShape, build_screw_jar, screw_angle
 
 
@@ -36,12 +37,11 @@ class UnscrewCapTask(ManiLadderEnv):
     """
 
     # release_angle: degrees of unscrewing that free the lid from its thread; thread_torque: N m of the
-    # thread's dry friction
-    PARAMS = ("release_angle", "thread_torque")
+    # thread's dry friction; the container's layout at reset: its centre uniform in x in jar_x_range, y in
+    # jar_y_range, its yaw (where the lid's stripes point) in jar_yaw_range (deg)
+    PARAMS = ("release_angle", "thread_torque", "jar_x_range", "jar_y_range", "jar_yaw_range")
     jar_shape = JarShape()
     CLAMPED = False  # the container's body is fixed to the table (no end effector needs to hold it)
-    # (xmin, xmax, ymin, ymax) of the container's centre at reset, uniform
-    JAR_REGION = (-0.12, -0.04, -0.05, 0.05)
     body_color, lid_color = (0.78, 0.86, 0.9, 1), (0.8, 0.2, 0.15, 1)
 
     def _load_scene(self, options: dict):
@@ -58,9 +58,8 @@ class UnscrewCapTask(ManiLadderEnv):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            x0, x1, y0, y1 = self.JAR_REGION
-            xyz = torch.stack([x0 + torch.rand(b) * (x1 - x0), y0 + torch.rand(b) * (y1 - y0), torch.zeros(b)], dim=1)
-            self.jar.set_pose(Pose.create_from_pq(xyz, yaw_quat(torch.rand(b) * 2 * np.pi)))
+            xyz = torch.stack([uniform(b, self.jar_x_range), uniform(b, self.jar_y_range), torch.zeros(b)], dim=1)
+            self.jar.set_pose(Pose.create_from_pq(xyz, yaw_quat(uniform_deg(b, self.jar_yaw_range))))
             self.jar.set_qpos(torch.zeros(b, 1))
             self.jar.set_qvel(torch.zeros(b, 1))
             self.memory.store("last_angle", torch.zeros(b, 1), env_idx)

@@ -14,8 +14,8 @@ class OpenJarBimanualEnv(UnscrewCapTask):
     in strokes: twist, let go, turn the open hand back, grip again, until the lid is off its thread.
 
     **Randomisation:** the jar (a 6 cm wide, 11 cm tall sealed body of ~0.4 kg and a 6.6 cm wide, 2.2 cm
-    tall lid screwed home; `objects.jar`) has its centre uniform in `JAR_REGION` (the family's): x in
-    [-0.12, -0.04], y in [-0.05, 0.05]; its yaw (where the lid's stripes point) uniform in [0, 2 pi).
+    tall lid screwed home; `objects.jar`) has its centre uniform in x in `jar_x_range`, y in `jar_y_range`; its
+    yaw (where the lid's stripes point) uniform in `jar_yaw_range`.
 
     **Success:** (the UnscrewCap family rule, `UnscrewCapTask`) the lid's thread joint has turned by at
     least `release_angle` counter-clockwise, and so has the episode memory `held_turn`, which counts the

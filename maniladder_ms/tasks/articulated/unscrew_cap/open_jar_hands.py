@@ -19,8 +19,8 @@ class OpenJarHandsEnv(UnscrewCapTask):
     hand back, grip again, until the lid is off its thread.
 
     **Randomisation:** the jar (a 6 cm wide, 16 cm tall sealed body of ~0.6 kg and a 6.6 cm wide, 3.5 cm
-    tall lid screwed home; `objects.jar`) has its centre uniform in `JAR_REGION`: x in [-0.16, -0.1], y in
-    [-0.04, 0.02]; its yaw (where the lid's stripes point) uniform in [0, 2 pi).
+    tall lid screwed home; `objects.jar`) has its centre uniform in x in `jar_x_range`, y in `jar_y_range`; its
+    yaw (where the lid's stripes point) uniform in `jar_yaw_range`.
 
     **Success:** (the UnscrewCap family rule, `UnscrewCapTask`) the lid's thread joint has turned by at
     least `release_angle` counter-clockwise, and so has the episode memory `held_turn`, which counts the
@@ -41,7 +41,6 @@ class OpenJarHandsEnv(UnscrewCapTask):
 
     SUPPORTED_ROBOTS = ["ml_dual_panda_leap"]
     max_dense_reward = 6
-    JAR_REGION = (-0.16, -0.1, -0.04, 0.02)
     TASK_REGION = (-0.25, 0.0, -0.15, 0.25)
     # the holding arm starts in the side-grasp ready pose (`agents.poses.READY_ARM_JOINTS`: reached from the
     # top-down rest pose, the ~180 degree wrist turn took a wrong IK branch on ~30 % of seeds); the twisting arm at rest

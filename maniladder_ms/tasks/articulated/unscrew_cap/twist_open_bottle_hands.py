@@ -20,9 +20,8 @@ class TwistOpenBottleHandsEnv(UnscrewCapTask):
     in strokes: grip, twist, let go, turn the open hand back, grip again, until the cap is off its thread.
 
     **Randomisation:** the bottle (a 6 cm wide, 16 cm tall sealed body of ~0.6 kg, a `BOTTLE.neck_radius`
-    neck and a `BOTTLE.lid_radius` cap screwed home on it; `objects.jar`) has its centre uniform in
-    `JAR_REGION`: x in [-0.16, -0.1], y in [-0.04, 0.02]; its yaw (where the cap's stripes point) uniform in
-    [0, 2 pi).
+    neck and a `BOTTLE.lid_radius` cap screwed home on it; `objects.jar`) has its centre uniform in x in
+    `jar_x_range`, y in `jar_y_range`; its yaw (where the cap's stripes point) uniform in `jar_yaw_range`.
 
     **Success:** (the UnscrewCap family rule, `UnscrewCapTask`) the cap's thread joint has turned by at
     least `release_angle` counter-clockwise, and so has the episode memory `held_turn`, which counts the
@@ -46,7 +45,6 @@ class TwistOpenBottleHandsEnv(UnscrewCapTask):
 
     SUPPORTED_ROBOTS = ["ml_dual_panda_leap"]
     max_dense_reward = 6
-    JAR_REGION = (-0.16, -0.1, -0.04, 0.02)
     TASK_REGION = (-0.25, 0.0, -0.15, 0.25)
     # the holding arm starts in the side-grasp ready pose (`agents.poses.READY_ARM_JOINTS`, as OpenJarHands'); the
     # twisting arm at rest

@@ -16,8 +16,8 @@ class UnscrewCapHandEnv(UnscrewCapTask):
     grip again, until the cap is off its thread.
 
     **Randomisation:** the bottle (an 8 cm wide, 11 cm tall body, a 4.4 cm wide, 3 cm tall neck and a
-    6 cm wide, 3 cm tall cap screwed home; `objects.jar`) has its centre uniform in `JAR_REGION`: x in
-    [-0.18, -0.1], y in [-0.08, 0.08]; its yaw (where the cap's stripes point) uniform in [0, 2 pi).
+    6 cm wide, 3 cm tall cap screwed home; `objects.jar`) has its centre uniform in x in `jar_x_range`, y in
+    `jar_y_range`; its yaw (where the cap's stripes point) uniform in `jar_yaw_range`.
 
     **Success:** (the UnscrewCap family rule, `UnscrewCapTask`, for a clamped container) the cap's thread
     joint has turned by at least `release_angle` counter-clockwise, and so has the episode memory
@@ -37,7 +37,6 @@ class UnscrewCapHandEnv(UnscrewCapTask):
     SUPPORTED_ROBOTS = ["ml_panda_leap"]
     max_dense_reward = 5
     CLAMPED = True
-    JAR_REGION = (-0.18, -0.1, -0.08, 0.08)
     TASK_REGION = (-0.25, -0.03, -0.15, 0.15)
     jar_shape = JarShape(body_radius=0.04, body_height=0.11, neck_radius=0.022, neck_height=0.03,
                          lid_radius=0.03, lid_height=0.03)

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 from typing import Any
 
-import numpy as np
 import torch
 
 from mani_skill.utils.structs.pose import Pose
@@ -12,6 +11,7 @@ from mani_skill.utils.structs.pose import Pose
 from maniladder_ms.deformables import cloth
 from maniladder_ms.envs import ManiLadderEnv
 from maniladder_ms.geometry import yaw_quat
+from maniladder_ms.layout import symmetric_deg, uniform
 
 
 class FoldTowelTask(ManiLadderEnv):
@@ -68,24 +68,21 @@ class FoldTowelTask(ManiLadderEnv):
 
 class TowelInHalfTask(FoldTowelTask):
     """A rectangular towel (`cloth.towel(10, 6)`, 25 x 15 cm) folded in half along its short axis (short edge onto
-    short edge): the scene, start ranges, fold, observations and reward its variants (one per agent) share. The
-    towel lies flat, centred at x uniform in [`TOWEL_X_LOW`, `TOWEL_X_LOW` + `TOWEL_X_SPAN`], y uniform in
-    +-`TOWEL_Y`, its long axis turned by a yaw uniform in [-`TOWEL_YAW_SPAN` / 2, `TOWEL_YAW_SPAN` / 2)."""
+    short edge): the scene, layout, fold, observations and reward its variants (one per agent) share. The
+    towel lies flat, centred at x uniform in `towel_x_range`, y uniform in +-`towel_max_y`, its long axis turned
+    by a yaw uniform in +-`towel_max_yaw` (each variant's catalog row gives them)."""
 
     max_dense_reward = 5
     TASK_REGION = (-0.28, 0.14, -0.22, 0.22)  # towel centres plus the towel's half diagonal (14.6 cm) and a radius
     GRID = (10, 6)  # rows along the towel's long axis (its local x), columns along its short axis
-    TOWEL_X_LOW, TOWEL_X_SPAN = -0.12, 0.1  # the towel's centre x: uniform in [low, low + span]
-    TOWEL_Y = 0.06  # the towel's centre y: uniform in +-this
-    TOWEL_YAW_SPAN = np.pi / 2  # the towel's yaw: uniform in [-span / 2, span / 2)
+    PARAMS = FoldTowelTask.PARAMS + ("towel_x_range", "towel_max_y", "towel_max_yaw")
 
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            yaw = (torch.rand(b) - 0.5) * self.TOWEL_YAW_SPAN
-            xyz = torch.stack([torch.rand(b) * self.TOWEL_X_SPAN + self.TOWEL_X_LOW,
-                               (torch.rand(b) * 2 - 1) * self.TOWEL_Y,
+            yaw = symmetric_deg(b, self.towel_max_yaw)
+            xyz = torch.stack([uniform(b, self.towel_x_range), (torch.rand(b) * 2 - 1) * self.towel_max_y,
                                torch.full((b,), self.cloth_config.radius)], dim=1)
             self.towel.set_rest_shape(Pose.create_from_pq(xyz, yaw_quat(yaw)))
 

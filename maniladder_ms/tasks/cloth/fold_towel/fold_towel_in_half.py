@@ -14,8 +14,8 @@ class FoldTowelInHalfEnv(TowelInHalfTask):
 
     **Randomisation:** the towel (`cloth.towel(10, 6)`: 10 x 6 particles 2.5 cm apart, a 25 x 15 cm
     sheet, particles of 10 mm radius so a folded layer rests on the sheet) lies flat, centred at x
-    uniform in [-0.12, -0.02] (`TOWEL_X_LOW`, `TOWEL_X_SPAN`), y uniform in [-0.06, 0.06] (`TOWEL_Y`), its long
-    axis turned by a yaw uniform in [-pi/4, pi/4) (`TOWEL_YAW_SPAN`).
+    uniform in `towel_x_range`, y uniform in +-`towel_max_y`, its long axis turned by a yaw uniform in
+    +-`towel_max_yaw`.
 
     **Success:** folded along the short axis: the particles paired by that fold (`cloth.fold_pairs`
     across the long axis: each row with the row as far from the other short edge, the two short edges
