@@ -318,9 +318,11 @@ def table(out: Path) -> str:
                   "|---|" + "---|" * (2 * len(arms) - 1)]
 
         def mean(arm, key, shared=False):
-            if shared:  # a task's demos and features as recorded by its units (a unit made later reads cached files)
-                return sum(max(r["shared_cpu_s"].get(key, 0.0) for (u, _), r in res.items() if u == t and
-                               "shared_cpu_s" in r) for t in paired) / len(paired)
+            if shared:  # a task's demos and features as its units recorded them (0: made before CPU was recorded)
+                made = [max(r["shared_cpu_s"].get(key, 0.0) for (u, _), r in res.items() if u == t and
+                            "shared_cpu_s" in r) for t in paired]
+                made = [x for x in made if x > 0]
+                return sum(made) / len(made) if made else 0.0
             return sum(res[(t, arm)]["cpu_s"].get(key, 0.0) for t in paired) / len(paired)
 
         steps = {"v3": V3_STEPS, "v4": V4_STEPS, "v4b32": V4_STEPS}
