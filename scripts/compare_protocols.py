@@ -318,10 +318,11 @@ def table(out: Path) -> str:
                   "|---|" + "---|" * (2 * len(arms) - 1)]
 
         def mean(arm, key, shared=False):
-            if shared:  # a task's demos and features as its units recorded them (0: made before CPU was recorded)
+            if shared:  # a task's demos and features as its units recorded them (under a second: made before CPU was
+                # recorded, the units found them cached)
                 made = [max(r["shared_cpu_s"].get(key, 0.0) for (u, _), r in res.items() if u == t and
                             "shared_cpu_s" in r) for t in paired]
-                made = [x for x in made if x > 0]
+                made = [x for x in made if x > 1.0]
                 return sum(made) / len(made) if made else 0.0
             return sum(res[(t, arm)]["cpu_s"].get(key, 0.0) for t in paired) / len(paired)
 
