@@ -8,7 +8,7 @@ import torch
 
 from mani_skill.utils.structs.pose import Pose
 
-from maniladder_ms.geometry import matrix_yaw
+from maniladder_ms.geometry import matrix_yaw, wrap_angle
 from maniladder_ms.tasks.rigid.insert_peg.base import InsertPegTask
 
 GRASP_BELOW_TOP = 0.025  # the TCP this far below the peg's top face: the finger pads hold its upper end
@@ -27,32 +27,44 @@ def peg_in_hand(task: InsertPegTask, ee_side: str | None) -> Pose:
     return task.ee.tcp(ee_side).inv() * task.peg.pose
 
 
-def peg_goal_tcp(task: InsertPegTask, peg_in_tcp: Pose, tip_height: float):
+def peg_goal_tcp(task: InsertPegTask, peg_in_tcp: Pose, tip_height: float, prefer_yaw: float | None = None):
     """(p, q) of the TCP that puts the held peg (`peg_in_tcp`: where it sits in the hand) on the hole's axis,
     its lower end `tip_height` above the rim (along the axis), its faces along the hole's walls (of the four
-    such yaws the nearest to the peg's now). The block's pose is read now: the goal follows a moving block."""
+    such yaws the nearest to the peg's now; given `prefer_yaw`, the one that leaves the TCP's yaw nearest it,
+    so a peg held about 45 degrees off the hole's walls turns the same way whichever way the grasp nudged it).
+    The block's pose is read now: the goal follows a moving block."""
     peg_in_block = (task.block.pose.inv() * task.peg.pose).to_transformation_matrix()
     turns = torch.round(matrix_yaw(peg_in_block) / (np.pi / 2)) * (np.pi / 2)
+    goal = _peg_goal(task, peg_in_tcp, tip_height, turns)
+    if prefer_yaw is not None:  # a quarter turn more of the peg about the hole's axis turns the TCP's yaw as much
+        off = wrap_angle(prefer_yaw - matrix_yaw(goal.to_transformation_matrix()))
+        turns = turns + torch.round(off / (np.pi / 2)) * (np.pi / 2)
+        goal = _peg_goal(task, peg_in_tcp, tip_height, turns)
+    return goal.p, goal.q
+
+
+def _peg_goal(task: InsertPegTask, peg_in_tcp: Pose, tip_height: float, turns: torch.Tensor) -> Pose:
+    """The TCP pose of `peg_goal_tcp` for the peg turned `turns` (rad) about the hole's axis in the block's frame."""
     n = task.num_envs
     local_p = torch.zeros(n, 3, device=task.device)
     local_p[:, 2] = task.hole.rim_height + tip_height + task.peg_length / 2
     local_q = torch.stack([torch.cos(turns / 2), torch.zeros_like(turns), torch.zeros_like(turns),
                            torch.sin(turns / 2)], 1)
-    goal = task.block.pose * Pose.create_from_pq(local_p, local_q) * peg_in_tcp.inv()
-    return goal.p, goal.q
+    return task.block.pose * Pose.create_from_pq(local_p, local_q) * peg_in_tcp.inv()
 
 
 def insert_held_peg(s, task: InsertPegTask, arm: str, ee_part: str, ee_side: str | None,
-                    line_up_steps: int = 40, max_descent_steps: int = 60):
+                    line_up_steps: int = 40, max_descent_steps: int = 60, prefer_yaw: float | None = None):
     """Carry the held peg over the hole, line its lower end up with the hole's axis (closed loop on the
     measured peg and block), go down the hole to `FLOOR_GAP` above its floor, let go and back off upwards.
     Where the peg sits in the hand is measured while it hangs free and then kept: once the hole's walls
-    touch it, it turns in the fingers, and a goal that followed it would turn the hand after it."""
+    touch it, it turns in the fingers, and a goal that followed it would turn the hand after it.
+    `prefer_yaw`: see `peg_goal_tcp`."""
     grip = peg_in_hand(task, ee_side)
-    s.move({arm: peg_goal_tcp(task, grip, HOVER + CARRY_ABOVE)}, max_steps=60, pos_tol=0.005, rot_tol=0.05)
+    s.move({arm: peg_goal_tcp(task, grip, HOVER + CARRY_ABOVE, prefer_yaw)}, max_steps=60, pos_tol=0.005, rot_tol=0.05)
     grip = peg_in_hand(task, ee_side)
     for _ in range(line_up_steps):
-        s.step({arm: peg_goal_tcp(task, grip, HOVER)})
+        s.step({arm: peg_goal_tcp(task, grip, HOVER, prefer_yaw)})
         info = task.insertion_state()
         if bool((info["offset"] < LINE_UP_TOL).all() & (info["depth"] > -HOVER - HOVER_TOL).all()):
             break
@@ -60,7 +72,7 @@ def insert_held_peg(s, task: InsertPegTask, arm: str, ee_part: str, ee_side: str
     bottom = -(task.hole_depth - FLOOR_GAP)
     for _ in range(max_descent_steps):
         height = max(height - DESCENT_STEP, bottom)
-        s.step({arm: peg_goal_tcp(task, grip, height)})
+        s.step({arm: peg_goal_tcp(task, grip, height, prefer_yaw)})
         if bool((task.insertion_state()["depth"] >= task.hole_depth - FLOOR_GAP - FLOOR_TOL).all()):
             break
     s.release(ee_part, steps=8)
