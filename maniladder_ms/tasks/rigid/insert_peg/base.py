@@ -1,5 +1,5 @@
-"""The InsertPeg family's base (InsertPegInHole, InsertPegBimanual; later InsertPegTight): a square peg goes
-into a blind square hole in a block, and stays there on its own.
+"""The InsertPeg family's base (InsertPegInHole, InsertPegBimanual, InsertTableLeg; later InsertPegTight): a square
+peg goes into a blind square hole in a block, and stays there on its own.
 
 The family base `InsertPegTask` builds the peg and the hole block from the catalog params (the same builders,
 `objects.peg_hole`, for every row: a row's `clearance` sets the hole's width) and holds the rule, `evaluate`,

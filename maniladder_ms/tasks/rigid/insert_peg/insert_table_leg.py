@@ -95,9 +95,9 @@ class InsertTableLegEnv(InsertPegTask):
 
     def _load_scene(self, options: dict):
         ManiLadderEnv._load_scene(self, options)  # the family base's peg and hole block are built here instead
-        self.peg = build_square_peg(self.scene, "leg", self.peg_half, self.peg_length, color=(0.55, 0.35, 0.2, 1),
+        self.peg = build_square_peg(self.scene, "leg", self.peg_half, self.peg_length, color=(0.88, 0.72, 0.45, 1),
                                     tip_color=(0.8, 0.15, 0.1, 1))
-        self.block = build_hole_block(self.scene, "table_top", self.hole, color=(0.78, 0.62, 0.42, 1),
+        self.block = build_hole_block(self.scene, "table_top", self.hole, color=(0.42, 0.27, 0.16, 1),
                                       rim_color=(0.95, 0.95, 0.95, 1), kinematic=False)
         self.memory.flag("loose_insertion")  # the leg in the socket while the top was not held up
 
