@@ -41,7 +41,7 @@ class InsertTableLegEnv(HeldBlockInsertTask):
     **Randomisation:**
     - the table top (a 20 x 14 x 2 cm wooden plate, `TOP_PLATE`, reaching 4 cm behind the socket's axis; on it a
       socket of 1 cm walls around a square hole of side 2 x `peg_half` + `clearance`, `hole_depth` deep, and a
-      12 cm grip bar, `BLOCK_HANDLE`, running from the socket along the plate's length; about 0.57 kg) lies with
+      12 cm grip bar, `BLOCK_HANDLE`, running from the socket along the plate's length; about 0.56 kg) lies with
       its grip bar pointing left (+y) within [-15, 15] degrees (`BLOCK_YAW`), the socket's axis uniform in x in
       [-0.12, -0.02], y in [0.02, 0.08] (`BLOCK_X`, `BLOCK_Y`);
     - the leg (a box of square section 2 x `peg_half`, `peg_length` long) stands upright on the right half
@@ -49,23 +49,23 @@ class InsertTableLegEnv(HeldBlockInsertTask):
       `PEG_Y`).
 
     **Success:** (the InsertPeg family rule, `InsertPegTask`, with the two-arm rows' conditions,
-    `HeldBlockInsertTask`) the centre of the leg's lower end, in the top's
-    frame, lies at least `insert_depth` below the socket's rim and inside its square opening (half side
-    `peg_half` plus half the `clearance`); the leg's axis is within `max_tilt` of the socket's; neither gripper
-    holds the leg (`ee.holds`: it stays in the socket on its own); and, this task's conditions: the left
-    gripper holds the top (`ee.holds`) with the top's origin (the plate's bottom face under the socket) at
-    least `lift_height` above the table; the leg's lowest corner is at least `lift_height` above the table
-    (it hangs in the held top, it does not stand on the table); and at no control step was the leg's lower
-    end inside the socket's opening, below the rim, while the top was not held up that way (episode memory
-    `loose_insertion`: a leg put in while the top lay on the table, or was let go of, fails for good).
+    `HeldBlockInsertTask`) the centre of the leg's lower end, in the top's frame, lies at least `insert_depth`
+    below the socket's rim and inside its square opening (half side `peg_half` plus half the `clearance`); the
+    leg's axis is within `max_tilt` of the socket's; neither gripper holds the leg (`ee.holds`: it stays in the
+    socket on its own); the left gripper holds the top (`ee.holds`) with the top's origin (the plate's bottom
+    face under the socket) at least `lift_height` above the table; and, this task's conditions: the leg's
+    lowest corner is at least `lift_height` above the table (it hangs in the held top, it does not stand on
+    the table); and at no control step was the leg's lower end inside the socket's opening, below the rim,
+    while the top was not held up that way (episode memory `loose_insertion`: a leg put in while the top lay
+    on the table, or was let go of, fails for good).
 
     **Level 3:** (against Level 2's InsertPegBimanual, a 3 cm peg into a block held up by a 12 cm handle, 2 mm
     clearance: 1 mm of play a side, the peg's yaw within about 4 degrees of the hole's) the leg's 24 mm section
     goes into a socket with `clearance` 1 mm (0.5 mm of play a side), so its yaw must match the socket's within
     about 2.4 degrees and its lower end must be lined up to half a millimetre; the socket is not in a small
-    block but at the end of a 20 cm plate of about 2.4 times the block's mass (0.57 kg against 0.24 kg) whose
-    centre of mass lies 6 cm from the grip, 12 cm from the socket (the grasp must hold that torque, and the
-    insertion follows the socket's measured pose); the top must be held up the whole time the leg is in the
+    block but near the end of a 20 cm plate of about 2.3 times the block's mass (0.56 kg against 0.24 kg)
+    held by a grip bar 12 cm from the socket, the top's centre of mass 6 cm from the grip (the grasp must hold
+    that torque, and the insertion follows the socket's measured pose); the top must be held up the whole time the leg is in the
     socket (checked at every control step, not only at the end); five stages (grasp the top, lift it, grasp the
     leg, carry it and line it up with the socket, insert and let go).
     """
