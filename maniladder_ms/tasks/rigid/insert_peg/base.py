@@ -1,19 +1,26 @@
-"""The InsertPeg family's base (InsertPegInHole, InsertPegBimanual; later InsertPegTight): a square peg goes
-into a blind square hole in a block, and stays there on its own.
+"""The InsertPeg family's base (InsertPegInHole, InsertPegBimanual, InsertTableLeg; later InsertPegTight): a square
+peg goes into a blind square hole in a block, and stays there on its own.
 
 The family base `InsertPegTask` builds the peg and the hole block from the catalog params (the same builders,
 `objects.peg_hole`, for every row: a row's `clearance` sets the hole's width) and holds the rule, `evaluate`,
 once; the task classes place the objects, say whether the block is a fixture or a free body with a handle and
-add their own conditions (`task_conditions`). Their solvers, and the insertion phase they share
+add their own conditions (`task_conditions`); the two-arm rows (InsertPegBimanual, InsertTableLeg), where the left
+arm holds the block up by its handle, share `HeldBlockInsertTask`. Their solvers, and the insertion phase they share
 (`solvers/rigid/insert_peg/phases.py`), are in `maniladder_ms/solvers/rigid/insert_peg/`.
 """
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import torch
 
+from mani_skill.utils.structs.pose import Pose
+
 from maniladder_ms.envs import ManiLadderEnv
+from maniladder_ms.geometry import yaw_quat
+from maniladder_ms.layout import uniform, uniform_deg
 from maniladder_ms.objects.peg_hole import HoleBlockShape, build_hole_block, build_square_peg
 
 
@@ -111,3 +118,81 @@ class InsertPegTask(ManiLadderEnv):
         align = (1 - torch.tanh(10 * to_mouth)) + (1 - info["tilt"] / np.pi)
         deep = (info["depth"] / self.insert_depth).clamp(0, 1) * (info["in_opening"] & info["is_aligned"])
         return align + deep
+
+
+class HeldBlockInsertTask(InsertPegTask):
+    """The two-arm rows' base (registers no task): the block, a free body with a handle, lies on the left half of
+    the table, its handle pointing left (+y) within +-`block_max_yaw`, the hole's axis uniform in x in
+    `block_x_range`, y in `block_y_range`; the peg stands upright on the right half, its yaw uniform in
+    `peg_yaw_range`, its centre in `peg_x_range`, `peg_y_range`. The task's conditions: the left gripper holds the
+    block (`ee.holds`) with the block's origin at least `lift_height` above the table (`block_grasped`,
+    `block_lifted`)."""
+
+    SUPPORTED_ROBOTS = ["ml_dual_panda"]
+    PARAMS = InsertPegTask.PARAMS + ("lift_height", "block_x_range", "block_y_range", "block_max_yaw", "peg_x_range",
+                                     "peg_y_range", "peg_yaw_range")
+    max_dense_reward = 9
+    TASK_REGION = (-0.25, 0.1, -0.35, 0.35)
+    BLOCK_FIXED = False
+    BLOCK_HANDLE = 0.12
+    HANDLE_GRIP = 0.02  # the left gripper holds the handle this far from its free end (clear of the peg's hand)
+    HANDLE_GRIP_BELOW = 0.02  # ... and this far below its top
+
+    def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
+        super()._initialize_episode(env_idx, options)
+        with torch.device(self.device):
+            b = len(env_idx)
+            block_xyz = torch.stack([uniform(b, self.block_x_range), uniform(b, self.block_y_range), torch.zeros(b)],
+                                    dim=1)
+            yaw = np.pi / 2 + (torch.rand(b) * 2 - 1) * np.deg2rad(self.block_max_yaw)
+            self.block.set_pose(Pose.create_from_pq(block_xyz, yaw_quat(yaw)))
+            peg_xyz = torch.stack([uniform(b, self.peg_x_range), uniform(b, self.peg_y_range),
+                                   torch.full((b,), self.peg_length / 2)], dim=1)
+            self.peg.set_pose(Pose.create_from_pq(peg_xyz, yaw_quat(uniform_deg(b, self.peg_yaw_range))))
+
+    def handle_point(self) -> torch.Tensor:
+        """(b, 3) world position where the left gripper holds the handle: `HANDLE_GRIP` from its free end,
+        `HANDLE_GRIP_BELOW` below its top."""
+        x = self.hole.outer_half + self.BLOCK_HANDLE - self.HANDLE_GRIP
+        return self.block_point([x, 0.0, self.hole.rim_height - self.HANDLE_GRIP_BELOW])
+
+    def block_reach(self) -> float:
+        """How far from the block's origin a TCP can be and still hold it: its farthest corner plus the margin
+        of `holds_peg` (beyond it `block_held_up` skips the contact query)."""
+        h = self.hole
+        return float(np.linalg.norm([h.outer_half + h.handle, h.outer_half, h.rim_height])) + self.HOLD_REACH_MARGIN
+
+    def block_held_up(self) -> dict[str, torch.Tensor]:
+        """`block_grasped` (the left gripper holds the block) and `block_lifted` (its origin at least
+        `lift_height` above the table)."""
+        near = torch.linalg.norm(self.ee.tcp("left").p - self.block.pose.p, dim=1) <= self.block_reach()
+        grasped = (self.ee.holds(self.block, "left") & near) if bool(near.any()) else near
+        return dict(block_grasped=grasped, block_lifted=self.block.pose.p[:, 2] >= self.lift_height)
+
+    def task_conditions(self, info: dict) -> torch.Tensor:
+        info.update(self.block_held_up())
+        return info["block_grasped"] & info["block_lifted"]
+
+    def _get_obs_extra(self, info: dict):
+        obs = dict(left_tcp_pose=self.ee.tcp("left").raw_pose, right_tcp_pose=self.ee.tcp("right").raw_pose,
+                   block_grasped=info["block_grasped"], peg_grasped=info["is_grasped"])
+        if "state" in self.obs_mode:
+            obs.update(peg_pose=self.peg.pose.raw_pose, block_pose=self.block.pose.raw_pose,
+                       left_tcp_to_handle=self.handle_point() - self.ee.tcp("left").p,
+                       right_tcp_to_peg=self.peg.pose.p - self.ee.tcp("right").p,
+                       peg_tip_to_mouth=self.hole_mouth() - self.peg_tip())
+        return obs
+
+    def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
+        left_reach = torch.linalg.norm(self.handle_point() - self.ee.tcp("left").p, dim=1)
+        right_reach = torch.linalg.norm(self.peg.pose.p - self.ee.tcp("right").p, dim=1)
+        block_held, peg_held = info["block_grasped"], info["right_peg_grasped"]
+        reward = (1 - torch.tanh(5 * left_reach)) + block_held.float()
+        reward += (self.block.pose.p[:, 2] / self.lift_height).clamp(0, 1) * block_held
+        reward += (1 - torch.tanh(5 * right_reach)) + peg_held.float()
+        # the insertion counts while the block is held up
+        ready = block_held & info["block_lifted"] & (peg_held | info["is_inserted"])
+        reward += self.insertion_reward(info) * ready
+        reward += (info["is_inserted"] & ~info["is_grasped"]).float()
+        reward[info["success"]] = self.max_dense_reward
+        return reward
