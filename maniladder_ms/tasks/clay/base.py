@@ -3,10 +3,10 @@
 
 from __future__ import annotations
 
-import numpy as np
 import torch
 
 from maniladder_ms.deformables import clay
+from maniladder_ms.layout import uniform, uniform_deg
 
 
 class ClayTask(clay.ClayHolder):
@@ -20,13 +20,9 @@ class ClayTask(clay.ClayHolder):
         """Put `self.clay` back for the envs `env_idx`, its bottom centre on the table uniform in x in
         `clay_x_range` and y in `clay_y_range`, turned by a yaw uniform in `clay_yaw_range` (deg) and scaled by a
         factor uniform in `clay_scale_range` (`Clay.reset`)."""
-        b, device = len(env_idx), self.device
-        x, y, scale = self.clay_x_range, self.clay_y_range, self.clay_scale_range
-        yaw = tuple(float(np.deg2rad(v)) for v in self.clay_yaw_range)
-
-        def uniform(low_high):
-            low, high = low_high
-            return low + torch.rand(b, device=device) * (high - low)
-
-        origin = torch.stack([uniform(x), uniform(y), torch.full((b,), self.clay_config.radius, device=device)], dim=1)
-        self.clay.reset(env_idx, origin, yaw=uniform(yaw), scale=uniform(scale))
+        b = len(env_idx)
+        with torch.device(self.device):
+            origin = torch.stack([uniform(b, self.clay_x_range), uniform(b, self.clay_y_range),
+                                  torch.full((b,), self.clay_config.radius)], dim=1)
+            self.clay.reset(env_idx, origin, yaw=uniform_deg(b, self.clay_yaw_range),
+                            scale=uniform(b, self.clay_scale_range))

@@ -13,6 +13,7 @@ from maniladder_ms import geometry
 from maniladder_ms.deformables import particles
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.geometry import yaw_quat
+from maniladder_ms.layout import uniform, uniform_deg
 from maniladder_ms.objects import containers
 from maniladder_ms.objects.tabletop import place_at_rest
 from maniladder_ms.objects.tools import SpoonShape, build_spoon
@@ -86,15 +87,11 @@ class ScoopBeansWithSpoonEnv(ScoopBeansTask, ManiLadderEnv):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-
-            def uniform(low, high):
-                return low + (high - low) * torch.rand(b)
-
-            bowl = torch.stack([uniform(*self.bowl_x_range), uniform(*self.bowl_y_range), torch.zeros(b)], dim=1)
-            cup = torch.stack([uniform(*self.cup_x_range), uniform(*self.cup_y_range), torch.zeros(b)], dim=1)
-            spoon = torch.stack([uniform(*self.spoon_x_range), uniform(*self.spoon_y_range), torch.zeros(b)], dim=1)
-            max_yaw = np.deg2rad(self.spoon_max_yaw)
-            yaw = np.pi / 2 + uniform(-max_yaw, max_yaw)
+            bowl = torch.stack([uniform(b, self.bowl_x_range), uniform(b, self.bowl_y_range), torch.zeros(b)], dim=1)
+            cup = torch.stack([uniform(b, self.cup_x_range), uniform(b, self.cup_y_range), torch.zeros(b)], dim=1)
+            spoon = torch.stack([uniform(b, self.spoon_x_range), uniform(b, self.spoon_y_range), torch.zeros(b)],
+                                dim=1)
+            yaw = np.pi / 2 + uniform_deg(b, (-self.spoon_max_yaw, self.spoon_max_yaw))
             self.bowl.set_pose(Pose.create_from_pq(bowl))
             self.cup.set_pose(Pose.create_from_pq(cup))
             place_at_rest(self.spoon, Pose.create_from_pq(spoon, yaw_quat(yaw)))
