@@ -11,6 +11,8 @@ seeds (`maniladder eval --seed 1`: 1,010,000 + k, k < 50):
             privileged state instead of images (`oraclek2`: at 2000 steps);
 - `v4s1`, `v4s2`  the v4 candidate's training seeds 1 and 2 on `SPREAD_TASKS` (the spread over training seeds);
 - `v4b32`   the v4 candidate with half its batch (32): half the training arithmetic, the remaining cost lever on a CPU;
+- `v4l1`    the v4 candidate with one transformer layer in the encoder and one in the decoder (v4: two each): 0.095
+            CPU s a training step against 0.20 (one core, LiftBottleHand's features; batch 64 kept);
 - `v4h2`, `v4aug`, `v4lite1`  the v4 candidate with observation history 2, random-shift augmentation, the Lite1
             encoder (`ITEM5_TASKS`: the instrument choices of item 5); `v4k2h2`, `v4k2aug` the same at 2000 steps.
 
@@ -70,6 +72,7 @@ AUGMENT = {"augment_copies": 2, "augment_shift": 8}
 ARMS = {"v4": ("v4k4", {"train_steps": V4_STEPS}, 0), "v3": ("v3", {"train_steps": V3_STEPS}, 0),
         "v4s1": ("v4k4", {"train_steps": V4_STEPS}, 1), "v4s2": ("v4k4", {"train_steps": V4_STEPS}, 2),
         "v4b32": ("v4b32", {"train_steps": V4_STEPS, "batch_size": 32}, 0),
+        "v4l1": ("v4l1", {"train_steps": V4_STEPS, "encoder_layers": 1, "decoder_layers": 1}, 0),
         "v4h2": ("v4k4h2", {"train_steps": V4_STEPS, "history": 2}, 0),
         "v4aug": ("v4k4aug", {"train_steps": V4_STEPS, **AUGMENT}, 0),
         "v4lite1": ("v4k4lite1", {"train_steps": V4_STEPS, "encoder": "efficientnet-lite1-s16"}, 0),
@@ -90,6 +93,7 @@ def units() -> list[tuple[str, str]]:
     base = ("v4", "oracle")
     order = [("PickPlacePen", a) for a in ("v4", "v3")]
     order += [(t, "v4b32") for t in STEPS_TASKS[:2]]
+    order += [(t, "v4l1") for t in STEPS_TASKS[:2]]
     order += [(t, a) for t in ITEM5_TASKS[:3] for a in ("v4", "v4aug", "v4lite1")]
     order += [(t, a) for t in TASKS for a in base]
     order += [(t, "v3") for t in V3_TASKS]
@@ -265,8 +269,8 @@ def table(out: Path) -> str:
     v3_recorded = {t: json.loads((REPO / "docs/calibration" / f"{t}.json").read_text()) for t in L1_TASKS
                    if (REPO / "docs/calibration" / f"{t}.json").is_file()}
     lines = [f"| task | level | v3 recorded (set 0) | v3 schedule ({V3_STEPS}) | {K2_STEPS} steps | v4 ({V4_STEPS}) | "
-             "batch 32 | oracle | v4 seeds 0/1/2 | history 2 | augmented | Lite1 |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "batch 32 | 1+1 layers | oracle | v4 seeds 0/1/2 | history 2 | augmented | Lite1 |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
 
     def cell(r):
         if not r:
@@ -280,11 +284,11 @@ def table(out: Path) -> str:
         spread = "/".join(f"{r['successes']}" for r in seeds if r) if t in SPREAD_TASKS else ""
         lines.append(f"| {t} | L{cat.get(t).level} | {rec['successes']}/{rec['episodes']} | " if rec else
                      f"| {t} | L{cat.get(t).level} | - | ")
-        lines[-1] += " | ".join(cell(res.get((t, a))) for a in ("v3", "v4k2", "v4", "v4b32", "oracle"))
+        lines[-1] += " | ".join(cell(res.get((t, a))) for a in ("v3", "v4k2", "v4", "v4b32", "v4l1", "oracle"))
         lines[-1] += f" | {spread} | "
         lines[-1] += " | ".join(cell(res.get((t, a))) if t in ITEM5_TASKS else "" for a in ("v4h2", "v4aug", "v4lite1"))
         lines[-1] += " |"
-    shown = {"v3", "v4k2", "v4", "v4b32", "oracle", "v4s1", "v4s2", *ITEM5_ARMS}
+    shown = {"v3", "v4k2", "v4", "v4b32", "v4l1", "oracle", "v4s1", "v4s2", *ITEM5_ARMS}
     others = [f"{t} {a}: {cell(r)}" for (t, a), r in sorted(res.items()) if a not in shown]
     if others:
         lines.append("\nOther arms: " + "; ".join(others))
@@ -307,7 +311,7 @@ def table(out: Path) -> str:
         return (sum(r["cpu_s"]["train"] / r["config"]["train_steps"] for r in units) / len(units), len(units)) \
             if units else (None, 0)
 
-    arms = [a for a in ("v3", "v4", "v4b32") if step_cost(a)[0] is not None]
+    arms = [a for a in ("v3", "v4", "v4b32", "v4l1") if step_cost(a)[0] is not None]
     if paired and {"v3", "v4"} <= set(arms):
         lines += ["", f"Per-stage CPU seconds on one core: training = CPU a step (mean over the arm's uninterrupted units: "
                   + ", ".join(f"{a} {step_cost(a)[1]}" for a in arms) + ") x its steps; demos, features and evaluation "
@@ -326,7 +330,7 @@ def table(out: Path) -> str:
                 return sum(made) / len(made) if made else 0.0
             return sum(res[(t, arm)]["cpu_s"].get(key, 0.0) for t in paired) / len(paired)
 
-        steps = {"v3": V3_STEPS, "v4": V4_STEPS, "v4b32": V4_STEPS}
+        steps = {"v3": V3_STEPS, "v4": V4_STEPS, "v4b32": V4_STEPS, "v4l1": V4_STEPS}
         evaluate = mean("v4", "evaluate")  # the batch does not change an episode's cost
         rows = {"demos": [mean("v4", "demos", True)] * len(arms),
                 "features": [mean("v4", "features", True)] * len(arms),
