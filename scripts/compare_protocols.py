@@ -94,12 +94,14 @@ def units() -> list[tuple[str, str]]:
     order = [("PickPlacePen", a) for a in ("v4", "v3")]
     order += [(t, "v4b32") for t in STEPS_TASKS[:2]]
     order += [(t, "v4l1") for t in STEPS_TASKS[:2]]
-    order += [(t, a) for t in ITEM5_TASKS[:3] for a in ("v4", "v4aug", "v4lite1")]
+    order += [(t, a) for t in ITEM5_TASKS[:3] for a in ("v4", "v4aug")]
     order += [(t, a) for t in TASKS for a in base]
     order += [(t, "v3") for t in V3_TASKS]
     order += [(t, f"v4s{k}") for k in (1, 2) for t in SPREAD_TASKS]
-    order += [(t, a) for t in ITEM5_TASKS for a in ITEM5_ARMS]
+    # Lite1 lost on the first two tasks (LiftBottleHand 27/50, PickPlacePen 6/50 against v4's 31 and 14): last
+    order += [(t, a) for t in ITEM5_TASKS for a in ("v4aug", "v4h2")]
     order += [(t, "v4b32") for t in STEPS_TASKS]
+    order += [(t, "v4lite1") for t in ITEM5_TASKS]
     return list(dict.fromkeys(order))  # each unit once, at its first place
 
 
