@@ -16,6 +16,7 @@ from maniladder_ms.tasks.clay.base import ClayTask
 
 MOULD_WALL = 0.01  # m: wall thickness of the mould
 MOULD_COLOR = (0.55, 0.38, 0.22, 1)  # wood
+HAND_NEAR = 0.15  # m: contacts are asked only with the palm this close to the mould's centre (else: not touching)
 
 
 @register_task("MoldClayHand")
@@ -35,7 +36,9 @@ class MoldClayHandEnv(ClayTask, ManiLadderEnv):
     and a column is filled when a clay particle's centre lies in it no higher than the walls' top (`clay.Mould`,
     `clay.mould_fill`: clay on the rim, outside the walls or stacked above the rim fills nothing); at least
     `min_fill` of the columns are filled now; and the hand pressed it in: at some step that many columns were
-    filled while the hand touched the clay (`ee.touches`; episode memory `pressed_in`).
+    filled while the hand touched the clay (`ee.touches`) or at most `settle_steps` control steps after it last
+    touched it (the pressed clay settles for a few steps once the palm comes off; episode memory `touched`,
+    `untouched_steps`, `pressed_in`).
 
     **Level 3:** against Level 1's PokeClayHand (one fingertip poke 1 cm deep anywhere within 1 cm of a point,
     ~60 steps) and Level 2's clay tasks (PressClayFlat: any shape 50% lower and 1.5x wider, strokes at the highest
@@ -53,7 +56,7 @@ class MoldClayHandEnv(ClayTask, ManiLadderEnv):
     SUPPORTED_ROBOTS = ["ml_panda_leap"]
     max_dense_reward = 5
     TASK_REGION = (-0.25, 0.02, -0.15, 0.15)
-    PARAMS = ("mould_half", "mould_depth", "mould_cells", "min_fill", "clay_half", "mould_x_range", "mould_y_range",
+    PARAMS = ("mould_half", "mould_depth", "mould_cells", "min_fill", "settle_steps", "clay_half", "mould_x_range", "mould_y_range",
               "mould_max_yaw", "clay_max_offset", "clay_max_yaw")
 
     def _load_scene(self, options: dict):
@@ -61,7 +64,10 @@ class MoldClayHandEnv(ClayTask, ManiLadderEnv):
         self.load_clay(clay.clay_block(self.clay_half, self.clay_config.spacing))
         self.mould = clay.Mould(self.scene, "mould", self.mould_half, self.mould_depth, MOULD_WALL, self.mould_cells,
                                 MOULD_COLOR)
-        self.memory.flag("pressed_in")  # the hand touched the clay at a step the mould was filled
+        self.palm = self.ee["main"].link("leap_palm")
+        self.memory.flag("touched")  # the hand has touched the clay
+        self.memory.counter("untouched_steps")  # control steps since the hand last touched the clay
+        self.memory.flag("pressed_in")  # the mould was filled while the hand touched the clay or just after
 
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
         super()._initialize_episode(env_idx, options)
@@ -82,9 +88,14 @@ class MoldClayHandEnv(ClayTask, ManiLadderEnv):
         return self.mould.fill(self.clay.positions())
 
     def _update_memory(self):
-        filled = self.fill() >= self.min_fill
-        if bool(filled.any()):  # the contact pass (over every particle on the CPU) only when it can matter
-            self.memory.latch("pressed_in", filled & self.ee.touches(self.clay.spheres))
+        near = torch.linalg.norm(self.palm.pose.p[:, :2] - self.mould.pose.p[:, :2], dim=1) <= HAND_NEAR
+        touching = torch.zeros_like(near)
+        if bool(near.any()):  # the contact pass (over every particle on the CPU) only with the hand over the mould
+            touching = near & self.ee.touches(self.clay.spheres)
+        self.memory.latch("touched", touching)
+        self.memory.count("untouched_steps", ~touching, consecutive=True)
+        recent = self.memory["touched"] & (self.memory["untouched_steps"] <= self.settle_steps)
+        self.memory.latch("pressed_in", recent & (self.fill() >= self.min_fill))
 
     def _get_obs_extra(self, info: dict):
         obs = dict(tcp_pose=self.ee.tcp().raw_pose)
