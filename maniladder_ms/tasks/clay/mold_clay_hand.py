@@ -56,8 +56,8 @@ class MoldClayHandEnv(ClayTask, ManiLadderEnv):
     SUPPORTED_ROBOTS = ["ml_panda_leap"]
     max_dense_reward = 5
     TASK_REGION = (-0.25, 0.02, -0.15, 0.15)
-    PARAMS = ("mould_half", "mould_depth", "mould_cells", "min_fill", "settle_steps", "clay_half", "mould_x_range", "mould_y_range",
-              "mould_max_yaw", "clay_max_offset", "clay_max_yaw")
+    PARAMS = ("mould_half", "mould_depth", "mould_cells", "min_fill", "settle_steps", "clay_half", "mould_x_range",
+              "mould_y_range", "mould_max_yaw", "clay_max_offset", "clay_max_yaw")
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
