@@ -689,6 +689,38 @@ def test_star_outline_and_imprint_iou():
     assert (clay.imprint_iou(start, flat, target, 0.005, spacing) < 0.5).all()
 
 
+def test_mould_fill_on_constructed_clay():
+    """A square mould's occupancy (`clay.mould_fill`): clay placed filling its floor by construction fills every
+    column; a lump in the middle fills only the middle ones; clay on the rim, outside the walls or stacked above
+    the rim fills nothing; the mould's pose (centre, yaw) is honoured."""
+    spacing, r, half, depth, cells = 0.012, 0.0058, 0.027, 0.012, 4
+    centre, yaw = torch.tensor([[-0.1, 0.03], [0.05, -0.02]]), torch.tensor([0.4, -0.7])
+
+    def placed(local: torch.Tensor) -> torch.Tensor:  # mould-frame points [N, 3] -> world, both envs [2, N, 3]
+        c, s = torch.cos(yaw)[:, None], torch.sin(yaw)[:, None]
+        x, y = local[:, 0], local[:, 1]
+        world = torch.stack([c * x - s * y + centre[:, :1], s * x + c * y + centre[:, 1:], local[:, 2].expand(2, -1)], -1)
+        return world
+
+    ticks = (torch.arange(cells) + 0.5) * (2 * half / cells) - half
+    floor = torch.stack([*torch.meshgrid(ticks, ticks, indexing="ij"), torch.full((cells, cells), r)], -1).reshape(-1, 3)
+    assert (clay.mould_fill(placed(floor), centre, yaw, half, depth, cells) == 1).all()
+    assert clay.mould_cells_filled(placed(floor), centre, yaw, half, depth, cells).all()
+    side = torch.tensor([-spacing / 2, spacing / 2])  # a 2 x 2 x 3 lump in the middle: the 4 middle columns
+    lump = torch.stack(torch.meshgrid(side, side, r + spacing * torch.arange(3.0), indexing="ij"), -1).reshape(-1, 3)
+    assert torch.allclose(clay.mould_fill(placed(lump), centre, yaw, half, depth, cells), torch.tensor(4 / 16))
+    wall_top = torch.tensor([[half + 0.005, 0.0, depth + r]])  # on the rim
+    outside = torch.tensor([[half + 0.02, 0.0, r], [0.0, -half - 0.02, r]])  # beside the walls on the table
+    stacked = floor + torch.tensor([0.0, 0.0, 2 * r])  # a second layer above the rim, nothing below it
+    for points in (wall_top, outside, stacked):
+        assert (clay.mould_fill(placed(points), centre, yaw, half, depth, cells) == 0).all()
+    corner = torch.tensor([[half - r, half - r, r]])  # a particle pressed into one corner: that column only
+    filled = clay.mould_cells_filled(placed(corner), centre, yaw, half, depth, cells)
+    assert filled[:, cells - 1, cells - 1].all() and filled.sum() == 2
+    turned = clay.mould_fill(placed(floor), centre, yaw + np.pi / 4, half, depth, cells)  # the wrong yaw misses columns
+    assert (turned < 1).all()
+
+
 def test_clay_keeps_the_shape_it_is_pressed_into():
     env = _make("clay", control_mode="pd_joint_delta_pos")
     try:

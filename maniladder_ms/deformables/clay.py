@@ -21,7 +21,9 @@ Metrics on particle positions [B, N, 3] (`Clay.positions()`), lengths in metres:
 - footprint area / IoU with a target footprint or voxel grid: `maniladder_ms.deformables.metrics`
   with tile = the clay's spacing;
 - `top_layer`, `imprint_iou`: which top-layer cells a tool pressed in at least a depth, against the cells
-  under its footprint (a stamp's imprint; footprint shapes such as `metrics.inside_star`).
+  under its footprint (a stamp's imprint; footprint shapes such as `metrics.inside_star`);
+- `mould_cells_filled`, `mould_fill`: which cells of a square mould's floor grid hold clay below its rim, and
+  their share (`Mould`: the mould itself, an open square frame of walls fixed on the table).
 """
 
 from __future__ import annotations
@@ -38,6 +40,10 @@ import torch
 from mani_skill.envs.scene import ManiSkillScene
 from mani_skill.utils.structs.actor import Actor
 
+from maniladder_ms.geometry import yaw_of
+from maniladder_ms.objects.tabletop import boxes_builder, open_box_parts
+
+from . import metrics
 from .spheres import SphereSet, build_spheres
 
 CONTACT_OFFSET = 0.002  # m: the lattice packs spheres within a millimetre of each other
@@ -275,3 +281,61 @@ def imprint_iou(start: torch.Tensor, points: torch.Tensor, under: torch.Tensor, 
     inter = (sunk & target).sum(dim=1)
     union = (sunk | target).sum(dim=1).clamp_min(1)
     return inter / union
+
+
+def mould_cells_filled(points: torch.Tensor, centre: torch.Tensor, yaw: torch.Tensor, inner_half: float,
+                       depth: float, cells: int) -> torch.Tensor:
+    """Which cells of a square mould's floor hold clay, [B, cells, cells] bool. The mould's inside (side
+    2 `inner_half`, centred at `centre` [B, 2+] on the table, turned by `yaw` [B]) is divided into `cells` x
+    `cells` equal square columns; a column is filled when a particle centre (`points` [B, N, 3]) lies in it no
+    higher than `depth` above the table (the rim): clay heaped on the rim or outside the walls fills nothing,
+    nor does a particle stacked on others above the rim."""
+    local = torch.stack(metrics.channel_coords(points, centre, yaw), dim=-1)  # the mould's own axes
+    index = torch.floor((local + inner_half) / (2 * inner_half / cells)).long()
+    inside = ((index >= 0) & (index < cells)).all(dim=-1) & (points[..., 2] <= depth)
+    flat = torch.where(inside, index[..., 0] * cells + index[..., 1], torch.full_like(index[..., 0], cells * cells))
+    filled = torch.zeros(points.shape[0], cells * cells + 1, dtype=torch.bool, device=points.device)
+    filled.scatter_(1, flat, True)
+    return filled[:, :-1].reshape(-1, cells, cells)
+
+
+def mould_fill(points: torch.Tensor, centre: torch.Tensor, yaw: torch.Tensor, inner_half: float, depth: float,
+               cells: int) -> torch.Tensor:
+    """Share of a square mould's floor cells that hold clay (`mould_cells_filled`), [B]."""
+    return mould_cells_filled(points, centre, yaw, inner_half, depth, cells).flatten(1).float().mean(dim=1)
+
+
+class Mould:
+    """A square mould fixed on the table (a kinematic actor, `actor`): four walls `wall` thick and `depth`
+    high round a square inside of side 2 `inner_half`, open on top, with no floor (clay pressed into it lies
+    on the table). Its origin is the table point at the middle of its inside; its floor is read as
+    `cells` x `cells` square columns (`fill`)."""
+
+    def __init__(self, scene: ManiSkillScene, name: str, inner_half: float, depth: float, wall: float, cells: int,
+                 color):
+        walls = open_box_parts((inner_half, inner_half), depth, wall, 0.0)[1:]  # no base plate
+        self.actor = boxes_builder(scene, walls, color).build_kinematic(name=name)
+        self.inner_half, self.depth, self.wall, self.cells = inner_half, depth, wall, cells
+
+    @property
+    def pose(self):
+        return self.actor.pose
+
+    def set_pose(self, pose):
+        self.actor.set_pose(pose)
+
+    def yaw(self) -> torch.Tensor:
+        """The mould's yaw about z, [B]."""
+        return yaw_of(self.actor.pose.q)
+
+    def cells_filled(self, points: torch.Tensor) -> torch.Tensor:
+        """[B, cells, cells]: the floor's cells holding clay (`mould_cells_filled`)."""
+        return mould_cells_filled(points, self.actor.pose.p, self.yaw(), self.inner_half, self.depth, self.cells)
+
+    def fill(self, points: torch.Tensor) -> torch.Tensor:
+        """Share of the floor's cells holding clay, [B] (`mould_fill`)."""
+        return self.cells_filled(points).flatten(1).float().mean(dim=1)
+
+    def local(self, points: torch.Tensor) -> torch.Tensor:
+        """Top-down coordinates [B, N, 2] of `points` [B, N, 2+] in the mould's frame (its inside's middle at 0)."""
+        return torch.stack(metrics.channel_coords(points, self.actor.pose.p, self.yaw()), dim=-1)
