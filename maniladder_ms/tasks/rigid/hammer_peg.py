@@ -18,8 +18,8 @@ from maniladder_ms.objects.hammer import HammerShape, PegBoardShape, build_hamme
 # metres from the TCP: a gripper further than this from the peg's top cannot touch the peg (the peg stands at
 # most 4.5 cm proud, the gripper's links lie within 0.2 m of its TCP); the contact query is skipped there
 HAND_REACH = 0.3
-# metres from the striking face's centre to the peg's top, in height, beyond which the two cannot touch (the
-# head is 5 cm high); the contact query is skipped there
+# metres from the striking face's centre to the peg's top, in height, beyond which the face does not count as
+# over the peg (the head is 5 cm high); the contact query is skipped there
 HEAD_REACH = 0.06
 BLOW_DESCENT = 1e-4  # m: a blow that drives the peg in by more than this is counted in `blows` (information only)
 
@@ -42,9 +42,9 @@ class HammerPegEnv(ManiLadderEnv):
     **Success:** the peg's top is at most `max_proud` above the board's top face, and the peg was hammered
     in: the peg's descent over the control steps that were blows adds up to at least `hammer_fraction` of
     its start height above the board (memory `hammered`). A control step is a blow when, at its end, the
-    gripper holds the hammer (`ee.holds`) and the hammer's head is on the peg's top (the centre of its
-    striking face over the top and within `STRIKE_GAP` of its height, or the hammer and the peg in contact),
-    and the head came down onto the peg at speed: its centre's downward speed averaged over that control step or
+    gripper holds the hammer (`ee.holds`), the hammer touched the peg (their contact, after any of the
+    step's physics steps) while its striking face's centre was over the peg's top (`head_over_peg`), and the
+    head came down onto the peg at speed: its centre's downward speed averaged over that control step or
     the one before is at least `strike_speed` (memory `head_speed`). The gripper never touched the peg
     (`ee.touches`, memory `gripper_touched`).
 
@@ -63,7 +63,6 @@ class HammerPegEnv(ManiLadderEnv):
               "board_x_range", "board_y_range", "board_yaw_range", "hammer_x_range", "hammer_y_range",
               "hammer_max_yaw")
     HAMMER = HammerShape()
-    STRIKE_GAP = 0.01  # m: the striking face this close to the peg's top's height counts as on it
 
     @property
     def board_shape(self) -> PegBoardShape:
@@ -83,6 +82,7 @@ class HammerPegEnv(ManiLadderEnv):
         self.memory.value("peg_last")  # the peg's driven depth (joint position) after the previous step
         self.memory.value("head_last", 3)  # the head's centre after the previous step
         self.memory.value("head_speed")  # the head's downward speed (m/s) averaged over the previous step
+        self.memory.value("head_hit")  # 1 once the hammer has touched the peg's top within this control step
         self.memory.value("start_proud")  # the peg top's start height above the board
 
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
@@ -129,19 +129,21 @@ class HammerPegEnv(ManiLadderEnv):
         """(b,) how far (m) the peg's top stands above the board's top face."""
         return self.board_shape.rise - peg_driven(self.board)
 
-    def head_on_peg(self) -> torch.Tensor:
-        """(b,) bool: the hammer's head is on the peg's top: the centre of its striking face lies over the peg's
-        top (within `peg_half` plus half the face's side of the top's centre, horizontally) and within
-        `STRIKE_GAP` of the top's height, or the hammer presses on the peg (their contact; PhysX reports the
-        last physics step's contacts only, and a head that bounced off within the control step has none)."""
+    def head_over_peg(self) -> torch.Tensor:
+        """(b,) bool: the striking face's centre lies over the peg's top (horizontally within `peg_half` plus
+        the face's half diagonal of the top's centre) and within `HEAD_REACH` of its height."""
         offset = self.striking_face() - self.peg_top()
-        reach = self.peg_half + self.HAMMER.head_length / 2
-        near = torch.linalg.norm(offset[:, :2], dim=1) <= reach
-        on_top = near & (offset[:, 2].abs() <= self.STRIKE_GAP)
-        ask = near & ~on_top & (offset[:, 2].abs() <= HEAD_REACH)
-        if not bool(ask.any()):
-            return on_top
-        return on_top | (ask & (link_forces(self.scene, self.hammer, [self.peg])[0] >= TOUCH_FORCE))
+        reach = self.peg_half + self.HAMMER.head_length / np.sqrt(2)
+        return (torch.linalg.norm(offset[:, :2], dim=1) <= reach) & (offset[:, 2].abs() <= HEAD_REACH)
+
+    def _after_simulation_step(self):
+        super()._after_simulation_step()
+        # a blow's contact lasts a physics step or two and the head may bounce off within the control step
+        # (PhysX reports the last physics step's contacts only): the hit is looked for after every physics step
+        over = self.head_over_peg()
+        if bool(over.any()):
+            hit = over & (link_forces(self.scene, self.hammer, [self.peg])[0] >= TOUCH_FORCE)
+            self.memory.store("head_hit", torch.maximum(self.memory["head_hit"][:, 0], hit.float())[:, None])
 
     def holds_hammer(self) -> torch.Tensor:
         return self.ee.holds(self.hammer)
@@ -154,13 +156,14 @@ class HammerPegEnv(ManiLadderEnv):
         speed = (self.memory["head_last"][:, 2] - head[:, 2]) / self.control_timestep
         driven = peg_driven(self.board)
         descent = driven - self.memory["peg_last"][:, 0]
-        on_peg = self.head_on_peg()
-        if bool(on_peg.any()):
+        hit = self.memory["head_hit"][:, 0] > 0
+        if bool(hit.any()):
             fast = torch.maximum(speed, self.memory["head_speed"][:, 0]) >= self.strike_speed
-            blow = on_peg & fast & self.holds_hammer()
+            blow = hit & fast & self.holds_hammer()
             self.memory.count("blows", blow & (descent > BLOW_DESCENT))
             hammered = self.memory["hammered"][:, 0] + descent.clamp(min=0) * blow
             self.memory.store("hammered", hammered[:, None])
+        self.memory.store("head_hit", torch.zeros_like(speed)[:, None])
         self.memory.store("head_speed", speed[:, None])
         self.memory.store("head_last", head)
         self.memory.store("peg_last", driven[:, None])
