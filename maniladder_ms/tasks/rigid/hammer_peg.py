@@ -70,7 +70,7 @@ class HammerPegEnv(ManiLadderEnv):
     mean, 5 cm zone tolerance) the tool must deliver impacts: the head, its 3 cm face 7 cm out from the grasp,
     has to land on a 2.4 cm square peg top (a landing more than ~1 cm off puts the face's edge on the board)
     coming down at 0.3 m/s or faster, blow after blow (each drives the peg 2-16 mm against an 18 N friction;
-    3-4 cm to drive, 3-5 blows, each re-aimed: the hammer shifts and pitches in the grip at every blow), and
+    3-4 cm to drive, ~5 blows, each re-aimed: the hammer shifts and pitches in the grip at every blow), and
     the peg must end within 5 mm of flush: 4 stages (grasp, carry the head over the peg, strike repeatedly,
     lift clear), ~110 steps; a steady push, however hard, does not count.
     """
@@ -81,6 +81,10 @@ class HammerPegEnv(ManiLadderEnv):
               "board_x_range", "board_y_range", "board_yaw_range", "hammer_x_range", "hammer_y_range",
               "hammer_max_yaw")
     HAMMER = HammerShape()
+    # PhysX contact caches are not env state: after random actions that pressed the hand against the board (a
+    # fixed articulation link), two restores of one state in the same env drifted apart by 9e-3 in the obs
+    # within 3 steps; restored into fresh envs they agree (tests/test_envs.py's round trip)
+    RESTORES_NEED_FRESH_SCENE = True
 
     @property
     def board_shape(self) -> PegBoardShape:
