@@ -30,7 +30,7 @@ from .tabletop import WOOD_DENSITY
 
 STEEL_DENSITY = 7800.0  # kg/m^3
 # the drive that models the peg's friction: damping so high that the force it asks saturates at the force
-# limit as soon as the peg moves at all (a push at the limit creeps at 0.03 mm/s; N s/m)
+# limit as soon as the peg moves at all (a push just under an 18 N limit creeps at 0.02 mm/s; N s/m)
 PEG_DAMPING = 1.0e6
 
 
