@@ -23,6 +23,12 @@ UP_AXIS = sapien.Pose(q=[np.cos(np.pi / 4), 0, -np.sin(np.pi / 4), 0])
 X_TO_Z = UP_AXIS
 
 
+def friction_drive(joint, damping: float, force_limit: float):
+    """Make `joint` hold still under loads below `force_limit` and give way above it: a velocity drive to zero with
+    no stiffness, its force limit the joint's friction (a screw thread, a peg tight in its hole)."""
+    joint.set_drive_properties(stiffness=0.0, damping=damping, force_limit=force_limit)
+    joint.set_drive_velocity_target(0.0)
+
 @dataclass(frozen=True)
 class ButtonShape:
     """A round push button (cap) in a square housing, metres / N/m.

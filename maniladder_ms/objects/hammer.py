@@ -25,7 +25,7 @@ import torch
 
 from mani_skill.envs.scene import ManiSkillScene
 
-from .controls import DOWN_AXIS
+from .controls import DOWN_AXIS, friction_drive
 from .tabletop import WOOD_DENSITY
 
 STEEL_DENSITY = 7800.0  # kg/m^3
@@ -128,9 +128,7 @@ def build_peg_board(scene: ManiSkillScene, name: str, shape: PegBoardShape, hold
                              pose_in_child=sapien.Pose())
     builder.initial_pose = sapien.Pose()
     art = builder.build(name, fix_root_link=True)
-    joint = art.active_joints[0]
-    joint.set_drive_properties(stiffness=0.0, damping=PEG_DAMPING, force_limit=hold_force)
-    joint.set_drive_velocity_target(0.0)
+    friction_drive(art.active_joints[0], PEG_DAMPING, hold_force)
     return art
 
 

@@ -26,7 +26,7 @@ import torch
 
 from mani_skill.envs.scene import ManiSkillScene
 
-from .controls import UP_AXIS, X_TO_Z
+from .controls import UP_AXIS, X_TO_Z, friction_drive
 
 # the drive that models the thread's friction: damping far above what a moving lid reaches, so that the
 # torque it asks saturates at the force limit (the thread torque) as soon as the lid turns at all
@@ -94,9 +94,7 @@ def build_screw_jar(scene: ManiSkillScene, name: str, shape: JarShape, thread_to
                              pose_in_child=UP_AXIS)
     builder.initial_pose = sapien.Pose()
     jar = builder.build(name, fix_root_link=fixed)
-    thread = jar.active_joints[0]
-    thread.set_drive_properties(stiffness=0.0, damping=THREAD_DAMPING, force_limit=thread_torque)
-    thread.set_drive_velocity_target(0.0)
+    friction_drive(jar.active_joints[0], THREAD_DAMPING, thread_torque)
     return jar
 
 
