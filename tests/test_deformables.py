@@ -152,6 +152,13 @@ def test_winding_number_of_a_rope_laid_once_around_a_post():
     beside = _polyline([[x, 0.03, 0.008] for x in np.linspace(-0.2, 0.2, 22)])
     assert abs(rope.winding_number(beside, torch.zeros(2))[0]) < 0.5
 
+    # wound_around: the same turns; wound once (either way round), and below a top above the rope only
+    turns, wound, below = rope.wound_around(points, axes, 1.0, 0.05)
+    assert torch.equal(turns, rope.winding_number(points, axes))
+    assert wound.tolist() == [True, True, False] and below.all()
+    lifted = points.clone()
+    lifted[0, 20, 2] = 0.06  # one point of the first rope over the top
+    assert rope.wound_around(lifted, axes, 1.0, 0.05)[2].tolist() == [False, True, True]
 
 def test_rope_in_groove_fraction():
     """A 20-capsule rope laid along a groove's axis inside it counts 1.0; laid beside it (parallel, outside

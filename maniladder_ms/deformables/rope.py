@@ -373,6 +373,13 @@ def winding_number(points: torch.Tensor, axis_xy: torch.Tensor) -> torch.Tensor:
     return step.sum(dim=1) / (2 * np.pi)
 
 
+def wound_around(points: torch.Tensor, axis_xy: torch.Tensor, min_turns: float, top: float):
+    """The WrapRope tasks' wrap: (turns [B]: `winding_number` about the vertical axis through `axis_xy`,
+    wound [B]: |turns| >= `min_turns`, below [B]: every rope point lower than `top` (m above the table), so the
+    turns lie round the object, not over it)."""
+    turns = winding_number(points, axis_xy)
+    return turns, turns.abs() >= min_turns, (points[..., 2] < top).all(dim=1)
+
 def through_ring(points: torch.Tensor, centre: torch.Tensor, normal: torch.Tensor, radius: float):
     """Where the polyline `points` [B, N, 3] passes through a ring: the ring's disc (centre `centre` [B, 3], unit
     axis `normal` [B, 3], inner radius `radius`). A crossing is a polyline segment whose ends lie on the two sides

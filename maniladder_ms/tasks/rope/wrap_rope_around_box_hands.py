@@ -143,9 +143,7 @@ class WrapRopeAroundBoxHandsEnv(RopeTask, ManiLadderEnv):
     def evaluate(self):
         points = self.rope.points()
         centre, _ = self.box_frame()
-        turns = rope.winding_number(points, centre)
-        wound = turns.abs() >= self.min_turns
-        below = (points[..., 2] < 2 * BOX_HALF[2]).all(dim=1)
+        turns, wound, below = rope.wound_around(points, centre, self.min_turns, 2 * BOX_HALF[2])
         touched = self.ee.touches(self.rope.links)
         both = self.memory["left_held"] & self.memory["right_held"]
         return {

@@ -102,9 +102,7 @@ class WrapRopeAroundPostEnv(RopeTask, ManiLadderEnv):
 
     def evaluate(self):
         points = self.rope.points()
-        turns = rope.winding_number(points, self.post.pose.p[:, :2])
-        wound = turns.abs() >= self.min_turns
-        below = (points[..., 2] < self.post_height).all(dim=1)
+        turns, wound, below = rope.wound_around(points, self.post.pose.p[:, :2], self.min_turns, self.post_height)
         touched = self.ee.touches(self.rope.links)
         return {
             "success": wound & below & ~touched,
