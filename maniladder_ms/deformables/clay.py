@@ -334,8 +334,4 @@ class Mould:
 
     def fill(self, points: torch.Tensor) -> torch.Tensor:
         """Share of the floor's cells holding clay, [B] (`mould_fill`)."""
-        return self.cells_filled(points).flatten(1).float().mean(dim=1)
-
-    def local(self, points: torch.Tensor) -> torch.Tensor:
-        """Top-down coordinates [B, N, 2] of `points` [B, N, 2+] in the mould's frame (its inside's middle at 0)."""
-        return torch.stack(metrics.channel_coords(points, self.actor.pose.p, self.yaw()), dim=-1)
+        return mould_fill(points, self.actor.pose.p, self.yaw(), self.inner_half, self.depth, self.cells)
