@@ -68,18 +68,20 @@ ITEM5_ARMS = ("v4aug", "v4h2", "v4lite1")
 # evidence; the other L1 tasks' v3 column is their recorded v3 result
 V3_TASKS = ["LiftBottleHand", "PickPlacePen", "LiftWideBox", "DragRopeToGoal", "InsertPegInHole", "RopeIntoGroove"]
 AUGMENT = {"augment_copies": 2, "augment_shift": 8}
-# arm -> (work folder, LadderFlowConfig changes, training seed); the state oracle's arms are `ORACLE_ARMS`
-ARMS = {"v4": ("v4k4", {"train_steps": V4_STEPS}, 0), "v3": ("v3", {"train_steps": V3_STEPS}, 0),
-        "v4s1": ("v4k4", {"train_steps": V4_STEPS}, 1), "v4s2": ("v4k4", {"train_steps": V4_STEPS}, 2),
+NONE = {"augment_copies": 0}  # the arms measured without augmentation (v4's default since the freeze has it)
+# arm -> (work folder, LadderFlowConfig changes, training seed); the state oracle's arms are `ORACLE_ARMS`. Every arm
+# names its schedule and augmentation, so its folder's settings stay what they were when it ran
+ARMS = {"v4": ("v4k4", {"train_steps": V4_STEPS, **NONE}, 0), "v3": ("v3", {"train_steps": V3_STEPS, **NONE}, 0),
+        "v4s1": ("v4k4", {"train_steps": V4_STEPS, **NONE}, 1), "v4s2": ("v4k4", {"train_steps": V4_STEPS, **NONE}, 2),
         "v4augs1": ("v4k4aug", {"train_steps": V4_STEPS, **AUGMENT}, 1),
         "v4augs2": ("v4k4aug", {"train_steps": V4_STEPS, **AUGMENT}, 2),
-        "v4b32": ("v4b32", {"train_steps": V4_STEPS, "batch_size": 32}, 0),
-        "v4l1": ("v4l1", {"train_steps": V4_STEPS, "encoder_layers": 1, "decoder_layers": 1}, 0),
-        "v4h2": ("v4k4h2", {"train_steps": V4_STEPS, "history": 2}, 0),
+        "v4b32": ("v4b32", {"train_steps": V4_STEPS, "batch_size": 32, **NONE}, 0),
+        "v4l1": ("v4l1", {"train_steps": V4_STEPS, "encoder_layers": 1, "decoder_layers": 1, **NONE}, 0),
+        "v4h2": ("v4k4h2", {"train_steps": V4_STEPS, "history": 2, **NONE}, 0),
         "v4aug": ("v4k4aug", {"train_steps": V4_STEPS, **AUGMENT}, 0),
-        "v4lite1": ("v4k4lite1", {"train_steps": V4_STEPS, "encoder": "efficientnet-lite1-s16"}, 0),
-        "v4k2": ("v4", {"train_steps": K2_STEPS}, 0),
-        "v4k2h2": ("v4h2", {"train_steps": K2_STEPS, "history": 2}, 0),
+        "v4lite1": ("v4k4lite1", {"train_steps": V4_STEPS, "encoder": "efficientnet-lite1-s16", **NONE}, 0),
+        "v4k2": ("v4", {"train_steps": K2_STEPS, **NONE}, 0),
+        "v4k2h2": ("v4h2", {"train_steps": K2_STEPS, "history": 2, **NONE}, 0),
         "v4k2aug": ("v4aug", {"train_steps": K2_STEPS, **AUGMENT}, 0)}
 ORACLE_ARMS = {"oracle": V4_STEPS, "oraclek2": K2_STEPS}  # arm -> training steps
 PREPARE_ARM = "v4k2"  # its folder holds each task's demos and features, made once and shared by every arm
@@ -154,11 +156,12 @@ def prepared(task: str, work: Path) -> None:
             raise Busy(task)
         tc, _ = calibration(task, work, PREPARE_ARM)
         tc.prepare()
-        for arm, (_, changes, _) in ARMS.items():  # the same features, or the same renders to encode again
+        encoding = {k: getattr(tc.config, k) for k in ENCODING_FIELDS}
+        for arm in ARMS:  # the same features, or the same renders to encode again
             other, _ = calibration(task, work, arm)
             other.dir.mkdir(parents=True, exist_ok=True)
-            shared = (tc.renders_path, other.renders_path) if ENCODING_FIELDS & set(changes) else \
-                (tc.features_path, other.features_path)
+            same = all(getattr(other.config, k) == v for k, v in encoding.items())
+            shared = (tc.features_path, other.features_path) if same else (tc.renders_path, other.renders_path)
             if shared[0].exists() and not shared[1].exists():
                 os.link(*shared)
 

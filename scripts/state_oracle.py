@@ -126,7 +126,7 @@ def fit_oracle(task: str, episodes: list, steps: int, noise: float = 1.0, progre
     states = torch.cat([e[0] for e in episodes])
     mean, std = states.mean(0), states.std(0).clamp(min=1e-2)  # near-constant dims are not blown up
     episodes = [((s - mean) / std, a, f) for s, a, f in episodes]
-    trainer = LadderFlowTrainer(LadderFlowConfig(keypoints=0, grid=1, train_steps=steps), episodes)
+    trainer = LadderFlowTrainer(LadderFlowConfig(keypoints=0, grid=1, train_steps=steps, augment_copies=0), episodes)
     losses = trainer.train(steps, progress=progress)
     return StateOraclePolicy(task, trainer.policy(), mean, std, noise), trainer, losses
 

@@ -272,6 +272,8 @@ def test_training_killed_between_resume_points_ends_in_the_same_weights(tmp_path
         arrays[f"features_{i}"] = rng.normal(size=(10, 12, 16)).astype(np.float16)
         arrays[f"frames_{i}"] = np.arange(0, 20, 2)
         arrays[f"actions_{i}"] = rng.normal(size=(20, 8)).astype(np.float32)
+        # the protocol's random-shift copies of every frame (training draws the frame or a copy: RNG state to resume)
+        arrays[f"augmented_{i}"] = rng.normal(size=(TINY.augment_copies, 10, 12, 16)).astype(np.float16)
 
     def calibration(name):
         tc = TaskCalibration("PickPlacePen", tmp_path / name, tmp_path / "out", config=TINY, protocol=protocol,

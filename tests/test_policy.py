@@ -13,7 +13,7 @@ from maniladder_ms.policy.flow import chunk_targets
 
 TINY = LadderFlowConfig(encoder="random-projection", d_model=32, heads=2, encoder_layers=1, decoder_layers=1,
                         dropout=0.0, chunk=4, execute=2, integration_steps=8, batch_size=32, lr=2e-3,
-                        train_steps=600, ema_decay=0.9)
+                        train_steps=600, ema_decay=0.9, augment_copies=0)  # synthetic features, no shifted copies
 
 
 @pytest.fixture(autouse=True)
@@ -214,9 +214,15 @@ def test_a_policy_with_history_trains_and_round_trips(tmp_path, keypoints):
 
 
 def test_config_fields_added_later_leave_older_settings_matching():
-    """Work folders and checkpoints written before `history` existed still match the default configuration."""
+    """Work folders and checkpoints written before `history` or augmentation existed still match the configuration
+    they were made with, also after v4 made augmentation the default: a settings dict without `augment_copies`
+    was made without copies."""
     d = LadderFlowConfig().as_dict()
     assert "history" not in d and LadderFlowConfig.from_dict(d) == LadderFlowConfig()
+    older = LadderFlowConfig(augment_copies=0, train_steps=8000).as_dict()
+    assert "augment_copies" not in older and LadderFlowConfig.from_dict(older).augment_copies == 0
+    assert LadderFlowConfig().augment_copies == 2 and LadderFlowConfig.from_dict(LadderFlowConfig().as_dict()) == \
+        LadderFlowConfig()
     d2 = LadderFlowConfig(history=2).as_dict()
     assert d2["history"] == 2 and LadderFlowConfig.from_dict(d2).history == 2
 
