@@ -108,6 +108,12 @@ def cmd_show(args) -> int:
     else:
         rows.append(("env class", "not built yet"))
     rows.append(("catalog row", _catalog_line(spec.id)))
+    from maniladder_ms.policy.records import COMMITTED_RECORDS, load_record, record_lines
+
+    lines = record_lines(load_record(COMMITTED_RECORDS, spec.id))  # the rounds that refined and placed it
+    rows.append(("calibration", f"{len(lines)} recorded run(s) ({COMMITTED_RECORDS / (spec.id + '.json')})" if lines
+                 else "no recorded run (maniladder calibrate --record docs/calibration/records)"))
+    rows += [("", line) for line in lines]
     width = max(len(k) for k, _ in rows)
     for key, value in rows:
         print(f"{key:<{width}}  {value}")

@@ -303,3 +303,60 @@ def test_training_killed_between_resume_points_ends_in_the_same_weights(tmp_path
     assert not (killed.seed_dir(0) / "resume.pt").exists()
     a, b = (LadderFlowPolicy.load(tc.checkpoint(6)).net.state_dict() for tc in (whole, killed))
     assert all(torch.equal(a[k], b[k]) for k in a)
+
+
+def _result(task_hash="aaaa", purpose="development", successes=30, config=None):
+    """A `write_result`-shaped result of PickPlacePen (only the fields a record reads)."""
+    return {"task": "PickPlacePen", "task_hash": task_hash, "protocol": "v4", "purpose": purpose,
+            "seed_set": 1 if purpose == "development" else 2, "config": config or {"train_steps": 4000},
+            "catalog_level": 1, "horizon": 200, "successes": successes, "episodes": 50, "success": successes / 50,
+            "ci95": [0.4, 0.7], "measured_level": 2, "verdict": "outside", "per_training_seed": {"0": {}},
+            "environment": {"commit": "abc1234"}, "time": "2026-11-29T18:00:00"}
+
+
+def test_calibration_record_keeps_rounds_changes_and_the_loop_limit(tmp_path):
+    """The refinement loop's record: a resumed run adds nothing, a changed task says what changed (the params'
+    diff is recorded with the reason), a fifth development round is refused without --extra-round, the final run
+    is recorded after the rounds."""
+    from maniladder_ms.policy.records import MAX_DEVELOPMENT_ROUNDS, RecordError, load_record, record_lines, record_run
+
+    params = {"pen_x_range": [-0.1, 0.1]}
+    record_run(tmp_path, _result(), params)
+    record_run(tmp_path, _result(), params)  # the same task version again: a resume
+    assert len(load_record(tmp_path, "PickPlacePen")["entries"]) == 1
+    with pytest.raises(RecordError, match="--change"):
+        record_run(tmp_path, _result(task_hash="bbbb"), {"pen_x_range": [-0.05, 0.05]})
+    record = record_run(tmp_path, _result(task_hash="bbbb", successes=36), {"pen_x_range": [-0.05, 0.05]},
+                        reason="halved pen_x_range: 30/50 with the full range")
+    second = record["entries"][1]
+    assert second["round"] == 2 and second["change"] == {"pen_x_range": [[-0.1, 0.1], [-0.05, 0.05]]}
+    assert "halved" in second["reason"] and second["commit"] == "abc1234"
+    for k in range(3, MAX_DEVELOPMENT_ROUNDS + 1):
+        record_run(tmp_path, _result(task_hash=f"h{k}"), params, reason=f"round {k}")
+    with pytest.raises(RecordError, match="development rounds"):
+        record_run(tmp_path, _result(task_hash="h9"), params, reason="one more")
+    record_run(tmp_path, _result(task_hash="h9"), params, reason="one more, because", extra_round=True)
+    record = record_run(tmp_path, _result(task_hash="h9", purpose="final", successes=40), params)
+    assert [e["purpose"] for e in record["entries"]][-2:] == ["development", "final"]
+    lines = record_lines(record)
+    assert len(lines) == MAX_DEVELOPMENT_ROUNDS + 2 and "pen_x_range [-0.1, 0.1] -> [-0.05, 0.05]" in lines[1]
+    assert lines[-1].startswith(f"{MAX_DEVELOPMENT_ROUNDS + 2}. final (v4, seed set 2")
+
+
+def test_calibrate_checks_the_record_before_any_work_and_show_prints_it(tmp_path, monkeypatch, capsys):
+    """`maniladder calibrate --record` refuses a changed task without --change before it makes anything;
+    `maniladder show` prints the committed record's entries."""
+    import maniladder_ms.policy.records as records
+    from maniladder_ms.cli import main
+    from maniladder_ms.policy.records import record_run
+
+    record_run(tmp_path / "records", _result(task_hash="0000000000000000"), {})
+    work = tmp_path / "work"
+    assert main(["calibrate", "--tasks", "PickPlacePen", "--purpose", "development", "--work", str(work),
+                 "--out", str(tmp_path / "out"), "--record", str(tmp_path / "records"), "--quiet"]) == 2
+    assert "changed since its last recorded run" in capsys.readouterr().err and not work.exists()
+    monkeypatch.setattr(records, "COMMITTED_RECORDS", tmp_path / "records")
+    assert main(["show", "PickPlacePen"]) == 0
+    out = capsys.readouterr().out
+    assert "1 recorded run(s)" in out and "1. development (v4, seed set 1, 1 training seed(s), task version " \
+        "0000000000000000): 30/50 = 60% [40, 70], interval outside L1's band" in out

@@ -705,6 +705,13 @@ def add_parser(sub) -> None:
                          "pixels on every machine); recorded")
     cp.add_argument("--workers", type=int, default=1, help="tasks calibrated in parallel processes")
     add_ray_argument(cp)
+    cp.add_argument("--record", type=Path,
+                    help="append each task's result to its calibration record DIR/<task>.json (the committed records: "
+                         "docs/calibration/records; `maniladder show TASK` prints them)")
+    cp.add_argument("--change", help="with --record: what changed in the task since its last recorded run, and why "
+                                     "(required when the task's version changed)")
+    cp.add_argument("--extra-round", action="store_true",
+                    help="with --record: allow a development round past the loop's limit of 4 (with --change)")
     cp.add_argument("--quiet", action="store_true", help="no progress bars")
     cp.set_defaults(func=cmd_calibrate)
 
@@ -726,13 +733,43 @@ def cmd_calibrate(args) -> int:
 
         if not torch.cuda.is_available():
             raise ValueError(f"--device {args.device}: torch sees no CUDA device here")
-    summary = calibrate(tasks, args.work, args.out, demos_dir=args.demos, device=args.device, workers=args.workers,
-                        progress=not args.quiet, protocol=CalibrationProtocol(purpose=args.purpose),
-                        renderer=args.renderer, replace=args.replace, ray_address=args.ray)
+    if args.record:  # the record's rules are checked before any work starts
+        from maniladder_ms.provenance import task_hash
+
+        from .records import check_run
+
+        if args.extra_round and not args.change:
+            raise ValueError("--extra-round needs --change saying why the task needs another development round")
+        for s in specs:
+            check_run(args.record, s.id, task_hash(s.id), PROTOCOL_VERSION, args.purpose, LadderFlowConfig().as_dict(),
+                      args.change, args.extra_round)
+    try:
+        summary = calibrate(tasks, args.work, args.out, demos_dir=args.demos, device=args.device,
+                            workers=args.workers, progress=not args.quiet,
+                            protocol=CalibrationProtocol(purpose=args.purpose), renderer=args.renderer,
+                            replace=args.replace, ray_address=args.ray)
+    finally:  # the tasks that finished are recorded even when another failed
+        if args.record:
+            _record_results(specs, args)
     print()
     print_calibration(summary)
     print(f"\nresults in {args.out}/ (<task>.json, calibration.json, calibration.png); `maniladder report {args.out}`")
     return 0
+
+
+def _record_results(specs, args) -> None:
+    from maniladder_ms.provenance import task_hash
+
+    from .records import record_run
+
+    for s in specs:
+        path = Path(args.out) / f"{s.id}.json"
+        if not path.is_file():
+            continue
+        r = json.loads(path.read_text())
+        if (r.get("task_hash"), r.get("purpose"), r.get("protocol")) == (task_hash(s.id), args.purpose, PROTOCOL_VERSION):
+            record = record_run(args.record, r, dict(s.params), args.change, args.extra_round)
+            print(f"{s.id}: recorded as entry {len(record['entries'])} of {Path(args.record) / (s.id + '.json')}")
 
 
 def write_calibration_report(folder: Path, out: Optional[Path] = None) -> Path:
