@@ -360,3 +360,26 @@ def test_calibrate_checks_the_record_before_any_work_and_show_prints_it(tmp_path
     out = capsys.readouterr().out
     assert "1 recorded run(s)" in out and "1. development (v4, seed set 1, 1 training seed(s), task version " \
         "0000000000000000): 30/50 = 60% [40, 70], interval outside L1's band" in out
+
+
+def test_calibration_report_shows_level_means_agreement_and_the_ladder_figures(tmp_path, capsys):
+    """The ladder's picture from calibration results: level means with bootstrap intervals and whether adjacent
+    levels are apart, the agreement table (catalog level x measured level), and four figures."""
+    import maniladder_ms
+    from maniladder_ms.policy.calibrate import write_calibration_report
+
+    rows = {"PickPlacePen": (1, 36, 1), "LiftWideBox": (1, 48, 0), "InsertPegInHole": (2, 15, 2),
+            "PlaceMugOnCoasterHand": (2, 20, 2)}  # task: (catalog level, successes of 50, measured level)
+    for task, (level, k, measured) in rows.items():
+        (tmp_path / f"{task}.json").write_text(json.dumps({
+            "task": task, "suite": maniladder_ms.default_catalog().get(task).suite, "catalog_level": level, "purpose": "final",
+            "successes": k, "episodes": 50, "success": k / 50, "ci95": [0.0, 1.0], "measured_level": measured,
+            "measured_level_text": f"L{measured}", "agree": measured == level, "verdict": "inside",
+            "demo_mean_steps": 100.0, "protocol": "v4"}))
+    page = write_calibration_report(tmp_path, out=tmp_path / "report").read_text()
+    text = capsys.readouterr().out
+    assert page.count("<img ") == 4
+    assert "L1: 84% [" in text and "L2: 35% [" in text and "L1 above L2 with intervals apart: yes" in text
+    table = text[text.index("agreement"):].splitlines()
+    assert table[1].split() == ["M0", "M1", "M2"] and table[2].split() == ["L1", "1", "1", "0"] \
+        and table[3].split() == ["L2", "0", "0", "2"]

@@ -772,12 +772,72 @@ def _record_results(specs, args) -> None:
             print(f"{s.id}: recorded as entry {len(record['entries'])} of {Path(args.record) / (s.id + '.json')}")
 
 
+def ladder_run(rows: list[dict], name: str) -> dict:
+    """Calibration results as an evaluation run ({"name", "summary"}: `evaluation.stats.summarize` of their
+    episodes), so the ladder's suite and level means, bootstrap intervals and figures are the evaluation report's."""
+    from maniladder_ms.evaluation.stats import summarize
+
+    records = [{"task": r["task"], "success": k < r["successes"], "steps": r.get("mean_steps") or 0}
+               for r in rows for k in range(r["episodes"])]
+    return {"name": name, "summary": summarize(records)}
+
+
+def print_ladder(summary: dict, rows: list[dict], file=None) -> None:
+    """Level means (catalog levels) with their 95% bootstrap intervals, whether adjacent levels' intervals are
+    apart, and the agreement table: catalog level against measured level."""
+    levels = {int(k): v for k, v in summary["levels"].items() if v["mean"] is not None}
+    print("\nlevel means over the measured tasks (catalog levels; mean of suite means, 95% bootstrap over episodes):",
+          file=file)
+    for lv, v in sorted(levels.items()):
+        lo, hi = v["ci"]
+        print(f"  L{lv}: {100 * v['mean']:.0f}% [{100 * lo:.0f}, {100 * hi:.0f}] over {v['n_tasks']} of "
+              f"{v['catalog_tasks']} tasks", file=file)
+    for lv in sorted(levels):
+        if lv + 1 in levels:
+            apart = levels[lv]["ci"][0] > levels[lv + 1]["ci"][1]
+            print(f"  L{lv} above L{lv + 1} with intervals apart: {'yes' if apart else 'no'}", file=file)
+    measured = sorted({r["measured_level"] for r in rows})
+    print("\nagreement (rows: catalog level; columns: measured level, 0 = easier than L1):", file=file)
+    print("        " + "".join(f"{'M' + str(m):>6}" for m in measured), file=file)
+    for lv in sorted({r["catalog_level"] for r in rows}):
+        counts = [sum(r["catalog_level"] == lv and r["measured_level"] == m for r in rows) for m in measured]
+        print(f"  L{lv}    " + "".join(f"{c:>6}" for c in counts), file=file)
+
+
+def fig_scores(rows: list[dict]) -> bytes:
+    """Success per task against each catalog difficulty score (C_geom, C_proc, C_perc) and the demos' mean
+    length; colour = catalog level."""
+    from maniladder_ms.evaluation.report import LEVEL_COLORS, _plt, _png
+
+    plt = _plt()
+    catalog = default_catalog()
+    panels = [(k, lambda r, k=k: catalog.get(r["task"]).scores[k]) for k in ("C_geom", "C_proc", "C_perc")]
+    panels.append(("demo length (steps)", lambda r: r.get("demo_mean_steps")))
+    fig, axes = plt.subplots(1, len(panels), figsize=(3.0 * len(panels), 2.8), sharey=True)
+    for ax, (name, value) in zip(axes, panels):
+        for i, r in enumerate(rows):
+            x = value(r)
+            if x is None:
+                continue
+            jitter = 0.07 * (i % 5 - 2) if name.startswith("C_") else 0.0  # integer scores: points side by side
+            ax.plot(x + jitter, 100 * r["success"], "o", color=LEVEL_COLORS[r["catalog_level"]], ms=5, alpha=0.8)
+        ax.set_xlabel(name, fontsize=9)
+    axes[0].set_ylabel("success (%)")
+    fig.suptitle("success against the catalog's scores (colour = catalog level)", fontsize=10)
+    fig.tight_layout()
+    return _png(fig)
+
+
 def write_calibration_report(folder: Path, out: Optional[Path] = None) -> Path:
-    """`maniladder report <calibration folder>`: per protocol in the folder (newest first), the table and the plot
-    as one HTML page (`report/report.html`); rows that no longer measure their task as built are marked stale."""
+    """`maniladder report <calibration folder>`: per protocol in the folder (newest first), the table, the level
+    means and agreement table, and the figures (per task against the bands, suite means by level, level means,
+    success against the difficulty scores) as one HTML page (`report/report.html`); rows that no longer measure
+    their task as built are marked stale."""
     import base64
     import html
     import io
+
+    from maniladder_ms.evaluation.report import fig_grid, fig_levels
 
     folder = Path(folder)
     rows = load_results(folder, protocol=None)
@@ -798,11 +858,17 @@ def write_calibration_report(folder: Path, out: Optional[Path] = None) -> Path:
         stale = [(r["task"], why) for r in mine if (why := stale_reason(r))]
         for task, why in stale:
             print(f"STALE {task}: {why}", file=buf)
+        run = ladder_run(mine, f"LadderFlow {protocol}")
+        print_ladder(run["summary"], mine, buf)
         png_path = out / f"calibration_{protocol}.png"
         plot_calibration(mine, png_path)
-        png = base64.b64encode(png_path.read_bytes()).decode()
-        sections.append(f"<h2>LadderFlow {html.escape(protocol)} ({html.escape(label)})</h2>"
-                        f'<img alt="success per task against the level bands" src="data:image/png;base64,{png}">'
+        figures = [("success per task against the level bands", png_path.read_bytes()),
+                   ("suite means by level (the paper's Table 3 layout)", fig_grid([run])),
+                   ("level means with 95% bootstrap intervals", fig_levels([run])),
+                   ("success against the catalog's difficulty scores", fig_scores(mine))]
+        imgs = "".join(f'<img alt="{html.escape(alt)}" src="data:image/png;base64,{base64.b64encode(png).decode()}">'
+                       for alt, png in figures)
+        sections.append(f"<h2>LadderFlow {html.escape(protocol)} ({html.escape(label)})</h2>{imgs}"
                         f"<pre>{html.escape(buf.getvalue())}</pre>")
         text.write(buf.getvalue() + "\n")
     page = (f'<!DOCTYPE html><html><head><meta charset="utf-8"><title>ManiLadder calibration</title></head><body>'
