@@ -274,6 +274,27 @@ def test_env_driving_policy_is_checked_too(tmp_path):
         evaluate(f"{pol}:Oracle", tmp_path / "out", tasks=[PEN], episodes=1, progress=False)
 
 
+def test_a_diverged_simulation_ends_as_a_failure_marked_diverged(tmp_path):
+    """PhysX can diverge under a policy's actions (a rope task's state went NaN at one seed): the episode is a
+    failure marked `diverged`, counted in the summary, never a crash blamed on the policy or a scored success."""
+    body = (
+        "import numpy as np, torch\n"
+        "class Breaker:\n"
+        "    obs_mode = 'state'\n"
+        "    def run_episode(self, env, ctx):\n"
+        "        env.reset(seed=ctx.seed)\n"
+        "        env.step(np.zeros(8))\n"
+        "        env.unwrapped.pen.set_linear_velocity(torch.tensor([[float('nan'), 0.0, 0.0]]))\n"
+        "        for _ in range(3):\n"
+        "            env.step(np.zeros(8))\n"
+    )
+    pol = _policy_file(tmp_path, body)
+    summary = evaluate(f"{pol}:Breaker", tmp_path / "out", tasks=[PEN], episodes=1, progress=False, bootstrap=0)
+    (rec,) = read_episodes(tmp_path / "out")
+    assert rec["diverged"] is True and rec["success"] is False
+    assert summary["tasks"][PEN]["diverged"] == 1 and summary["tasks"][PEN]["successes"] == 0
+
+
 def test_unimplemented_tasks_are_refused_or_skipped(tmp_path, capsys, fixture_catalog):
     assert eval_main(["eval", "--policy", "random", "--tasks", FIXTURE_TASK, "--out", str(tmp_path / "a")]) == 2
     assert "not implemented yet" in capsys.readouterr().err

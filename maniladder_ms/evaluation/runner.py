@@ -17,7 +17,9 @@ Protocol:
   process or remote); only those are rendered and returned. It is part of a run's identity in the manifest (`all`
   by default), so runs under different subsets are never mixed. A name a task lacks is an error listing its cameras.
 - Success: the task's success rule holds at some control step <= the horizon. ManiSkill ends an episode
-  at its first success (terminated), so this is also the state at the end of the episode.
+  at its first success (terminated), so this is also the state at the end of the episode. An episode whose
+  simulation state goes non-finite (PhysX diverged; `simulation_diverged`) ends there as a failure marked
+  `diverged`, and the summary counts them per task.
 - Instructions: each episode's `EpisodeContext.instruction` is the task's canonical instruction, or with
   `instructions="paraphrase"` one of it and its paraphrases drawn from the task and the episode seed
   (reproducible); the episode record stores the one used.
@@ -152,6 +154,17 @@ class EpisodeMonitor(gym.Wrapper):
         return obs, reward, terminated, truncated, info
 
 
+def simulation_diverged(base) -> bool:
+    """Whether the simulation's state (actor poses and velocities, joint positions and velocities) holds a
+    non-finite value: PhysX diverged, as LiftRopeBimanual's rope did under one policy's actions (seed 1010025, step
+    57), and a rule evaluated on such a state means nothing. Such an episode ends there and counts as a failure,
+    marked `diverged` in its record (no success that a non-finite state might produce is scored). ~4 ms a check
+    on this machine, so the runner checks once per action chunk and at the episode's end."""
+    import torch
+
+    return not bool(torch.isfinite(base.get_state()).all())
+
+
 class EpisodeRunner:
     """Runs episodes of one policy, one env per task kept open between episodes of that task."""
 
@@ -223,6 +236,8 @@ class EpisodeRunner:
                 self.policy.reset(ctx)
             done = False
             while not done and env.steps < spec.horizon:
+                if simulation_diverged(base):  # checked per chunk: a diverged state stays non-finite
+                    break
                 where = f"task {spec.id}, step {env.steps + 1} (seed {seed})"
                 t1 = time.perf_counter()
                 try:
@@ -242,7 +257,8 @@ class EpisodeRunner:
                         done = True
                         break
         wall = time.perf_counter() - t0
-        success = env.success_step is not None
+        diverged = simulation_diverged(base)
+        success = env.success_step is not None and not diverged
         rec = {
             "task": spec.id, "episode": episode, "seed": env.seed if env.seed is not None else seed,
             "success": success, "steps": env.success_step if success else min(env.steps, spec.horizon),
@@ -255,6 +271,8 @@ class EpisodeRunner:
         }
         if note:
             rec["note"] = note
+        if diverged:
+            rec["diverged"] = True
         return rec
 
 

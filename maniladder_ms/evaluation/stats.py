@@ -96,6 +96,8 @@ def summarize(episodes: list[dict], catalog=None, bootstrap: int = 2000, rng_see
             "episodes": n, "successes": s, "rate": s / n, "ci": [lo, hi],
             "mean_steps": float(np.mean([r["steps"] for r in recs])),
             "mean_wall_s": float(np.mean([r.get("wall_s", 0.0) for r in recs])),
+            # episodes whose simulation went non-finite (failures; `runner.simulation_diverged`)
+            "diverged": sum(bool(r.get("diverged")) for r in recs),
             # how far the episodes got: the share that reached each intermediate flag (records that carry them)
             "reached": {flag: sum(flag in r["reached"] for r in recs if "reached" in r) / n
                         for flag in sorted({f for r in recs for f in r.get("reached", ())})},
