@@ -27,8 +27,11 @@ from maniladder_ms.solvers.driven import DrivenSolver
 from maniladder_ms.tasks.clay.shape_clay_l import ShapeClayLEnv
 
 BLADE_Z = 0.012  # TCP height of a stroke: the fingertips (9 mm below the TCP) 3 mm above the table
-HOVER_Z = 0.05  # TCP height between strokes: the fingertips clear the 2.4 cm slab
-DIAGONAL_OFFSETS = (0.024, 0.0, -0.024)  # m: sideways offsets of the planned strokes from the quarter's diagonal
+HOVER_Z = 0.05
+ENTRY_Z = 0.033  # TCP height where a stroke's blade lands: the fingertips on the slab's top (2.4 cm)
+ENTRY_RAMP = 0.015  # m: the blade sinks from the slab's top to BLADE_Z over this much of the stroke
+ENTRY_STEP = 0.004  # m per control step of the blade along that ramp  # TCP height between strokes: the fingertips clear the 2.4 cm slab
+DIAGONAL_OFFSETS = (0.0, 0.024, -0.024)  # m: sideways offsets of the planned strokes from the quarter's diagonal
 START_INSET = 0.012  # m: a stroke starts with the blade's centre at least this far off the L's arms
 BEHIND = 0.015  # m: a clean-up stroke starts this far behind the particle it pushes
 EXIT_MARGIN = 0.015  # m: a stroke ends with its particle this far past the grid's edge
@@ -71,9 +74,12 @@ def stroke(s: DrivenSolver, task: ShapeClayLEnv, start: torch.Tensor, end: torch
     d = end - start
     heading = yaw + torch.atan2(d[:, 1], d[:, 0])
     q = top_down_quat(DrivenSolver.neutral_yaw(heading + np.pi / 2, np.pi), n, device)
+    unit = torch.nn.functional.normalize(d, dim=1)
+    sunk = start + ENTRY_RAMP * unit  # the blade comes down on the clay's top and sinks in moving forward
     s.move({"arm": (world(start, HOVER_Z), q)}, max_steps=60, pos_tol=0.005)
-    s.move({"arm": (world(start, BLADE_Z), q)}, max_steps=30, pos_tol=0.004)
-    glide(s, {"arm": (world(start, BLADE_Z), world(end, BLADE_Z), q)}, step_length=STROKE_STEP, settle_steps=3)
+    s.move({"arm": (world(start, ENTRY_Z), q)}, max_steps=30, pos_tol=0.004)
+    glide(s, {"arm": (world(start, ENTRY_Z), world(sunk, BLADE_Z), q)}, step_length=ENTRY_STEP, settle_steps=0)
+    glide(s, {"arm": (world(sunk, BLADE_Z), world(end, BLADE_Z), q)}, step_length=STROKE_STEP, settle_steps=3)
     s.move({"arm": (world(end, HOVER_Z), q)}, max_steps=20, pos_tol=0.01)
 
 

@@ -13,7 +13,7 @@ from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.deformables import clay
 from maniladder_ms.envs import ManiLadderEnv, register_task
-from maniladder_ms.geometry import yaw_quat
+from maniladder_ms.geometry import yaw_of, yaw_quat
 from maniladder_ms.layout import uniform, uniform_deg
 from maniladder_ms.objects.markers import MARKER_THICKNESS
 from maniladder_ms.tasks.clay.base import ClayTask
@@ -35,16 +35,16 @@ def slab_layout(sites: int, layers: int, spacing: float) -> np.ndarray:
 
 
 def l_outline_boxes(half: float, width: float) -> list[tuple[list[float], list[float]]]:
-    """(centre, half size) of thin strips just outside the outline of the L that is the square of side 2 `half`
-    round the origin without its +x +y quarter: six strips `width` wide, in the L's frame."""
+    """(centre, half size) of thin strips `width` wide just outside the outline of the L that is the square of side
+    2 `half` round the origin without its +x +y quarter, in the L's frame: its six edges."""
     h, w = half, width / 2
     return [
-        ([0.0, -h - w, 0.0], [h + width, w, 0.0]),  # the long edge along -y
-        ([-h - w, 0.0, 0.0], [w, h + width, 0.0]),  # the long edge along -x
-        ([h / 2, w, 0.0], [h / 2 + w, w, 0.0]),  # the -x arm's end... the +x arm's top edge (y = 0)
-        ([h + w, -h / 2, 0.0], [w, h / 2 + width, 0.0]),  # the +x arm's end
-        ([w, h / 2, 0.0], [w, h / 2 + w, 0.0]),  # the +y arm's inner edge (x = 0)
-        ([-h / 2, h + w, 0.0], [h / 2 + width, w, 0.0]),  # the +y arm's end
+        ([0.0, -h - w, 0.0], [h + width, w, 0.0]),  # the long edge at y = -half
+        ([-h - w, 0.0, 0.0], [w, h + width, 0.0]),  # the long edge at x = -half
+        ([h + w, -h / 2, 0.0], [w, h / 2 + width, 0.0]),  # the end of the arm along +x
+        ([h / 2, w, 0.0], [h / 2 + w, w, 0.0]),  # that arm's inner edge (y = 0), on the quarter's side
+        ([w, h / 2, 0.0], [w, h / 2 + w, 0.0]),  # the inner edge (x = 0) of the arm along +y
+        ([-h / 2, h + w, 0.0], [h / 2 + width, w, 0.0]),  # the end of the arm along +y
     ]
 
 
@@ -67,21 +67,31 @@ def build_l_marker(scene, name: str, half: float):
 @register_task("ShapeClayL")
 class ShapeClayLEnv(ClayTask, ManiLadderEnv):
     """**Task:** a square slab of clay (plastic: it keeps the shape it is pressed into) lies on the table over an
-    L marked there: the slab's own square without one quarter. Shape the slab into the L with the gripper: clear the
-    clay out of the missing quarter without leaving the L's arms bare or spreading clay round the L.
+    L marked there (filled, with a dark outline): the slab's own square without one quarter. Shape the slab into the
+    L with the gripper: clear the clay out of the missing quarter without dragging the L's arms off their marks or
+    leaving clay round the L.
 
-    **Randomisation:** the L (the square of the slab, 9.6 cm a side, without its quarter on the L's +x, +y side) has
+    **Randomisation:** the L (the slab's square, 9.6 cm a side, without its quarter on the L's own +x, +y side) has
     its centre uniform in x in `target_x_range`, y in `target_y_range`, turned by a yaw uniform in
-    `target_yaw_range` (deg: a full turn, so the missing quarter lies on any side of the robot); the slab (particles
-    on a 1.2 cm lattice, 8 x 8 x 2 of them) lies on the L's square with the L's yaw.
+    `target_yaw_range` (deg: a full turn, so the missing quarter lies on any side as seen from the robot); the slab
+    (particles on a 1.2 cm lattice, 8 x 8 x 2 of them, 128 in all) lies exactly on the L's square, with its yaw.
 
     **Success:** the table round the L is read as a grid of `grid_cells` x `grid_cells` square columns one lattice
-    spacing wide, centred on and turned with the L, the L's square `grid_cells` less eight cells... in from each
-    edge; a column is occupied when a clay particle's centre lies in it at most `on_table_height` above the table
-    (`clay.cells_occupied`: clay held up in the air occupies nothing); the occupied columns and the L's have an
-    intersection over union of at least `min_iou` (`clay.occupancy_iou`, `clay.l_footprint`); the gripper shaped it
-    (it touched the clay at some step, episode memory `touched`); and the gripper is off the clay (the shape holds by
-    itself).
+    spacing wide, centred on the L's square and turned with it (the square's columns in its middle); a column is
+    occupied when a clay particle's centre lies in it at most `on_table_height` above the table (`clay.cells_occupied`:
+    clay held up in the air occupies nothing, clay pushed past the grid counts for nothing); the occupied columns and
+    the L's columns (`clay.l_footprint`) have an intersection over union of at least `min_iou`
+    (`clay.occupancy_iou`; the untouched slab scores three quarters); the gripper shaped it (it touched the clay at
+    some step: episode memory `touched`); and the gripper is off the clay (the shape holds by itself).
+
+    **Level 3:** against Level 2's clay tasks (StampClay: one held press, IoU >= 0.5 of a 10 cm star's imprint on a
+    10.8 cm slab, ~120 steps; FlattenClayWithRoller: any shape half as high and wider), the clay must take a spatial
+    target with a concave corner on a grid of 1.2 cm columns: from IoU 0.75 at the start to >= 0.85, i.e. of the
+    quarter's 16 columns at most ~8 left occupied with the L's 48 all kept, or fewer with any arm column bared or any
+    column round the L occupied. The closed fingertips (a blade ~2 cm wide) need 3-7 strokes (~200-420 steps) through
+    a 4.8 cm quarter, each aimed at the clay left by the last; the links between the quarter and the arms drag the
+    arms along a stroke (a stroke started on an arm's side dragged it off its columns: IoU 0.87 -> 0.72 after two
+    such strokes), so every stroke starts inside the quarter, >= 1.2 cm off both arms, and runs away from them.
     """
 
     max_dense_reward = 5
@@ -95,6 +105,8 @@ class ShapeClayLEnv(ClayTask, ManiLadderEnv):
         self.l_half = SLAB_SITES * spacing / 2
         self.grid_half = self.grid_cells * spacing / 2
         self.l_cells = clay.l_footprint(self.grid_cells, (self.grid_cells - SLAB_SITES) // 2).to(self.device)
+        square = SLAB_SITES**2
+        self.start_iou = float(self.l_cells.sum()) / square  # the untouched slab on the L's square
         self.marker = build_l_marker(self.scene, "l_marker", self.l_half)
         self.memory.flag("touched")  # the gripper has touched the clay
 
@@ -116,7 +128,6 @@ class ShapeClayLEnv(ClayTask, ManiLadderEnv):
 
     def l_yaw(self) -> torch.Tensor:
         """The L's yaw (its missing quarter on its own +x, +y side), [B]."""
-        from maniladder_ms.geometry import yaw_of
         return yaw_of(self.marker.pose.q)
 
     def occupied(self) -> torch.Tensor:
@@ -136,19 +147,20 @@ class ShapeClayLEnv(ClayTask, ManiLadderEnv):
         return obs
 
     def evaluate(self):
+        iou = clay.occupancy_iou(self.clay.positions(), self.l_centre(), self.l_yaw(), self.grid_half,
+                                 self.on_table_height, self.l_cells)
         occupied = self.occupied()
-        iou = clay.metrics.iou(occupied, self.l_cells)
-        quarter = occupied & ~self.l_cells  # occupied columns outside the L
         shaped = (iou >= self.min_iou) & self.memory["touched"]
         released = torch.ones_like(shaped)
         if bool(shaped.any()):  # the contact pass only where it can decide success
             released = ~self.ee.touches(self.clay.spheres)
         return {"success": shaped & released, "iou": iou, "is_shaped": iou >= self.min_iou,
-                "touched": self.memory["touched"], "cells_outside": quarter.flatten(1).sum(dim=1),
+                "touched": self.memory["touched"], "cells_outside": (occupied & ~self.l_cells).flatten(1).sum(dim=1),
                 "cells_bare": (self.l_cells & ~occupied).flatten(1).sum(dim=1)}
 
     def compute_dense_reward(self, obs: Any, action: torch.Tensor, info: dict):
         reach = 1 - torch.tanh(5 * torch.linalg.norm(self.l_centre() - self.ee.tcp().p, dim=1))
-        reward = reach + 3 * ((info["iou"] - 0.75).clamp_min(0) / (self.min_iou - 0.75)).clamp(0, 1)
+        progress = (info["iou"] - self.start_iou).clamp_min(0) / (self.min_iou - self.start_iou)
+        reward = reach + 3 * progress.clamp(0, 1)
         reward[info["success"]] = self.max_dense_reward
         return reward
