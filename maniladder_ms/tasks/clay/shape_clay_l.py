@@ -88,10 +88,12 @@ class ShapeClayLEnv(ClayTask, ManiLadderEnv):
     10.8 cm slab, ~120 steps; FlattenClayWithRoller: any shape half as high and wider), the clay must take a spatial
     target with a concave corner on a grid of 1.2 cm columns: from IoU 0.75 at the start to >= 0.85, i.e. of the
     quarter's 16 columns at most ~8 left occupied with the L's 48 all kept, or fewer with any arm column bared or any
-    column round the L occupied. The closed fingertips (a blade ~2 cm wide) need 3-7 strokes (~200-420 steps) through
-    a 4.8 cm quarter, each aimed at the clay left by the last; the links between the quarter and the arms drag the
-    arms along a stroke (a stroke started on an arm's side dragged it off its columns: IoU 0.87 -> 0.72 after two
-    such strokes), so every stroke starts inside the quarter, >= 1.2 cm off both arms, and runs away from them.
+    column round the L occupied. The closed fingertips (a blade ~2 cm wide) need 4-8 strokes (mean 6, ~150-470
+    steps) through a 4.8 cm quarter, the later ones each aimed at the clay the last left behind; the links between the
+    quarter and the arms drag the arms along a stroke (a stroke started on an arm's side dragged it off its columns:
+    IoU 0.87 -> 0.72 after two such strokes), so every stroke starts inside the quarter, >= 1.2 cm off both arms, and
+    runs away from them, its blade sinking into the clay on a ramp (landing straight down squeezed the arms' outer
+    rows off the L).
     """
 
     max_dense_reward = 5
