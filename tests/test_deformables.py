@@ -728,6 +728,42 @@ def test_mould_fill_on_constructed_clay():
     assert (turned < 1).all()
 
 
+def test_l_occupancy_iou_on_constructed_clay():
+    """The L's occupancy IoU (`clay.occupancy_iou` on `clay.cells_occupied`'s grid, target `clay.l_footprint`):
+    clay on exactly the L's columns scores 1, the full square three quarters, a heap in one corner low; clay held
+    up in the air or pushed past the grid counts for nothing; the grid's pose (centre, yaw) is honoured."""
+    spacing, r, cells, margin, top = 0.012, 0.0058, 14, 3, 0.05
+    half = cells * spacing / 2
+    centre, yaw = torch.tensor([[-0.05, 0.02], [0.03, -0.04]]), torch.tensor([0.3, 2.5])
+    target = clay.l_footprint(cells, margin)
+    assert target.sum() == 48 and not target[cells // 2:, cells // 2:].any()
+
+    def placed(local: torch.Tensor) -> torch.Tensor:  # grid-frame points [N, 3] -> world, both envs [2, N, 3]
+        c, s = torch.cos(yaw)[:, None], torch.sin(yaw)[:, None]
+        x, y = local[:, 0], local[:, 1]
+        return torch.stack([c * x - s * y + centre[:, :1], s * x + c * y + centre[:, 1:], local[:, 2].expand(2, -1)], -1)
+
+    ticks = (torch.arange(margin, cells - margin) + 0.5) * spacing - half  # the middle of the square's columns
+    square = torch.stack([*torch.meshgrid(ticks, ticks, indexing="ij"), torch.full((8, 8), r)], -1).reshape(-1, 3)
+    two_layers = torch.cat([square, square + torch.tensor([0.0, 0.0, spacing])])
+    on_l = two_layers[~((two_layers[:, 0] > 0) & (two_layers[:, 1] > 0))]
+
+    def iou(local: torch.Tensor, turn: float = 0.0) -> torch.Tensor:
+        return clay.occupancy_iou(placed(local), centre, yaw + turn, half, top, target)
+
+    assert torch.allclose(iou(on_l), torch.ones(2))
+    assert torch.allclose(iou(two_layers), torch.full((2,), 0.75))
+    corner = torch.stack(torch.meshgrid(ticks[:2], ticks[:2], r + spacing * torch.arange(8.0), indexing="ij"), -1)
+    assert (iou(corner.reshape(-1, 3)) <= 4 / 48 + 1e-6).all()  # the same clay heaped on 4 columns
+    lifted = torch.cat([on_l, square[(square[:, 0] > 0) & (square[:, 1] > 0)] + torch.tensor([0.0, 0.0, 0.1])])
+    assert torch.allclose(iou(lifted), torch.ones(2))  # the quarter's clay held up in the air
+    pushed = torch.cat([on_l, torch.tensor([[half + 0.01, 0.02, r], [0.03, half + 0.02, r]])])
+    assert torch.allclose(iou(pushed), torch.ones(2))  # past the grid's edge
+    beside = torch.cat([on_l, torch.tensor([[-half + spacing / 2, 0.0, r]])])  # one column left of the L
+    assert torch.allclose(iou(beside), torch.full((2,), 48 / 49))
+    assert (iou(on_l, np.pi / 2) < 0.75).all()  # the L turned a quarter turn: another quarter missing
+
+
 def test_clay_keeps_the_shape_it_is_pressed_into():
     env = _make("clay", control_mode="pd_joint_delta_pos")
     try:

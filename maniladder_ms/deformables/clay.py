@@ -22,6 +22,8 @@ Metrics on particle positions [B, N, 3] (`Clay.positions()`), lengths in metres:
   with tile = the clay's spacing;
 - `top_layer`, `imprint_iou`: which top-layer cells a tool pressed in at least a depth, against the cells
   under its footprint (a stamp's imprint; footprint shapes such as `metrics.inside_star`);
+- `cells_occupied`: which columns of a square grid on the table hold clay low enough (the one rasteriser of
+  the grid metrics); `occupancy_iou`: their IoU with a target footprint on that grid (`l_footprint`: an L);
 - `mould_cells_filled`, `mould_fill`: which cells of a square mould's floor grid hold clay below its rim, and
   their share (`Mould`: the mould itself, an open square frame of walls fixed on the table).
 """
@@ -283,20 +285,48 @@ def imprint_iou(start: torch.Tensor, points: torch.Tensor, under: torch.Tensor, 
     return inter / union
 
 
-def mould_cells_filled(points: torch.Tensor, centre: torch.Tensor, yaw: torch.Tensor, inner_half: float,
-                       depth: float, cells: int) -> torch.Tensor:
-    """Which cells of a square mould's floor hold clay, [B, cells, cells] bool. The mould's inside (side
-    2 `inner_half`, centred at `centre` [B, 2+] on the table, turned by `yaw` [B]) is divided into `cells` x
-    `cells` equal square columns; a column is filled when a particle centre (`points` [B, N, 3]) lies in it no
-    higher than `depth` above the table (the rim): clay heaped on the rim or outside the walls fills nothing,
-    nor does a particle stacked on others above the rim."""
-    local = torch.stack(metrics.channel_coords(points, centre, yaw), dim=-1)  # the mould's own axes
-    index = torch.floor((local + inner_half) / (2 * inner_half / cells)).long()
-    inside = ((index >= 0) & (index < cells)).all(dim=-1) & (points[..., 2] <= depth)
+def cells_occupied(points: torch.Tensor, centre: torch.Tensor, yaw: torch.Tensor, half: float, max_height: float,
+                   cells: int) -> torch.Tensor:
+    """Which columns of a square grid on the table hold clay, [B, cells, cells] bool. The grid (side 2 `half`,
+    centred at `centre` [B, 2+] on the table, turned by `yaw` [B]) is divided into `cells` x `cells` equal square
+    columns, indexed [along the grid's x, along its y]; a column is occupied when a particle centre (`points`
+    [B, N, 3]) lies in it no higher than `max_height` above the table: clay outside the grid, or lifted or stacked
+    above that height, occupies nothing."""
+    local = torch.stack(metrics.channel_coords(points, centre, yaw), dim=-1)  # the grid's own axes
+    index = torch.floor((local + half) / (2 * half / cells)).long()
+    inside = ((index >= 0) & (index < cells)).all(dim=-1) & (points[..., 2] <= max_height)
     flat = torch.where(inside, index[..., 0] * cells + index[..., 1], torch.full_like(index[..., 0], cells * cells))
     filled = torch.zeros(points.shape[0], cells * cells + 1, dtype=torch.bool, device=points.device)
     filled.scatter_(1, flat, True)
     return filled[:, :-1].reshape(-1, cells, cells)
+
+
+def occupancy_iou(points: torch.Tensor, centre: torch.Tensor, yaw: torch.Tensor, half: float, max_height: float,
+                  target: torch.Tensor) -> torch.Tensor:
+    """Intersection over union of the clay's occupied columns (`cells_occupied` on the grid of `target`'s size)
+    and a target footprint `target` [cells, cells] or [B, cells, cells] bool on that grid, [B]."""
+    cells = target.shape[-1]
+    return metrics.iou(cells_occupied(points, centre, yaw, half, max_height, cells), target)
+
+
+def l_footprint(cells: int, margin: int) -> torch.Tensor:
+    """An L on a `cells` x `cells` grid (`cells_occupied`'s indexing), [cells, cells] bool: the square `margin` cells
+    in from each edge of the grid (its side even) without its quarter on the grid's +x, +y side."""
+    side = cells - 2 * margin
+    assert side > 0 and side % 2 == 0, "the L's square needs an even side"
+    index = torch.arange(cells)
+    square = (index >= margin) & (index < cells - margin)
+    upper = index >= cells // 2
+    return square[:, None] & square[None, :] & ~(upper[:, None] & upper[None, :])
+
+
+def mould_cells_filled(points: torch.Tensor, centre: torch.Tensor, yaw: torch.Tensor, inner_half: float,
+                       depth: float, cells: int) -> torch.Tensor:
+    """Which cells of a square mould's floor hold clay, [B, cells, cells] bool (`cells_occupied` on the mould's
+    inside: side 2 `inner_half`, centred at `centre` [B, 2+] on the table, turned by `yaw` [B]); a column is
+    filled when a particle centre lies in it no higher than `depth` above the table (the rim): clay heaped on the
+    rim or outside the walls fills nothing, nor does a particle stacked on others above the rim."""
+    return cells_occupied(points, centre, yaw, inner_half, depth, cells)
 
 
 def mould_fill(points: torch.Tensor, centre: torch.Tensor, yaw: torch.Tensor, inner_half: float, depth: float,
