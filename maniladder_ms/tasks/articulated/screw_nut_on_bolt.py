@@ -36,15 +36,16 @@ class ScrewNutOnBoltEnv(ManiLadderEnv):
     friction: a bolt that no gripper holds turns with the nut (and the nut then does not advance on it), and a
     turn made while the bolt stands on the table, or with one of the grips let go, does not count.
 
-    **Level 3:** (against Level 2's OpenJarBimanual: a 6 cm jar held standing on the table, its 6.6 cm lid
-    turned 540 degrees in two strokes) the holding gripper lifts a 16 mm shaft off the table and holds it
-    upright in the air, so its grip alone carries the bolt and the thread's torque about a lever of 8 mm (the
-    jar's body, 30 mm, stood on the table, whose friction shared the load); the twisting gripper must close
-    across the flats of a 28 mm nut (the lid was round: any yaw gripped it), each regrasp at a yaw a multiple
-    of sixty degrees from the nut's, and follow the nut down as it advances (its grip point moves, the lid's did
-    not); five stages (take the bolt's shaft, lift it, grip the nut, twist, let go and turn back, then twist
-    again) and about 80 degrees more turn than the lid (`min_advance` at `thread_pitch`: one and a quarter
-    turns plus the grip's slip) on a part of a third of the lid's width.
+    **Level 3:** (against Level 2's OpenJarBimanual: a 6 cm jar held standing on the table while its round
+    6.6 cm lid is turned 540 degrees in two strokes) the holding gripper must lift the bolt off the table by a
+    16 mm shaft and hold it upright in the air for the whole turn (a turn while the bolt stands on the table
+    does not count), so its grip alone carries the bolt and the thread's torque on an 8 mm lever (the jar's
+    body, 30 mm, stood on the table, whose friction shared the load); the twisting gripper must close across
+    the flats of a 28 mm hex nut (under half the lid's width; the lid was round, any yaw gripped it), each
+    regrasp at a yaw a multiple of sixty degrees from the nut's as it now stands, and its grip follows the nut
+    down the shaft as it advances (the lid did not move along its axis); seven stages (take the bolt's shaft,
+    lift it, grip the nut, twist, let go and turn back, grip again, twist), ~480 control steps against the
+    jar's ~465, with about 450 degrees of turn (`min_advance` at `thread_pitch`).
     """
 
     SUPPORTED_ROBOTS = ["ml_dual_panda"]
