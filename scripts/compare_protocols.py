@@ -200,6 +200,7 @@ def run_unit(task: str, arm: str, work: Path) -> dict:
         task_hash = tc.task_hash
     shared, _ = calibration(task, work, PREPARE_ARM)
     return {"task": task, "arm": arm, "successes": summary["successes"], "episodes": summary["episodes"],
+            "diverged": summary.get("diverged", 0),  # episodes whose simulation went non-finite (failures)
             "success": summary["rate"], "mean_steps": summary.get("mean_steps"), "seed_set": 1,
             "cpu_s": cpu, "wall_s": wall, "shared_cpu_s": {k: v for k, v in shared._timings(shared.cpu_timings_path).items()
                                                           if k in ("demos", "features")},
