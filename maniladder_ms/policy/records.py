@@ -49,14 +49,13 @@ def _changes(before: Optional[dict], params: dict, horizon: int) -> dict:
     return {k: [old.get(k), new.get(k)] for k in sorted(set(old) | set(new)) if old.get(k) != new.get(k)}
 
 
-def check_run(records: Path, task: str, task_hash: str, protocol: str, purpose: str, config: dict,
-              reason: Optional[str] = None, extra_round: bool = False) -> None:
-    """Before a run starts: refuse it (RecordError) if the record's rules would refuse its entry."""
-    record = load_record(records, task)
-    entries = record["entries"]
-    key = (task_hash, protocol, purpose, json.dumps(config, sort_keys=True))
-    if any(_key(e) == key for e in entries):
-        return  # already recorded (a resume): nothing to add
+def _added(record: dict, task_hash: str, protocol: str, purpose: str, config: dict, reason: Optional[str],
+           extra_round: bool) -> bool:
+    """Whether a run's entry would be added to `record` (False: that measurement is recorded already); raises
+    RecordError where the record's rules refuse it."""
+    task, entries = record["task"], record["entries"]
+    if any(_key(e) == (task_hash, protocol, purpose, json.dumps(config, sort_keys=True)) for e in entries):
+        return False  # already recorded (a resume): nothing to add
     if entries and entries[-1]["task_hash"] != task_hash and not reason:
         raise RecordError(
             f"{task} changed since its last recorded run (task version {entries[-1]['task_hash']} -> {task_hash}): "
@@ -68,6 +67,13 @@ def check_run(records: Path, task: str, task_hash: str, protocol: str, purpose: 
                 f"{task} has {len(rounds)} development rounds under protocol {protocol} (the loop's limit is "
                 f"{MAX_DEVELOPMENT_ROUNDS}): run the final calibration, move the task's level (a catalog edit with its "
                 "reason), or pass --extra-round with --change saying why")
+    return True
+
+
+def check_run(records: Path, task: str, task_hash: str, protocol: str, purpose: str, config: dict,
+              reason: Optional[str] = None, extra_round: bool = False) -> None:
+    """Before a run starts: refuse it (RecordError) if the record's rules would refuse its entry."""
+    _added(load_record(records, task), task_hash, protocol, purpose, config, reason, extra_round)
 
 
 def record_run(records: Path, result: dict, params: dict, reason: Optional[str] = None,
@@ -75,11 +81,12 @@ def record_run(records: Path, result: dict, params: dict, reason: Optional[str] 
     """Append calibration `result` (a `TaskCalibration.write_result` dict) to its task's record, under the same
     rules as `check_run`; the catalog `params` are those the run measured. Returns the record."""
     task = result["task"]
-    check_run(records, task, result["task_hash"], result["protocol"], result["purpose"], result["config"], reason,
-              extra_round)
     record = load_record(records, task)
+    if not _added(record, result["task_hash"], result["protocol"], result["purpose"], result["config"], reason,
+                  extra_round):
+        return record
     entries = record["entries"]
-    entry = {
+    entries.append({
         "round": len(entries) + 1, "purpose": result["purpose"], "seed_set": result["seed_set"],
         "protocol": result["protocol"], "task_hash": result["task_hash"], "config": result["config"],
         "commit": result.get("environment", {}).get("commit"), "time": result.get("time"),
@@ -88,10 +95,7 @@ def record_run(records: Path, result: dict, params: dict, reason: Optional[str] 
         "successes": result["successes"], "episodes": result["episodes"], "success": result["success"],
         "ci95": result["ci95"], "training_seeds": len(result.get("per_training_seed", {})) or 1,
         "measured_level": result["measured_level"], "verdict": result["verdict"],
-    }
-    if any(_key(e) == _key(entry) for e in entries):
-        return record
-    entries.append(entry)
+    })
     path = Path(records) / f"{task}.json"
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_suffix(".partial")
