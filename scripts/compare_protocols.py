@@ -97,21 +97,24 @@ V4_ARM = "v4aug"
 
 def units() -> list[tuple[str, str]]:
     """In the order they are run: what the protocol's choices wait for first (the schedule's pairs with v3, the batch
-    lever, augmentation and Lite1 on three of item 5's tasks), then v4 and the oracle on all 16 tasks, v3's schedule
-    on its other tasks, the training-seed spread, the rest of item 5."""
+    lever, augmentation and Lite1 on three of item 5's tasks), then v4 and the oracle on all 16 tasks, the
+    training-seed spread, v3's schedule on the Level 2 tasks, the rest of item 5, v3 on its other tasks."""
     base = (V4_ARM, "oracle")
     order = [("PickPlacePen", a) for a in ("v4", "v3")]
     order += [(t, "v4b32") for t in STEPS_TASKS[:2]]
     order += [(t, "v4l1") for t in STEPS_TASKS[:2]]
     order += [(t, a) for t in ITEM5_TASKS[:3] for a in ("v4", "v4aug")]
     order += [(t, a) for t in TASKS for a in base]
-    order += [(t, "v3") for t in V3_TASKS]
+    # what the issue's Done names next: the training-seed spread, then v3's schedule on the two Level 2 tasks (no v3
+    # result exists there); its Level 1 pairs (LiftWideBox, DragRopeToGoal) have a recorded v3 result and run last
     order += [(t, f"v4augs{k}") for k in (1, 2) for t in SPREAD_TASKS]
+    order += [(t, "v3") for t in V3_TASKS if t in L2_TASKS]
     # after the freeze: history at 4000 steps on the three tasks paired so far, augmentation against none on the
     # other item-5 tasks. Lite1 (LiftBottleHand 27/50, PickPlacePen 6/50 against 31 and 14) and batch 32 (26/50, 7/50)
     # lost on both tasks they were paired on; their other units are not run (the CPU goes to the ladder)
     order += [(t, "v4h2") for t in ITEM5_TASKS[:3]]
     order += [(t, "v4") for t in ITEM5_TASKS[3:]]
+    order += [(t, "v3") for t in V3_TASKS]
     return list(dict.fromkeys(order))  # each unit once, at its first place
 
 
