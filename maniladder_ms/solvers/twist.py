@@ -30,7 +30,8 @@ def tcp_yaw(s: DrivenSolver, arm: str) -> torch.Tensor:
     return matrix_yaw(quaternion_to_matrix(s.tcp(arm).q))
 
 
-def _j7(s: DrivenSolver, arm: str) -> torch.Tensor:
+def wrist_angle(s: DrivenSolver, arm: str) -> torch.Tensor:
+    """(n,) the arm's wrist joint (panda_joint7) angle: how far a stroke has wound it towards `J7_LIMIT`."""
     names = [j.name for j in s.agent.robot.active_joints]
     prefix = arm[: -len("arm")]
     return s.agent.robot.get_qpos()[:, names.index(f"{prefix}panda_joint7")]
@@ -60,7 +61,7 @@ def wind_up_target(s: DrivenSolver, arm: str, position: torch.Tensor, offset=Non
     """This control step's target (p, q) of a top-down TCP whose grip point (`offset`, see `grip_target`)
     goes to `position` while its wrist turns clockwise (from above) to the start of joint 7's range, where
     a stroke begins; call it each step (it can run beside other arms' moves)."""
-    wound = _j7(s, arm) >= J7_LIMIT - J7_MARGIN
+    wound = wrist_angle(s, arm) >= J7_LIMIT - J7_MARGIN
     return grip_target(position, tcp_yaw(s, arm) - torch.where(wound, 0.0, LEAD), offset)
 
 
@@ -74,7 +75,7 @@ def rise_first(s: DrivenSolver, arm: str, target: torch.Tensor) -> torch.Tensor:
 
 
 def is_wound_up(s: DrivenSolver, arm: str) -> bool:
-    return bool((_j7(s, arm) >= J7_LIMIT - J7_MARGIN).all())
+    return bool((wrist_angle(s, arm) >= J7_LIMIT - J7_MARGIN).all())
 
 
 def lid_points(task):
@@ -174,11 +175,11 @@ def unscrew(s: DrivenSolver, task, arm: str, ee: str, max_strokes: int = 4, stro
             tcp = s.tcp(arm)
             grip = quaternion_apply(quaternion_invert(tcp.q), point - tcp.p)  # the lid's axis point in the TCP frame
             axis = lambda: point  # noqa: E731
-        ahead = (lambda: (_j7(s, arm) + J7_LIMIT - J7_MARGIN).clamp(0.05, LEAD)) if soft_end else None
+        ahead = (lambda: (wrist_angle(s, arm) + J7_LIMIT - J7_MARGIN).clamp(0.05, LEAD)) if soft_end else None
         if hold_gain > 0:
             axis_point = axis
             axis = lambda: hold.at(axis_point())  # noqa: E731  (a shift of the grip point shifts the TCP alike)
-        turn_wrist(s, arm, axis, 1, lambda: done() or bool((_j7(s, arm) <= -J7_LIMIT + J7_MARGIN).all()),
+        turn_wrist(s, arm, axis, 1, lambda: done() or bool((wrist_angle(s, arm) <= -J7_LIMIT + J7_MARGIN).all()),
                    max_steps=stroke_steps, offset=grip, lead=ahead)
         if done():
             return
@@ -197,7 +198,8 @@ def unscrew(s: DrivenSolver, task, arm: str, ee: str, max_strokes: int = 4, stro
             back = lambda: high  # noqa: E731
             s.move({arm: grip_target(high, tcp_yaw(s, arm), offset)}, max_steps=25, pos_tol=0.01)
         # turn back as far as the rest of the turn needs (or the wrist allows)
-        back_to = _j7(s, arm) + ((release - task.memory["held_turn"][:, 0]) / follow + back_margin)
+        back_to = wrist_angle(s, arm) + ((release - task.memory["held_turn"][:, 0]) / follow + back_margin)
         turn_wrist(s, arm, back, -1,
-                   lambda: bool(((_j7(s, arm) >= back_to) | (_j7(s, arm) >= J7_LIMIT - J7_MARGIN)).all()),
+                   lambda: bool(((wrist_angle(s, arm) >= back_to)
+                                 | (wrist_angle(s, arm) >= J7_LIMIT - J7_MARGIN)).all()),
                    max_steps=stroke_steps, offset=offset)

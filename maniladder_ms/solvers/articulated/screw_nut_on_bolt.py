@@ -21,7 +21,8 @@ from maniladder_ms.geometry import matrix_yaw, tcp_quat
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.bimanual import Grasp
 from maniladder_ms.solvers.driven import DrivenSolver
-from maniladder_ms.solvers.twist import J7_LIMIT, J7_MARGIN, LEAD, _j7, grip_target, rise_first, tcp_yaw, turn_wrist
+from maniladder_ms.solvers.twist import (J7_LIMIT, J7_MARGIN, LEAD, grip_target, rise_first, tcp_yaw, turn_wrist,
+                                         wrist_angle)
 from maniladder_ms.tasks.articulated.screw_nut_on_bolt import ScrewNutOnBoltEnv
 
 # the left gripper holds the shaft from the +y side (pointing along world -y, fingers closing along world x), its
@@ -46,7 +47,7 @@ FOLLOW = 0.9  # the share of the wrist's turn the nut takes (the rest slips)
 
 def wound(s: DrivenSolver, arm: str) -> torch.Tensor:
     """(n,) joint 7 is at the low end of its range, where a clockwise stroke begins."""
-    return _j7(s, arm) <= -J7_LIMIT + J7_MARGIN
+    return wrist_angle(s, arm) <= -J7_LIMIT + J7_MARGIN
 
 
 def nut_grip_point(task: ScrewNutOnBoltEnv) -> torch.Tensor:
@@ -106,14 +107,14 @@ def screw_on(s: DrivenSolver, task: ScrewNutOnBoltEnv, arm: str, ee: str):
         s.move(lambda: {arm: grip_target(nut_grip_point(task), yaw)}, max_steps=REACH_STEPS, pos_tol=REACH_POS_TOL)
         s.grasp(ee)
         turn_wrist(s, arm, lambda: nut_grip_point(task), -1,
-                   lambda: done() or bool((_j7(s, arm) >= J7_LIMIT - J7_MARGIN).all()), max_steps=STROKE_STEPS)
+                   lambda: done() or bool((wrist_angle(s, arm) >= J7_LIMIT - J7_MARGIN).all()), max_steps=STROKE_STEPS)
         if done():
             return
         s.release(ee, steps=RELEASE_STEPS)
         high = lambda: task.nut_top() + ABOVE_NUT * up  # noqa: E731
         s.move({arm: grip_target(high(), tcp_yaw(s, arm))}, max_steps=20, pos_tol=0.01)
-        back_to = _j7(s, arm) - back_turn(s, task, arm)
-        turn_wrist(s, arm, high, 1, lambda: bool(((_j7(s, arm) <= back_to) | wound(s, arm)).all()),
+        back_to = wrist_angle(s, arm) - back_turn(s, task, arm)
+        turn_wrist(s, arm, high, 1, lambda: bool(((wrist_angle(s, arm) <= back_to) | wound(s, arm)).all()),
                    max_steps=STROKE_STEPS)
 
 
@@ -125,5 +126,5 @@ def back_turn(s: DrivenSolver, task: ScrewNutOnBoltEnv, arm: str) -> torch.Tenso
     want = rest / FOLLOW + BACK_MARGIN
     offset = tcp_yaw(s, arm) - flats_yaw(s, task, arm)  # (-FLATS/2, FLATS/2]: the hand's yaw past the nearest flats
     up_to = torch.ceil((want + offset) / FLATS) * FLATS - offset
-    room = _j7(s, arm) + J7_LIMIT - J7_MARGIN
+    room = wrist_angle(s, arm) + J7_LIMIT - J7_MARGIN
     return torch.where(up_to <= room, up_to, up_to - FLATS)
