@@ -4,7 +4,8 @@ A task's catalog level is what it was designed for. It becomes a measured placem
 (`maniladder calibrate`, LadderFlow) has been run on the task as built, under the current protocol: the committed
 results in `docs/calibration/` (a source checkout; an installed wheel has none, so it shows design targets).
 A result of an older protocol, or of an older version of the task (`provenance.task_hash`), or one marked
-stale, measures nothing about the task now. Every level the CLI and the reports show says which it is.
+stale, measures nothing about the task now; a development run (one training seed, development seeds: a decision
+while refining the task) does not place it either, only a final run does. Every level the CLI and the reports show says which it is.
 """
 
 from __future__ import annotations
@@ -20,12 +21,13 @@ COMMITTED_RESULTS = ROOT / "docs" / "calibration"
 
 @lru_cache(maxsize=1)
 def measured_results(folder: Path = COMMITTED_RESULTS) -> dict[str, dict]:
-    """{task: result} of the current protocol's committed results that still measure their task as built."""
+    """{task: result} of the current protocol's committed results that still measure their task as built and are
+    not development runs."""
     from maniladder_ms.policy.calibrate import load_results, stale_reason
 
     if not Path(folder).is_dir():
         return {}
-    return {r["task"]: r for r in load_results(folder) if not stale_reason(r)}
+    return {r["task"]: r for r in load_results(folder) if r.get("purpose") != "development" and not stale_reason(r)}
 
 
 def measured(task_id: str) -> Optional[dict]:

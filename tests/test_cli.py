@@ -47,7 +47,7 @@ def test_list_filters_and_json(capsys):
 
 def test_levels_shown_say_whether_they_are_measured(capsys, tmp_path, monkeypatch):
     """No current-protocol result committed: every level is a design target, and list/show say so; a committed
-    current result of the task as built makes its level measured."""
+    current final result of the task as built makes its level measured (a development run does not)."""
     from maniladder_ms import levels, provenance
     from maniladder_ms.policy.flow import PROTOCOL_VERSION
 
@@ -57,9 +57,13 @@ def test_levels_shown_say_whether_they_are_measured(capsys, tmp_path, monkeypatc
     assert main(["show", "PickPlacePen"]) == 0 and "design target" in capsys.readouterr().out
     result = {"task": "PickPlacePen", "measured_level": 1, "measured_level_text": "L1", "success": 0.72,
               "protocol": PROTOCOL_VERSION, "task_hash": provenance.task_hash("PickPlacePen")}
-    (tmp_path / "PickPlacePen.json").write_text(json.dumps(result))
     read = levels.measured_results.__wrapped__
     monkeypatch.setattr(levels, "measured_results", lambda folder=tmp_path: read(folder))
+    (tmp_path / "PickPlacePen.json").write_text(json.dumps({**result, "purpose": "development"}))
+    assert main(["list", "--suite", "L1-rigid-SG"]) == 0  # a development run does not place the task
+    out = capsys.readouterr().out
+    assert "measured" not in out.split("design targets")[0] and "PickPlacePen" in out
+    (tmp_path / "PickPlacePen.json").write_text(json.dumps({**result, "purpose": "final"}))
     assert main(["list", "--suite", "L1-rigid-SG"]) == 0
     out = capsys.readouterr().out
     assert f"L1 measured {PROTOCOL_VERSION} (72%, L1)" in out and "1 of" in out and "L1 target" in out
