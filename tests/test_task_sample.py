@@ -77,3 +77,25 @@ def test_the_environment_overrides_the_sample(monkeypatch):
     # the changed task first, then the commit's top-ranked one (which may be the changed task itself)
     ranked = conftest._rank(tasks, conftest.commit())[:1]
     assert task_sample(tasks, 1) == ["HandoverCube"] + [t for t in ranked if t != "HandoverCube"]
+
+
+def test_the_sample_keeps_within_its_step_budget_and_can_still_draw_any_task(monkeypatch):
+    """The commit's sample stops adding long tasks once its demo steps would pass k x SAMPLE_STEPS_PER_TASK, and
+    the longest task is still checked by a commit whose order puts it first."""
+    import hashlib
+
+    tasks = sorted(task_files())
+    monkeypatch.setattr(conftest, "changed_tasks", lambda: ())
+    budget = 8 * conftest.SAMPLE_STEPS_PER_TASK
+    for i in range(40):
+        monkeypatch.setattr(conftest, "commit", lambda i=i: f"key{i}")
+        sample = task_sample(tasks, 8)
+        assert 6 <= len(sample) <= 8 and len(set(sample)) == len(sample)  # fewer when long tasks spent the budget
+        assert sum(map(conftest.demo_steps, sample)) <= budget
+        assert sample[0] == conftest._rank(tasks, f"key{i}")[0]  # the commit's first pick is never passed over
+    longest = max(tasks, key=conftest.demo_steps)
+    assert conftest.demo_steps(longest) > 3 * conftest.SAMPLE_STEPS_PER_TASK  # the budget has something to cap
+    first = next(f"k{i}" for i in range(100000)
+                 if min(tasks, key=lambda t, i=i: hashlib.sha256(f"k{i}:{t}".encode()).hexdigest()) == longest)
+    monkeypatch.setattr(conftest, "commit", lambda: first)
+    assert task_sample(tasks, 8)[0] == longest
