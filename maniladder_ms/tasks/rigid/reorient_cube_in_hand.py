@@ -18,12 +18,17 @@ from maniladder_ms.agents.effectors import contact_forces
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.layout import symmetric_deg, uniform
 
-# The arm's ready pose: the hand palm-up, fingers pointing away from the robot (+x), its TCP at (-0.1, 0, 0.38)
-# (pinocchio IK; of 60 random starts, the solution furthest from the joint limits: 0.46 rad)
+# The arm's ready pose: the hand palm-up, fingers pointing away from the robot (+x), its TCP at (-0.1, 0, 0.38), the
+# palm 10 cm below it (pinocchio IK, 40 random starts: of the solutions with the shoulder facing the hand, the one
+# furthest from the joint limits, 0.44 rad). With the TCP at 0.28 the wrist, under the palm-up hand, lay in the
+# table and the first control step threw the arm 6 cm up
 READY_ARM_JOINTS = (-0.626, 0.934, 0.512, -2.144, 1.865, 0.424, -0.16)
-# where the cube lies on the open palm-up hand, in the TCP frame (x along the fingers, z out of the palm): its
-# centre over the finger bases (the knuckles at x = 1.7 cm), resting on the palm and the fingers' first links
-CUBE_ON_PALM = (0.045, -0.008, -0.06)
+# where the cube lies on the open palm-up hand, in the TCP frame (x along the fingers, z out of the palm): over the
+# finger bases (its edge nearest the heel ~0.5 cm past the knuckles, at x = 1.7 cm), across the middle finger (y), at
+# the height it settles to on the flat fingers. Centred over the palm's heel side instead (x = 2.6 cm), the curling
+# fingers tipped it only 35 degrees before it met the thumb's base, and 2.3 cm towards the index finger (y = -0.8 cm)
+# cubes turned +20 to +40 degrees fell off the hand's side as they tipped (seeds 104, 109, 112)
+CUBE_ON_PALM = (0.045, 0.015, -0.06)
 MARK_COLOR = (0.9, 0.15, 0.1, 1)
 CUBE_COLOR = (0.92, 0.88, 0.75, 1)
 MARK_INSET = 0.004  # m the marked square stops short of the face's edges
@@ -53,15 +58,16 @@ def _angle_deg(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
 @register_task("ReorientCubeInHand")
 class ReorientCubeInHandEnv(ManiLadderEnv):
     """**Task:** a cube lies on the open LEAP hand, held palm-up above the table, one of its faces marked red and
-    pointing sideways (along the fingers); turn the cube in the hand with the fingers so that the marked face points
-    up, and hold it there, the cube off the table.
+    pointing sideways, along the fingers; turn the cube in the hand with the fingers so that the marked face points
+    up, and hold it there, off the table.
 
     **Randomisation:**
-    - the cube (5 cm, `cube_half`; `cube_mass`; friction `cube_friction`) lies on the palm with its marked face
-      towards the fingertips: its centre offset from its place on the palm (`CUBE_ON_PALM`) uniform in +-
-      `cube_max_offset` along the palm's two axes, its yaw about the palm normal uniform in +- `cube_max_yaw`;
+    - the cube (5 cm, `cube_half`; `cube_mass`; friction `cube_friction`) lies on the hand's finger bases
+      (`CUBE_ON_PALM`), its centre offset from there uniform in +- `cube_max_offset` along the palm's two axes, its
+      yaw about the palm normal uniform in +- `cube_max_yaw` (the marked face is the side face nearest the
+      fingertips' direction; a cube turned near its diagonal tips over a corner);
     - the arm starts in a ready pose (`READY_JOINTS`, plus the usual joint noise): palm-up, fingers pointing away
-      from the robot, the palm ~20 cm above the table.
+      from the robot, the palm ~28 cm above the table.
 
     **Success:** the marked face's outward normal is within `max_face_angle` of +z; the hand holds the cube
     (`ee.holds`: a finger pressing it against the thumb or palm), the cube does not touch the table and its centre
@@ -72,10 +78,13 @@ class ReorientCubeInHandEnv(ManiLadderEnv):
     pose in which it left the table, so neither counts.
 
     **Level 3:** (against Level 2's SX tasks, PlaceMugOnCoasterHand and SlideCardToEdgeHand: grasps, carries and
-    releases in which the object keeps its pose in the hand, ~200-step demos, 1-2 cm and 10 degree tolerances) a
-    90 degree in-hand rotation with the contacts switching: the fingers lift the cube's far edge, it tips over its
-    near bottom edge onto the palm with no support but the hand, and the fingers close over it again; the marked
-    face must end within 20 degrees of up with the cube held, and the hand's frame rules out the wrist doing the turn.
+    releases in which the object keeps its pose in the hand, 1-2 cm and 10 degree tolerances) a 90 degree in-hand
+    rotation with the contacts switching, the hand the cube's only support: the knuckles lift the cube's far side,
+    it pivots on its edge nearest the heel, past its balance point, and drops onto the palm (the fingers' first
+    links, then the palm, carry it), and the fingers curl over it again; the marked face must end within 20 degrees
+    of up with the cube held, in a frame where a wrist turn does not count. The rotation is short (the scripted demo
+    takes 47 steps), but it has no slack: a cube 2.3 cm off the hand's middle falls off its side as it tips, and
+    one 2 cm nearer the heel stalls at 35 degrees against the thumb.
     """
 
     SUPPORTED_ROBOTS = ["ml_panda_leap"]
