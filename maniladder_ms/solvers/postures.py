@@ -93,4 +93,10 @@ LEAP_SYNERGIES = {
     # "power"'s fingers, the thumb swung 1.0 under the palm and straight beyond it (PourGrainsHandToCup's holder: its
     # thumb at 8-38 N, three fingertips at 6-14 N on the cup)
     "side_power_thumb_straight": np.array([0.0, 1.5, 0.6, 0.4] * 3 + [1.0, 0.0, 0.0, 0.0]),
+    # a palm-up hand tipping a 5 cm cube lying on its finger bases over towards the heel (ReorientCubeInHand): the
+    # three fingers raised at their knuckles only, straight, thumb flat (at 1.2 rad the cube has tipped the quarter
+    # turn onto the palm, seed 0: its top 1.6 deg from up); then curled over the tipped cube, knuckles, PIP and DIP at
+    # 1.6, pressing it onto the palm (a finger against the palm: `ee.holds`)
+    "roll_tip": np.array([0.0, 1.2, 0.0, 0.0] * 3 + [0.0, 0.0, 0.0, 0.0]),
+    "roll_grip": np.array([0.0, 1.6, 1.6, 1.6] * 3 + [0.0, 0.0, 0.0, 0.0]),
 }
