@@ -362,6 +362,34 @@ def test_calibrate_checks_the_record_before_any_work_and_show_prints_it(tmp_path
         "0000000000000000): 30/50 = 60% [40, 70], interval outside L1's band" in out
 
 
+def test_calibrate_records_each_task_as_it_finishes(tmp_path, monkeypatch):
+    """A run over several tasks appends each task's record when its result is written, before the next task starts
+    (a run of the ladder spans sessions: a killed run keeps the records of the tasks it finished)."""
+    from maniladder_ms.cli import main
+    from maniladder_ms.policy import calibrate as cal
+    from maniladder_ms.policy.records import load_record
+    from maniladder_ms.provenance import task_hash
+
+    tasks, seen = ["PickPlacePen", "LiftWideBox"], []
+
+    def run(self):  # the calibration's stages stood in for: the result file a finished task writes
+        task = self.spec.id
+        seen.append([t for t in tasks if load_record(tmp_path / "records", t)["entries"]])
+        r = {**_result(task_hash=task_hash(task)), "task": task}
+        self.out.mkdir(parents=True, exist_ok=True)
+        (self.out / f"{task}.json").write_text(json.dumps(r))
+        return {**r, "successes": 30, "episodes": 50, "ci95": [0.4, 0.7], "measured_level_text": "L2",
+                "catalog_level": 1}
+
+    monkeypatch.setattr(cal.TaskCalibration, "run", run)
+    monkeypatch.setattr(cal, "write_summary", lambda out: {"tasks": []})
+    monkeypatch.setattr(cal, "print_calibration", lambda summary, file=None: None)
+    assert main(["calibrate", "--tasks", ",".join(tasks), "--purpose", "development", "--work", str(tmp_path / "w"),
+                 "--out", str(tmp_path / "out"), "--record", str(tmp_path / "records"), "--quiet"]) == 0
+    assert seen == [[], ["PickPlacePen"]]  # the first task's record was there when the second started
+    assert all(len(load_record(tmp_path / "records", t)["entries"]) == 1 for t in tasks)  # and nothing twice
+
+
 def test_calibration_report_shows_level_means_agreement_and_the_ladder_figures(tmp_path, capsys):
     """The ladder's picture from calibration results: level means with bootstrap intervals and whether adjacent
     levels are apart, the agreement table (catalog level x measured level), and four figures."""

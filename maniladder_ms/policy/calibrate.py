@@ -458,7 +458,7 @@ def _removed_after(path: Path):
         path.unlink(missing_ok=True)
 
 
-def _calibrate_on_ray(tasks: Sequence[str], kwargs: dict, address: str, progress: bool, log) -> dict:
+def _calibrate_on_ray(tasks: Sequence[str], kwargs: dict, address: str, progress: bool, log, on_result=None) -> dict:
     """Every task's `prepare` as a unit, then, as each finishes, one unit per training seed; the driver writes a
     task's result when its last seed is in. Returns {task: why} of the tasks that failed (the others go on)."""
     import secrets
@@ -502,6 +502,8 @@ def _calibrate_on_ray(tasks: Sequence[str], kwargs: dict, address: str, progress
                 try:
                     r = TaskCalibration(t, **kwargs).write_result(dict(sorted(per_seed[t].items())))
                     log(_result_line(r))
+                    if on_result:
+                        on_result(r)
                 except ValueError as e:
                     failed[t] = f"{type(e).__name__}: {e}"
                     log(f"{t}: FAILED {failed[t]}")
@@ -512,8 +514,10 @@ def _calibrate_on_ray(tasks: Sequence[str], kwargs: dict, address: str, progress
 def calibrate(tasks: Sequence[str], work: Path, out: Path, demos_dir: Optional[Path] = None, device: str = "cpu",
               workers: int = 1, progress: bool = True, config: LadderFlowConfig = LadderFlowConfig(),
               protocol: CalibrationProtocol = CalibrationProtocol(), renderer: str = "cpu", replace: bool = False,
-              log=print, ray_address: Optional[str] = None) -> dict:
+              log=print, ray_address: Optional[str] = None, on_result=None) -> dict:
     """Calibrate `tasks` (resuming what `work` holds), then rewrite the summary of every result in `out`.
+    `on_result(result)` is called in this process as each task's result is written (a calibration record is
+    appended then, not after the last task: a run over many tasks spans sessions).
     Each process runs one torch thread and renders with `renderer` (the env var the envs read, inherited by
     worker processes). `ray_address` ("local", "auto", "ray://host:10001"): tasks and training seeds run on a Ray
     cluster's workers instead (`_calibrate_on_ray`), which must see `work` (and `demos_dir`) at the same path."""
@@ -537,21 +541,27 @@ def calibrate(tasks: Sequence[str], work: Path, out: Path, demos_dir: Optional[P
     torch.set_num_threads(1)  # one task per process and core; worker processes inherit the env var, not this
     try:
         if ray_address is not None:
-            failed = _calibrate_on_ray(tasks, kwargs, ray_address, progress, log)
+            failed = _calibrate_on_ray(tasks, kwargs, ray_address, progress, log, on_result)
         elif workers <= 1:
             for t in tasks:
                 t0 = time.perf_counter()
                 r = TaskCalibration(t, progress=progress, log=log, **kwargs).run()
                 log(_result_line(r, time.perf_counter() - t0))
+                if on_result:
+                    on_result(r)
         else:
             with cf.ProcessPoolExecutor(workers, mp_context=mp.get_context("spawn"), initializer=_one_thread) as pool:
                 futures = {pool.submit(_calibrate_one, t, dict(kwargs, progress=False)): t for t in tasks}
                 for fut in cf.as_completed(futures):
                     try:
-                        log(_result_line(fut.result()))
+                        r = fut.result()
+                        log(_result_line(r))
                     except Exception as e:  # one task's failure leaves the others running
                         failed[futures[fut]] = f"{type(e).__name__}: {e}"
                         log(f"{futures[fut]}: FAILED {failed[futures[fut]]}")
+                        continue
+                    if on_result:
+                        on_result(r)
     finally:
         if previous[0] is None:
             os.environ.pop(RENDER_ENV, None)
@@ -743,12 +753,14 @@ def cmd_calibrate(args) -> int:
         for s in specs:
             check_run(args.record, s.id, task_hash(s.id), PROTOCOL_VERSION, args.purpose, LadderFlowConfig().as_dict(),
                       args.change, args.extra_round)
+    by_id = {s.id: s for s in specs}
+    record_one = (lambda r: _record_results([by_id[r["task"]]], args)) if args.record else None
     try:
         summary = calibrate(tasks, args.work, args.out, demos_dir=args.demos, device=args.device,
                             workers=args.workers, progress=not args.quiet,
                             protocol=CalibrationProtocol(purpose=args.purpose), renderer=args.renderer,
-                            replace=args.replace, ray_address=args.ray)
-    finally:  # the tasks that finished are recorded even when another failed
+                            replace=args.replace, ray_address=args.ray, on_result=record_one)
+    finally:  # each task is recorded as it finishes; this records those of an earlier, killed run (adds nothing twice)
         if args.record:
             _record_results(specs, args)
     print()
@@ -760,7 +772,7 @@ def cmd_calibrate(args) -> int:
 def _record_results(specs, args) -> None:
     from maniladder_ms.provenance import task_hash
 
-    from .records import record_run
+    from .records import load_record, record_run
 
     for s in specs:
         path = Path(args.out) / f"{s.id}.json"
@@ -768,8 +780,10 @@ def _record_results(specs, args) -> None:
             continue
         r = json.loads(path.read_text())
         if (r.get("task_hash"), r.get("purpose"), r.get("protocol")) == (task_hash(s.id), args.purpose, PROTOCOL_VERSION):
+            before = len(load_record(args.record, s.id)["entries"])
             record = record_run(args.record, r, dict(s.params), args.change, args.extra_round)
-            print(f"{s.id}: recorded as entry {len(record['entries'])} of {Path(args.record) / (s.id + '.json')}")
+            if len(record["entries"]) > before:
+                print(f"{s.id}: recorded as entry {len(record['entries'])} of {Path(args.record) / (s.id + '.json')}")
 
 
 def ladder_run(rows: list[dict], name: str) -> dict:
