@@ -364,7 +364,7 @@ def test_calibrate_checks_the_record_before_any_work_and_show_prints_it(tmp_path
 
 def test_calibrate_records_each_task_as_it_finishes(tmp_path, monkeypatch):
     """A run over several tasks appends each task's record when its result is written, before the next task starts
-    (a run of the ladder spans sessions: a killed run keeps the records of the tasks it finished)."""
+    (a run of the ladder takes days: a killed run keeps the records of the tasks it finished)."""
     from maniladder_ms.cli import main
     from maniladder_ms.policy import calibrate as cal
     from maniladder_ms.policy.records import load_record
@@ -388,6 +388,49 @@ def test_calibrate_records_each_task_as_it_finishes(tmp_path, monkeypatch):
                  "--out", str(tmp_path / "out"), "--record", str(tmp_path / "records"), "--quiet"]) == 0
     assert seen == [[], ["PickPlacePen"]]  # the first task's record was there when the second started
     assert all(len(load_record(tmp_path / "records", t)["entries"]) == 1 for t in tasks)  # and nothing twice
+
+
+def test_a_result_of_an_earlier_version_stands_for_the_current_one_only_if_its_demos_come_out_the_same(tmp_path):
+    """`calibrate --revalidate`: a result measured on another version of a task (its hash differs: a shared module
+    was edited) stands for the current version when the task's own parts are unchanged since the result's commit
+    and its demos, regenerated now, are bit-identical to those it was trained on; with one action altered in those
+    demos it stays stale. The record then accepts a run of the current version without --change."""
+    import h5py
+
+    from maniladder_ms.cli import main
+    from maniladder_ms.demos.files import demo_path
+    from maniladder_ms.demos.recording import generate
+    from maniladder_ms.policy import calibrate as cal
+    from maniladder_ms.policy import revalidate as rv
+    from maniladder_ms.policy.records import check_run, record_run
+    from maniladder_ms.provenance import task_hash
+
+    head = subprocess.run(["git", "-C", str(REPO), "rev-parse", "HEAD"], capture_output=True, text=True).stdout.strip()
+    if not head:
+        pytest.skip("not a git checkout")
+    with pytest.raises(ValueError, match="does not name"):
+        rv.own_parts_changed("PickPlacePen", head + "+dirty")
+    assert rv.own_parts_changed("PickPlacePen", head) == []
+    task, old, mode = "PickPlacePen", "0123456789abcdef", cal.demo_control_mode_for("PickPlacePen")
+    work, out = tmp_path / "work", tmp_path / "out"
+    generate(task, 2, work / task / old / "demos", seed=0, control_mode=mode, progress=False)
+    result = {**_result(task_hash=old), "measured_level_text": "L2", "agree": False, "environment": {"commit": head},
+              "calibration": {"demos": 2, "demo_seed": 0}, "demo_control_mode": mode}
+    out.mkdir()
+    (out / f"{task}.json").write_text(json.dumps(result))
+    record_run(tmp_path / "records", result, {})
+    assert cal.stale_reason(result) is not None
+    args = ["calibrate", "--tasks", task, "--revalidate", "--work", str(work), "--out", str(out), "--quiet"]
+    assert main(args + ["--record", str(tmp_path / "records")]) == 0
+    now = json.loads((out / f"{task}.json").read_text())
+    assert [e["task_hash"] for e in now["equivalent_versions"]] == [task_hash(task)] and cal.stale_reason(now) is None
+    check_run(tmp_path / "records", task, task_hash(task), "v4", "final", {"train_steps": 4000})  # no --change needed
+    assert main(args) == 0  # revalidated already: current
+    (out / f"{task}.json").write_text(json.dumps(result))  # the same result again, its demos altered by one action
+    with h5py.File(demo_path(work / task / old / "demos", task, "none", mode), "r+") as f:
+        f["traj_1"]["actions"][3, 0] += 1e-3
+    assert main(args) == 1
+    assert "equivalent_versions" not in json.loads((out / f"{task}.json").read_text())
 
 
 def test_calibration_report_shows_level_means_agreement_and_the_ladder_figures(tmp_path, capsys):

@@ -517,7 +517,7 @@ def calibrate(tasks: Sequence[str], work: Path, out: Path, demos_dir: Optional[P
               log=print, ray_address: Optional[str] = None, on_result=None) -> dict:
     """Calibrate `tasks` (resuming what `work` holds), then rewrite the summary of every result in `out`.
     `on_result(result)` is called in this process as each task's result is written (a calibration record is
-    appended then, not after the last task: a run over many tasks spans sessions).
+    appended then, not after the last task: a run over many tasks takes days and may be killed on the way).
     Each process runs one torch thread and renders with `renderer` (the env var the envs read, inherited by
     worker processes). `ray_address` ("local", "auto", "ray://host:10001"): tasks and training seeds run on a Ray
     cluster's workers instead (`_calibrate_on_ray`), which must see `work` (and `demos_dir`) at the same path."""
@@ -609,7 +609,10 @@ def stale_reason(r: dict) -> Optional[str]:
 
     if r.get("stale"):
         return r["stale"]
-    if r.get("task_hash") and default_catalog().get(r["task"]).implemented and r["task_hash"] != task_hash(r["task"]):
+    from .revalidate import equivalent_hashes
+
+    if r.get("task_hash") and default_catalog().get(r["task"]).implemented and \
+            task_hash(r["task"]) not in equivalent_hashes(r):
         return f"the task changed since (version {r['task_hash']} measured, {task_hash(r['task'])} now)"
     return None
 
@@ -722,6 +725,11 @@ def add_parser(sub) -> None:
                                      "(required when the task's version changed)")
     cp.add_argument("--extra-round", action="store_true",
                     help="with --record: allow a development round past the loop's limit of 4 (with --change)")
+    cp.add_argument("--revalidate", action="store_true",
+                    help="train nothing: check each task's result in --out, measured on an earlier version of the "
+                         "task, against the current one (own parts unchanged since its commit, its demos regenerated "
+                         "bit-identical from the demos in --work), and if they match mark it as standing for the "
+                         "current version (and in --record's record)")
     cp.add_argument("--quiet", action="store_true", help="no progress bars")
     cp.set_defaults(func=cmd_calibrate)
 
@@ -738,6 +746,8 @@ def cmd_calibrate(args) -> int:
     if skipped:
         print(f"skipping {len(skipped)} task(s) not implemented yet: {', '.join(skipped)}", file=sys.stderr)
     tasks = [s.id for s in specs]
+    if args.revalidate:
+        return _revalidate(tasks, args)
     if args.device.startswith("cuda"):
         import torch
 
@@ -767,6 +777,21 @@ def cmd_calibrate(args) -> int:
     print_calibration(summary)
     print(f"\nresults in {args.out}/ (<task>.json, calibration.json, calibration.png); `maniladder report {args.out}`")
     return 0
+
+
+def _revalidate(tasks: list[str], args) -> int:
+    """`calibrate --revalidate`: `revalidate.revalidate_folder` over the tasks' results in --out; with --record the
+    equivalent versions go into each record's last entry of the measured version."""
+    from .records import add_equivalent
+    from .revalidate import revalidate_folder
+
+    rows = revalidate_folder(args.out, args.work, tasks, progress=not args.quiet)
+    if args.record:
+        for row in rows:
+            if row["status"] == "equivalent":
+                r = json.loads((Path(args.out) / f"{row['task']}.json").read_text())
+                add_equivalent(args.record, r)
+    return 0 if all(row["status"] in ("current", "equivalent") for row in rows) else 1
 
 
 def _record_results(specs, args) -> None:

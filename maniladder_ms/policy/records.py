@@ -40,6 +40,28 @@ def _key(entry: dict) -> tuple:
     return entry["task_hash"], entry["protocol"], entry["purpose"], json.dumps(entry["config"], sort_keys=True)
 
 
+def _versions(entry: dict) -> set[str]:
+    """The task versions an entry stands for: the one measured and those revalidated as playing the same
+    (`policy.revalidate`)."""
+    return {entry["task_hash"], *entry.get("equivalent_task_hashes", [])}
+
+
+def add_equivalent(records: Path, result: dict) -> dict:
+    """Note in the record the versions `result` was revalidated for (its `equivalent_versions`), on the entries of
+    the version it measured; a later run of such a version needs no `--change`. Returns the record."""
+    record = load_record(records, result["task"])
+    new = [e["task_hash"] for e in result.get("equivalent_versions", [])]
+    for entry in record["entries"]:
+        if entry["task_hash"] == result["task_hash"]:
+            entry["equivalent_task_hashes"] = sorted(set(entry.get("equivalent_task_hashes", [])) | set(new))
+    path = Path(records) / f"{result['task']}.json"
+    if record["entries"]:
+        tmp = path.with_suffix(".partial")
+        tmp.write_text(json.dumps(record, indent=1))
+        tmp.replace(path)
+    return record
+
+
 def _changes(before: Optional[dict], params: dict, horizon: int) -> dict:
     """{name: [before, now]} over the catalog params and the horizon that differ from the previous entry's."""
     if before is None:
@@ -54,9 +76,10 @@ def _added(record: dict, task_hash: str, protocol: str, purpose: str, config: di
     """Whether a run's entry would be added to `record` (False: that measurement is recorded already); raises
     RecordError where the record's rules refuse it."""
     task, entries = record["task"], record["entries"]
-    if any(_key(e) == (task_hash, protocol, purpose, json.dumps(config, sort_keys=True)) for e in entries):
+    if any(task_hash in _versions(e) and _key(e)[1:] == (protocol, purpose, json.dumps(config, sort_keys=True))
+           for e in entries):
         return False  # already recorded (a resume): nothing to add
-    if entries and entries[-1]["task_hash"] != task_hash and not reason:
+    if entries and task_hash not in _versions(entries[-1]) and not reason:
         raise RecordError(
             f"{task} changed since its last recorded run (task version {entries[-1]['task_hash']} -> {task_hash}): "
             "say what changed and why with --change TEXT (the catalog's YAML comment gives the measurement)")

@@ -1,0 +1,137 @@
+"""Carry a calibration result over to the current version of its task when nothing the task is judged or built by
+has changed and its demos come out the same.
+
+`provenance.task_hash` covers every module a task imports, so an edit to a shared module (a LEAP posture added to
+`solvers/postures.py`, which 27 of the 28 tasks of the ladder's first round import) makes every result of every
+task that imports it stale, though each task plays out exactly as before. The ladder runs for days while other
+tasks are built; without this it would redo every task after every such edit. `revalidate` tells the two apart for
+one result:
+
+1. the task's own parts are unchanged since the result's commit (`git diff`): its catalog row's played fields, its
+   task module, its solver module, the robot assets and collision decompositions; and
+2. its calibration demos (the protocol's count and first seed), regenerated with the current code, are
+   bit-identical, actions and env states, to the demos the result was trained on (`demos_digest`): the solver, the
+   shared solver and env code it runs and the simulation along those episodes are unchanged.
+
+Then the result lists the current version under `equivalent_versions` (task hash, commit, the evidence), which
+`calibrate.stale_reason` and the calibration record accept as the same task. Not covered (said in each entry): a
+shared change that shows only off the demos' paths, in the policy's own rollouts, or only in rendering.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import subprocess
+import tempfile
+from pathlib import Path
+from typing import Optional
+
+from maniladder_ms.provenance import PLAYED_FIELDS, ROOT, TASK_DATA_DIRS, git_commit, task_hash
+
+EVIDENCE = ("own parts unchanged (catalog row, task and solver modules, assets); {n} calibration demos regenerated "
+            "bit-identical (actions and env states); not checked: the policy's own rollouts, rendering")
+
+
+def demos_digest(h5: Path) -> str:
+    """sha256 over every episode's actions and env states in a ManiSkill trajectory file, in episode order."""
+    import h5py
+    import numpy as np
+
+    h = hashlib.sha256()
+    with h5py.File(h5, "r") as f:
+        for key in sorted(f.keys(), key=lambda k: int(k.split("_")[-1]) if k.split("_")[-1].isdigit() else k):
+            def visit(name, obj):
+                if isinstance(obj, h5py.Dataset) and (name == "actions" or name.startswith("env_states")):
+                    h.update(name.encode() + b"\0" + np.ascontiguousarray(obj[()]).tobytes())
+            f[key].visititems(visit)
+    return h.hexdigest()
+
+
+def _git(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run(["git", "-C", str(ROOT), *args], capture_output=True, text=True, timeout=60)
+
+
+def _catalog_row(yaml_text: str, task_id: str) -> dict:
+    import yaml
+
+    rows = {t["id"]: t for t in yaml.safe_load(yaml_text)["tasks"]}
+    return {k: rows[task_id].get(k) for k in PLAYED_FIELDS} if task_id in rows else {}
+
+
+def own_parts_changed(task_id: str, commit: str) -> list[str]:
+    """What of the task's own parts differs between `commit` and the checkout now (empty: nothing)."""
+    from maniladder_ms import solvers, tasks
+
+    if not commit or commit.endswith("+dirty"):
+        raise ValueError(f"{task_id}: the result's commit {commit or '(none)'} does not name what it measured")
+    paths = [f"maniladder_ms/tasks/{tasks.FILES[task_id]}"]
+    if task_id in solvers.solver_files():
+        paths.append(f"maniladder_ms/solvers/{solvers.solver_files()[task_id]}")
+    paths += [f"maniladder_ms/{d}" for d in TASK_DATA_DIRS]
+    changed = [p for p in paths if _git("diff", "--quiet", commit, "--", p).returncode != 0]
+    catalog = "maniladder_ms/data/task_catalog.yaml"
+    old = _git("show", f"{commit}:{catalog}")
+    if old.returncode != 0:
+        raise ValueError(f"{task_id}: commit {commit} is not in this checkout ({old.stderr.strip()})")
+    if _catalog_row(old.stdout, task_id) != _catalog_row((ROOT / catalog).read_text(), task_id):
+        changed.append("its catalog row")
+    return changed
+
+
+def revalidate(result_path: Path, work: Path, progress: bool = True) -> dict:
+    """Check one result file against the current version of its task (see the module doc); on success add the
+    version to its `equivalent_versions` and rewrite it. Returns {"task", "status": current | equivalent | changed,
+    "why"}; raises ValueError where it cannot tell (no commit, or the result's demos are not in `work`)."""
+    from maniladder_ms.demos.files import demo_path
+    from maniladder_ms.demos.recording import generate
+    from maniladder_ms.policy.calibrate import demo_control_mode_for
+
+    result_path = Path(result_path)
+    r = json.loads(result_path.read_text())
+    task, now = r["task"], task_hash(r["task"])
+    known = {r["task_hash"], *(e["task_hash"] for e in r.get("equivalent_versions", []))}
+    if now in known:
+        return {"task": task, "status": "current", "why": f"version {now} is the one measured"}
+    changed = own_parts_changed(task, r.get("environment", {}).get("commit", ""))
+    if changed:
+        return {"task": task, "status": "changed", "why": "changed since the result: " + ", ".join(changed)}
+    mode = r.get("demo_control_mode") or demo_control_mode_for(task)
+    trained_on = demo_path(Path(work) / task / r["task_hash"] / "demos", task, "none", mode)
+    if not trained_on.is_file():
+        raise ValueError(f"{task}: the demos the result was trained on are not in {work} ({trained_on})")
+    n, seed = r["calibration"]["demos"], r["calibration"]["demo_seed"]
+    with tempfile.TemporaryDirectory() as tmp:
+        report = generate(task, n, Path(tmp), seed=seed, control_mode=mode, progress=progress)
+        same = demos_digest(Path(report.path)) == demos_digest(trained_on)
+    if not same:
+        return {"task": task, "status": "changed", "why": f"its {n} demos regenerated now differ from those trained on"}
+    entry = {"task_hash": now, "commit": git_commit(), "evidence": EVIDENCE.format(n=n)}
+    r.setdefault("equivalent_versions", []).append(entry)
+    tmp_path = result_path.with_suffix(".partial")
+    tmp_path.write_text(json.dumps(r, indent=1))
+    tmp_path.replace(result_path)
+    return {"task": task, "status": "equivalent", "why": f"version {now} plays as {r['task_hash']}: {entry['evidence']}"}
+
+
+def equivalent_hashes(result: dict) -> set[str]:
+    """Every task version a result stands for: the one measured and those revalidated since."""
+    return {result.get("task_hash"), *(e["task_hash"] for e in result.get("equivalent_versions", []))} - {None}
+
+
+def revalidate_folder(out: Path, work: Path, tasks: Optional[list[str]] = None, progress: bool = True,
+                      log=print) -> list[dict]:
+    """`revalidate` every result in `out` (or those of `tasks`); one line each."""
+    from maniladder_ms.policy.calibrate import load_results
+
+    rows = []
+    for r in load_results(out):
+        if tasks and r["task"] not in tasks:
+            continue
+        try:
+            row = revalidate(Path(out) / f"{r['task']}.json", work, progress=progress)
+        except ValueError as e:
+            row = {"task": r["task"], "status": "unknown", "why": str(e)}
+        log(f"{row['task']}: {row['status']}: {row['why']}")
+        rows.append(row)
+    return rows
