@@ -55,11 +55,11 @@ UNLOAD_STEPS = 8
 FINGER_LIFT = 0.1
 # 4. clamp (tcp frame: x along the fingers, z down; open, the palm's underside is 8.1 cm above the tcp)
 PALM_ABOVE = 0.081
-# the card's end this far ahead of the tcp (SlideCardToEdgeHand: 2 mm; on the tilted card the fingertips then closed
-# on the card's end and the card was flung off on seed 100); on the block's round nose the let-go card settles ~1 cm
-# further back than the slide left it (~2.5 cm overhang): at 15 mm the clamp missed on 6 of seeds 100-149, at 8 mm it
-# held 5 of those 6, at 22 mm none
-CLAMP_AHEAD = 0.008
+# the card's end this far ahead of the tcp: the clamp's fingertips land ~2.5 cm behind the card's end, under it; on the
+# block's round nose the let-go card settles back to a tilt of ~30-34 degrees, its end 2.2-3.2 cm (along the card)
+# beyond the nose's top, and from CLAMP_AHEAD 8 mm the fingertips landed on the nose where that gap was under ~2.5 cm
+# (the card then fell out of the clamp); with the card's end over the tcp they land clear of it
+CLAMP_AHEAD = 0.0
 CLAMP_SIDE = 0.007  # the card's centre line this far along the tcp's y axis: under the index and middle fingers
 # the palm's target this far into the card (the pitched hand stops short of its target: at 2 mm the palm stayed
 # 3-4 mm off the card on 2 of seeds 100-109 and the fingertips came up at the card's end, not under it)

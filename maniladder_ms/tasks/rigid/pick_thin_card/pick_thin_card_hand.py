@@ -87,8 +87,8 @@ class PickThinCardHandEnv(PickThinCardTask):
     its far end up a 40-degree ramp and 3.5 cm out over an edge 5 cm up, the press following the card's top as it
     tilts (a fixed press slipped up the card; a push along the tilted card lifted its rear end, and the card slid
     back); the card then rests tilted ~33 degrees, and the clamp must be made in the card's tilted frame (the hand
-    pitched ~33 degrees, its palm on the raised end, the index and middle fingers swung up under a 3 cm overhang
-    between the block's edge and the end), and the lift must raise the card's lowest point 5 cm clear of the
+    pitched ~33 degrees, its palm on the raised end, the index and middle fingers swung up under the 2-3 cm
+    of card between the block's edge and the end), and the lift must raise the card's lowest point 5 cm clear of the
     table with the card hanging ~45 degrees from the clamp; 5 stages (press, slide up the ramp and over the edge,
     let go without the card sliding back, clamp the tilted end, lift), ~200 steps.
     """
