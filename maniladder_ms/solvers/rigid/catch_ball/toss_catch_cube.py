@@ -9,7 +9,7 @@ under the parabola as a cup, moves to where the flight read at release says the 
    FOLLOW_STEPS more (the cube, now free, falls out of the open fingers under gravity), then it rises clear.
 4. Catch: from the cube's position and velocity at the first free control step, the right cup moves under the
    point where the parabola crosses the cup's height (`landing_point`), re-aimed every control step while the
-   cube flies; once the cube is in the cup the gripper closes (CLOSE_AFTER steps after it first touches).
+   cube flies; once the cube is CLOSE_DEPTH in between the partly closed fingers (CUP_OPENING), they close.
 5. The right lifts the cube by HOLD_RISE and holds.
 """
 
@@ -26,8 +26,12 @@ from maniladder_ms.tasks.rigid.catch_ball.base import GRAVITY
 from maniladder_ms.tasks.rigid.catch_ball.toss_catch_cube import TossCatchCubeEnv
 
 CATCH_POINT = (-0.15, -0.32, 0.31)  # the right TCP at the nominal catch (the release state re-aims it in flight)
+# the cup's fingers wait partly closed (normalised command: fingers 3.25 cm from the middle, a 6.5 cm gap for the
+# 4 cm cube, whose diagonal is 5.7 cm): little to close once the cube is in (fully open, 8 cm: it bounced out
+# sideways before the fingers met it on seeds 101, 102; 0.52, a 5.6 cm gap: the cube jammed at the fingertips)
+CUP_OPENING = 0.7
 TIPS_ABOVE_TCP = 0.01  # the palm-up fingertips' height above the TCP
-AIM_INSIDE = 0.012  # m: the cube passes the fingertips this far on the near (+y) side of the cup's centre, so it
+AIM_INSIDE = 0.005  # m: the cube passes the fingertips this far on the near (+y) side of the cup's centre, so it
 # comes down inside the fingers and slides against the far one
 # the cup's fingers close along the cube's horizontal flight (along -y, vx / vy ~ -0.03 on seeds 100-103), so the
 # far finger stops it and it does not slide out between the fingers' sides
@@ -42,7 +46,8 @@ SWING_LEAD = 0.3  # m: the swing's TCP target runs this far ahead (past the cont
 SWING_STEPS = 5  # control steps of the swing before the gripper opens (the TCP reaches ~1 m/s in 3)
 FOLLOW_STEPS = 2  # the hand keeps its course this long after opening
 CLEAR_RISE = 0.15  # m the left hand rises after the toss
-CLOSE_AFTER = 0  # control steps between the cube first touching the cup and the gripper closing
+CLOSE_DEPTH = 0.02  # the cup closes once the cube's centre is this far below the fingertips' height plus cube_half
+# (its bottom 2 cm in between the fingers): seeds 100-103 4/4 (at 0, with the fingers at CUP_OPENING 0.52: 1/4)
 HOLD_RISE = 0.05
 MAX_FLIGHT_STEPS = 20
 
@@ -72,6 +77,7 @@ def solve_toss_catch_cube(env, seed: int) -> dict:
                          torch.tensor([CUP_CLOSING], device=device).expand(n, 3))
         wait = torch.tensor([CATCH_POINT], device=device).expand(n, 3)
         s.arm_targets["right_arm"] = (wait, cup_q)  # the cup under the nominal catch, turned to CUP_CLOSING
+        s.set_ee("right_gripper", [CUP_OPENING], steps=0)
         pick_yaw = _face_yaw(task.cube, THROW_YAW)
         s.pick("left_arm", "left_gripper", task.cube.pose.p.clone(), pick_yaw, lift=0)
         throw_q = top_down_quat(THROW_YAW, n, device)
@@ -84,19 +90,15 @@ def solve_toss_catch_cube(env, seed: int) -> dict:
             s.step({"left_arm": (s.tcp("left_arm").p + SWING_LEAD * swing, throw_q)})
         up = s.tcp("left_arm").p + torch.tensor([0.0, 0.0, CLEAR_RISE], device=device)
         s.arm_targets["left_arm"] = (up, throw_q)
-        touched = None
-        for k in range(MAX_FLIGHT_STEPS):
+        for _ in range(MAX_FLIGHT_STEPS):
             p, v = task.cube.pose.p, task.cube.linear_velocity
             cup = s.tcp("right_arm").p
             tips = cup[:, 2] + TIPS_ABOVE_TCP + task.cube_half  # the cube's centre as its bottom passes the tips
+            if bool((p[:, 2] <= tips - CLOSE_DEPTH).all()):
+                break  # the cube is in between the fingers: close on it
             aim = landing_point(p, v, float(tips[0]))
             aim[:, 1] -= AIM_INSIDE
             aim[:, 2] = cup[:, 2]
-            info = s.info
-            if bool(info["catcher_touch"][0]):
-                touched = k if touched is None else touched
-                if k - touched >= CLOSE_AFTER:
-                    break
             s.step({"right_arm": (aim, cup_q)})
         s.grasp("right_gripper")
         p = s.tcp("right_arm").p + torch.tensor([0.0, 0.0, HOLD_RISE], device=device)
