@@ -20,13 +20,13 @@ THROWER_HELD, CATCHER_HELD = 1.0, -1.0  # memory `holder`: who held the object l
 
 
 class CatchTask(ManiLadderEnv):
-    """Family base (registers no task). **Success:** the object was tossed: after the thrower had held it off
-    the table, it flew free for at least `min_flight_steps` consecutive control steps (at each, neither end
-    effector touched it, `ee.touches`, and its velocity changed over the step by gravity alone, within
-    `flight_tol`: nothing else pushed it either), the thrower being the last to have held it, and over that
+    """Family base (registers no task). **Success:** the object was tossed: after the thrower had held it clear
+    of the table (its centre higher than its bounding radius, `ITEM_RADIUS`), it flew free for at least
+    `min_flight_steps` consecutive control steps (at each, neither end effector touched it, `ee.touches`, and
+    its velocity changed over the step by gravity alone, within `flight_tol`: nothing else pushed it either), the thrower being the last to have held it, and over that
     stretch its centre travelled at least `min_toss_distance` horizontally from where the stretch began (episode
     memory `tossed`); after the toss the thrower never touched it again (`thrower_again`, never set) and the
-    object never touched the table after the thrower first held it off the table (`touched_table`, checked at
+    object never touched the table after the thrower first held it clear of it (`touched_table`, checked at
     every physics step, never set); and now the catcher holds it (`ee.holds`), the thrower does not touch it
     and its centre is at least `lift_height` above the table. A task without a thrower (`THROWER` None: the
     scene launches the object) counts a flight from the start of the episode.
@@ -36,13 +36,13 @@ class CatchTask(ManiLadderEnv):
     PARAMS = ("lift_height", "min_flight_steps", "min_toss_distance", "flight_tol")
     # set by the task's `_load_scene`: the object tossed and caught
     item = None
-    # the object's bounding radius (m): the table contact is queried only while its centre is this close to the
-    # table top (set by the task)
+    # the object's bounding radius (m), plus a margin: it is picked once held with its centre higher than this, and
+    # the table contact is queried only while its centre is this close to the table top (set by the task)
     ITEM_RADIUS = 0.05
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
-        self.memory.flag("picked")  # the thrower has held the object off the table
+        self.memory.flag("picked")  # the thrower has held the object clear of the table
         self.memory.flag("touched_table")  # ... and since then the object touched the table
         self.memory.value("holder")  # who held it last: THROWER_HELD, CATCHER_HELD, 0 nobody yet
         self.memory.value("last_velocity", 3)  # its linear velocity after the last control step
@@ -95,7 +95,9 @@ class CatchTask(ManiLadderEnv):
         if self.THROWER is None:
             self.memory.latch("picked", torch.ones_like(now["is_lifted"]))
         else:
-            self.memory.latch("picked", now["thrower_grasped"] & ~self.item_on_table())
+            # clear of the table: its centre higher than its bounding radius (a grasp squeezing an object on the
+            # table lifts it off for a physics step or two)
+            self.memory.latch("picked", now["thrower_grasped"] & (p[:, 2] > self.ITEM_RADIUS))
         holder = self.memory["holder"][:, 0]
         holder = torch.where(now["catcher_grasped"], CATCHER_HELD, holder)
         holder = torch.where(now["thrower_grasped"], THROWER_HELD, holder)

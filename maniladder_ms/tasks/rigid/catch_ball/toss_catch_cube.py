@@ -29,26 +29,27 @@ class TossCatchCubeEnv(CatchTask):
     gripper catches it in mid-air and holds it; the cube must not touch the table once picked.
 
     **Randomisation:**
-    - the cube (side 2 x `cube_half`, light: 64 g) lies with its centre uniform in x in `cube_x_range`, y in
+    - the cube (side 2 x `cube_half`, ManiSkill's default density: 64 g) lies with its centre uniform in x in `cube_x_range`, y in
       `cube_y_range` (in front of the left arm) and its yaw uniform in `cube_yaw_range` (a cube: every yaw);
     - the robot's joints get the reset noise; the right arm starts in its ready pose, its hand palm up.
 
     **Success:** (the CatchBall family rule, `CatchTask`) the cube was tossed: after the left gripper had held it
-    off the table, it flew free for at least `min_flight_steps` consecutive control steps (at each, neither
-    gripper touched it, `ee.touches`, and its velocity changed by gravity alone within `flight_tol`: no arm
-    link or table pushed it either), the left gripper being the last to have held it, and its centre travelled
-    at least `min_toss_distance` horizontally over that stretch (episode memory `tossed`); after the toss the
-    left gripper never touched it again (`thrower_again`); it never touched the table after the left gripper
-    first held it off the table (`touched_table`, checked at every physics step); and now the right gripper
-    holds it (`ee.holds`), the left does not touch it, and its centre is at least `lift_height` above the table.
+    clear of the table (its centre higher than the cube's bounding radius plus a margin), it flew free for at least
+    `min_flight_steps` consecutive control steps (at each, neither gripper touched it, `ee.touches`, and its
+    velocity changed by gravity alone within `flight_tol`: no arm link or table pushed it either), the left
+    gripper being the last to have held it, and its centre travelled at least `min_toss_distance` horizontally
+    over that stretch (episode memory `tossed`); after the toss the left gripper never touched it again
+    (`thrower_again`); it never touched the table after the left gripper first held it clear of the table
+    (`touched_table`, checked at every physics step); and now the right gripper holds it (`ee.holds`), the left
+    does not touch it, and its centre is at least `lift_height` above the table.
 
-    **Level 3** (a rung up from Level 2's two-gripper tasks and Level 1's HandoverCube, where the object is
+    **Level 3:** (a rung up from Level 2's two-gripper tasks and Level 1's HandoverCube, where the object is
     always held by one gripper or both): dynamics and timing. The cube leaves the left gripper at about
     1 m/s (near the top speed of the arms' TCP under `pd_ee_delta_pose`) and is out of reach of both grippers
     for about a quarter of a second (about five control steps, at least `min_flight_steps`), travelling
-    about 20 cm through the air; the right gripper has to be where the parabola ends, within about 2 cm
-    (the open fingers' play around the cube), and close within the few control steps before the cube
-    bounces out, read from the release state. Stages: pick, toss, catch.
+    about 20 cm through the air; the right gripper has to be where the parabola ends, within about a centimetre
+    (the play of a 4 cm cube between fingers held 6.5 cm apart), aimed from the release state, and close in the
+    control step after the cube comes in, before it bounces out. Stages: pick, toss, catch.
     """
 
     SUPPORTED_ROBOTS = ["ml_dual_panda"]
@@ -56,7 +57,6 @@ class TossCatchCubeEnv(CatchTask):
     TASK_REGION = (-0.25, 0.1, -0.4, 0.4)
     PARAMS = CatchTask.PARAMS + ("cube_half", "cube_x_range", "cube_y_range", "cube_yaw_range")
     READY_JOINTS = {f"right_panda_joint{i}": angle for i, angle in enumerate(CATCHER_READY, 1)}
-    CUBE_DENSITY = 1000.0  # kg/m^3 (ManiSkill's default): a 4 cm cube weighs 64 g
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
