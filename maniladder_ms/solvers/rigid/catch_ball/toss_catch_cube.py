@@ -3,7 +3,7 @@ swings it towards the right arm and lets go at speed; the right gripper, palm up
 under the parabola as a cup, moves to where the flight read at release says the cube comes down, and closes.
 
 1. The right arm moves its palm-up cup to CATCH_POINT, the nominal end of the parabola, without waiting.
-2. The left picks the cube top-down (`_face_yaw`) and lifts it to SWING_START.
+2. The left picks the cube top-down (`geometry.face_yaw`) and lifts it to SWING_START.
 3. Toss: the left TCP target runs SWING_LEAD ahead of the TCP along the swing direction (SWING_PITCH above the
    horizontal, towards -y) for SWING_STEPS control steps; the gripper opens and the hand keeps its course for
    FOLLOW_STEPS more (the cube, now free, falls out of the open fingers under gravity), then it rises clear.
@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from maniladder_ms.geometry import tcp_quat, yaw_of
+from maniladder_ms.geometry import face_yaw, tcp_quat
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.control import top_down_quat
 from maniladder_ms.solvers.driven import DrivenSolver
@@ -52,10 +52,6 @@ HOLD_RISE = 0.05
 MAX_FLIGHT_STEPS = 20
 
 
-def _face_yaw(cube, near: float) -> torch.Tensor:
-    """The yaw of a cube face normal (mod 90 degrees) closest to `near`."""
-    return near + torch.remainder(yaw_of(cube.pose.q) - near + np.pi / 4, np.pi / 2) - np.pi / 4
-
 
 def landing_point(p: torch.Tensor, v: torch.Tensor, height: float) -> torch.Tensor:
     """Where a free body at `p` with velocity `v` (n, 3) comes down through `height` (the later root)."""
@@ -78,7 +74,7 @@ def solve_toss_catch_cube(env, seed: int) -> dict:
         wait = torch.tensor([CATCH_POINT], device=device).expand(n, 3)
         s.arm_targets["right_arm"] = (wait, cup_q)  # the cup under the nominal catch, turned to CUP_CLOSING
         s.set_ee("right_gripper", [CUP_OPENING], steps=0)
-        pick_yaw = _face_yaw(task.cube, THROW_YAW)
+        pick_yaw = face_yaw(task.cube.pose.q, THROW_YAW)
         s.pick("left_arm", "left_gripper", task.cube.pose.p.clone(), pick_yaw, lift=0)
         throw_q = top_down_quat(THROW_YAW, n, device)
         start = torch.tensor([SWING_START], device=device).expand(n, 3)
