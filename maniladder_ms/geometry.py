@@ -17,6 +17,13 @@ def yaw_of(q: torch.Tensor) -> torch.Tensor:
     return 2 * torch.atan2(q[:, 3], q[:, 0])
 
 
+def face_yaw(q: torch.Tensor, near: float) -> torch.Tensor:
+    """(n,) the yaw of a face normal of a body square about z (a cube) with orientation `q` (n, 4): of its four
+    side-face normals (90 degrees apart), the one closest to `near`."""
+    quarter = torch.pi / 2
+    return near + torch.remainder(yaw_of(q) - near + quarter / 2, quarter) - quarter / 2
+
+
 def matrix_yaw(m: torch.Tensor) -> torch.Tensor:
     """(b, 3, 3) rotation matrices -> (b,) yaw: the angle about world z of the rotated x axis (seen from above)."""
     return torch.atan2(m[:, 1, 0], m[:, 0, 0])

@@ -2,7 +2,7 @@
 and brings it to a meeting point, where the right gripper, turned sideways, takes it and sets it down in the zone.
 
 1. The right arm turns its hand sideways and lines up beside the meeting point (MEET_POINT).
-2. The left picks the cube top-down across a face pair (`_face_yaw`), its fingers on the cube's +y part.
+2. The left picks the cube top-down across a face pair (`geometry.face_yaw`), its fingers on the cube's +y part.
 3. The left lifts off the table, then carries the cube to the meeting point.
 4. The right grasps the cube's -y part from the side; the left lets go and backs off upwards (`hand_over`).
 5. The right carries the cube over the zone, lowers it, lets go PLACE_DROP above the table and backs off.
@@ -14,7 +14,7 @@ import numpy as np
 import torch
 
 from maniladder_ms.solvers.control import top_down_quat
-from maniladder_ms.geometry import yaw_of
+from maniladder_ms.geometry import face_yaw
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.geometry import tcp_quat
 from maniladder_ms.solvers.bimanual import Grasp, hand_over, line_up
@@ -32,10 +32,6 @@ PLACE_DROP = 0.015
 TAKER_RETREAT = 0.08  # the right backs off this far along -y after letting go
 
 
-def _face_yaw(cube, near: float) -> torch.Tensor:
-    """The yaw of a cube face normal (mod 90 degrees) closest to `near`."""
-    return near + torch.remainder(yaw_of(cube.pose.q) - near + np.pi / 4, np.pi / 2) - np.pi / 4
-
 
 @register_solver("HandoverCube", control_modes=TCP_DELTA_MODES)
 def solve_handover_cube(env, seed: int) -> dict:
@@ -49,7 +45,7 @@ def solve_handover_cube(env, seed: int) -> dict:
         # the right arm turns its hand sideways and waits beside the meeting point while the left one picks
         line_up(s, Grasp("right_arm", "right_gripper", meet - TAKER_OFFSET * y, take_q, -TAKER_APPROACH * y))
         # the wrist turns by at most 45 degrees between the pick and the meeting point (yaw pi/2)
-        pick_yaw = _face_yaw(task.cube, np.pi / 2)
+        pick_yaw = face_yaw(task.cube.pose.q, np.pi / 2)
         hand_x = torch.stack([torch.cos(pick_yaw), torch.sin(pick_yaw), torch.zeros_like(pick_yaw)], dim=1)
         grasp_p = task.cube.pose.p + GIVER_OFFSET * hand_x
         s.pick("left_arm", "left_gripper", grasp_p, pick_yaw, lift=0)
