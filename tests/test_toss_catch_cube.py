@@ -4,6 +4,7 @@ just above (no flight) is no toss, and a cube that touched the table after the p
 import torch
 
 import maniladder_ms
+from maniladder_ms.geometry import face_yaw
 from maniladder_ms.solvers import EPISODE_RESET_OPTIONS
 from maniladder_ms.solvers.driven import DrivenSolver
 from maniladder_ms.solvers.control import top_down_quat
@@ -16,7 +17,7 @@ def _picked(seed: int):
     env.reset(seed=seed, options=dict(EPISODE_RESET_OPTIONS))
     task = env.unwrapped
     s = DrivenSolver(env)
-    yaw = solver._face_yaw(task.cube, solver.THROW_YAW)
+    yaw = face_yaw(task.cube.pose.q, solver.THROW_YAW)
     s.pick("left_arm", "left_gripper", task.cube.pose.p.clone(), yaw, lift=0.1)
     assert bool(s.info["picked"][0]) and not bool(s.info["touched_table"][0])
     return env, task, s
