@@ -54,9 +54,10 @@ def shrink_layout_draws(task_id: str, scale: float) -> None:
 
 def pick_place_pen_one_side(scale: float) -> None:
     """Replace PickPlacePen's layout draw in this process: the registered task's ranges (its catalog params
-    `pen_x_range` and the rest, drawn in its `_initialize_episode`'s order, so a seed gives the layout the committed
-    pilot result was measured on), each scaled by `scale` about its middle, the pen always on the robot's left (+y)
-    and the tray on its right."""
+    `pen_x_range` and the rest, drawn in its `_initialize_episode`'s order), each scaled by `scale` about its middle,
+    the pen on the robot's left (+y) and the tray on its right. Since the layout policy's rule 1 the row itself is
+    one-sided this way, so this is the row's own draw scaled; the committed pilot result was measured on the
+    two-sided row's ranges halved, which are today's row's ranges but for the tray's yaw (halved in the pilot)."""
     from mani_skill.utils.structs.pose import Pose
 
     from maniladder_ms.envs import ManiLadderEnv
@@ -71,10 +72,10 @@ def pick_place_pen_one_side(scale: float) -> None:
             def uniform(lo, hi):
                 return (lo + hi) / 2 + (torch.rand(b) - 0.5) * (hi - lo) * scale
 
-            pen_xyz = torch.stack([uniform(*self.pen_x_range), uniform(*self.pen_abs_y_range),
+            pen_xyz = torch.stack([uniform(*self.pen_x_range), uniform(*self.pen_y_range),
                                    torch.full((b,), self.pen_radius)], 1)
             self.pen.set_pose(Pose.create_from_pq(pen_xyz, yaw_quat(uniform(*np.deg2rad(self.pen_yaw_range)))))
-            tray_xyz = torch.stack([uniform(*self.tray_x_range), -uniform(*self.tray_abs_y_range), torch.zeros(b)], 1)
+            tray_xyz = torch.stack([uniform(*self.tray_x_range), uniform(*self.tray_y_range), torch.zeros(b)], 1)
             max_yaw = np.deg2rad(self.tray_max_yaw)
             self.tray.set_pose(Pose.create_from_pq(tray_xyz, yaw_quat(uniform(-max_yaw, max_yaw))))
 
@@ -96,7 +97,7 @@ def main(argv=None):
     if not 0 < args.scale <= 1:
         ap.error(f"--scale {args.scale}: give a fraction in (0, 1]")
     if args.one_side and args.task != "PickPlacePen":
-        ap.error("--one-side is PickPlacePen's (its pen and tray lie on random opposite sides)")
+        ap.error("--one-side is PickPlacePen's (its pen on the left, its tray on the right)")
     torch.set_num_threads(1)
     if args.one_side:
         pick_place_pen_one_side(args.scale)

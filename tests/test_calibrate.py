@@ -122,10 +122,14 @@ def test_calibrate_resumes_after_a_kill(tmp_path, monkeypatch):
     timings = json.loads((task_dir / "timings.json").read_text())
     assert timings["features"] == timings_before["features"]
     result = json.loads((out / "PickPlacePen.json").read_text())
-    assert result["episodes"] == 2 and result["successes"] == 0 and result["measured_level"] == 4
-    assert set(result["per_training_seed"]) == {"0", "1"} and result["training_seed_spread"]["max"] == 0
-    assert result["agree"] is False and result["catalog_level"] == 1  # a 6-step policy solves nothing: flagged
-    assert result["verdict"] == verdict(0, 2, 1) and result["purpose"] == "final" and result["seed_set"] == 2
+    # a 6-step policy, its episodes pooled over the two training seeds: the level, agreement and verdict its
+    # successes give (the mean of the demos' joint targets can pick PickPlacePen's pen on its one-sided layout)
+    k = result["successes"]
+    assert result["episodes"] == 2 and result["measured_level"] == measured_level(k / 2)
+    assert set(result["per_training_seed"]) == {"0", "1"}
+    assert result["training_seed_spread"]["max"] == max(v["success"] for v in result["per_training_seed"].values())
+    assert result["agree"] is (result["measured_level"] == 1) and result["catalog_level"] == 1
+    assert result["verdict"] == verdict(k, 2, 1) and result["purpose"] == "final" and result["seed_set"] == 2
     assert result["per_training_seed"]["0"]["selection"]["selected_step"] in (3, 6)
     assert result["control_mode"] == "pd_joint_pos" and result["config"]["encoder"] == "random-projection"
     env = result["environment"]
@@ -224,9 +228,9 @@ def test_randomisation_pilot_draws_pick_place_pen_layouts_from_the_narrowed_rang
         for seed in range(8):
             env.reset(seed=seed)
             pen, tray = task.pen.pose.p[0].tolist(), task.tray.pose.p[0].tolist()
-            assert within(pen[0], halved(params["pen_x_range"])) and within(pen[1], halved(params["pen_abs_y_range"]))
+            assert within(pen[0], halved(params["pen_x_range"])) and within(pen[1], halved(params["pen_y_range"]))
             # the tray on the other side
-            assert within(tray[0], halved(params["tray_x_range"])) and within(-tray[1], halved(params["tray_abs_y_range"]))
+            assert within(tray[0], halved(params["tray_x_range"])) and within(tray[1], halved(params["tray_y_range"]))
             assert abs(actor_yaw(task.tray)) <= np.deg2rad(params["tray_max_yaw"]) / 2 + 1e-4
         env.close()
     finally:

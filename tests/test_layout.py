@@ -30,8 +30,8 @@ def _centre(points: torch.Tensor) -> list[float]:
 
 # task, params overridden to one value each, what the reset then puts where (x, y of a point the params place)
 FORCED = {
-    "PickPlacePen": ({"pen_x_range": [0.05, 0.05], "pen_abs_y_range": [0.1, 0.1]},
-                     lambda e: e.pen.pose.p[0, :2].abs().tolist(), [0.05, 0.1]),
+    "PickPlacePen": ({"pen_x_range": [0.05, 0.05], "pen_y_range": [0.1, 0.1]},
+                     lambda e: e.pen.pose.p[0, :2].tolist(), [0.05, 0.1]),
     "LiftRopeHand": ({"rope_x_range": [-0.1, -0.1], "rope_y_range": [0.07, 0.07]},
                      lambda e: _centre(torch.stack([link.pose.p[0] for link in e.rope.links])), [-0.1, 0.07]),
     "DragTowelHand": ({"towel_x_range": [-0.08, -0.08], "towel_y_range": [0.03, 0.03]},
@@ -140,7 +140,7 @@ def test_object_breadths_read_the_naming_scheme():
     assert tray.yaw_deg == 90 and tray.area_cm2 == 200 and tray.sides == 1
     assert cube.relative and cube.area_cm2 == 4
     (row,) = layout_breadth([maniladder_ms.default_catalog().get("PickPlacePen")])
-    assert row.area_cm2 == 960 and row.yaw_deg == 180 and row.sides == 2
+    assert row.area_cm2 == 120 and row.yaw_deg == 90 and row.sides == 1  # one side since the layout policy's rule 1
 
 
 def test_the_layout_policy_shows_the_catalogs_breadth():

@@ -20,9 +20,9 @@ class PickPlacePenEnv(ManiLadderEnv):
 
     **Randomisation:**
     - the pen (`pen_length` long, 2 x `pen_radius` thick) lies flat, its yaw uniform in `pen_yaw_range`, its centre
-      uniform in x in `pen_x_range`, |y| in `pen_abs_y_range` on a random side of the robot's centre line;
-    - the tray (inner 2 x `tray_inner_half`, walls `tray_wall_height` high) stands on the other side, centre x in
-      `tray_x_range`, |y| in `tray_abs_y_range`, yaw uniform in +-`tray_max_yaw`.
+      uniform in x in `pen_x_range`, y in `pen_y_range` (the robot's left);
+    - the tray (inner 2 x `tray_inner_half`, walls `tray_wall_height` high) stands on the robot's right, centre x in
+      `tray_x_range`, y in `tray_y_range`, yaw uniform in +-`tray_max_yaw`.
 
     **Success:** the pen centre, in the tray's frame, lies inside the tray's inner footprint shrunk by
     `margin` on every side; the pen centre is below the rim (top of the walls); and the gripper does not
@@ -33,7 +33,7 @@ class PickPlacePenEnv(ManiLadderEnv):
 
     TASK_REGION = (-0.25, 0.24, -0.32, 0.32)
     PARAMS = ("pen_length", "pen_radius", "tray_inner_half", "tray_wall_height", "margin",
-              "pen_x_range", "pen_abs_y_range", "pen_yaw_range", "tray_x_range", "tray_abs_y_range", "tray_max_yaw")
+              "pen_x_range", "pen_y_range", "pen_yaw_range", "tray_x_range", "tray_y_range", "tray_max_yaw")
     tray_wall_thickness = 0.008
     tray_base_thickness = 0.006
 
@@ -51,11 +51,10 @@ class PickPlacePenEnv(ManiLadderEnv):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            side = torch.where(torch.rand(b) < 0.5, -1.0, 1.0)
-            pen_xyz = torch.stack([uniform(b, self.pen_x_range), side * uniform(b, self.pen_abs_y_range),
+            pen_xyz = torch.stack([uniform(b, self.pen_x_range), uniform(b, self.pen_y_range),
                                    torch.full((b,), self.pen_radius)], dim=1)
             self.pen.set_pose(Pose.create_from_pq(pen_xyz, yaw_quat(uniform_deg(b, self.pen_yaw_range))))
-            tray_xyz = torch.stack([uniform(b, self.tray_x_range), -side * uniform(b, self.tray_abs_y_range),
+            tray_xyz = torch.stack([uniform(b, self.tray_x_range), uniform(b, self.tray_y_range),
                                     torch.zeros(b)], dim=1)
             self.tray.set_pose(Pose.create_from_pq(tray_xyz, yaw_quat(symmetric_deg(b, self.tray_max_yaw))))
 
