@@ -1,0 +1,144 @@
+"""Scripted solver of NestCupsHands (tasks/rigid/nest_cups_hands.py): the left hand puts the middle cup into the
+large one, then the right hand the small cup into the middle one.
+
+1. Both hands come down onto their cups at once (left: the middle, right: the small), top-down, open in
+   "preshape", their TCPs GRASP_BELOW_RIM under the rims and GRASP_OFFSET from the axes (`come_down`).
+2. The left closes "power" round the middle cup, lifts it CARRY_BOTTOM clear of the table and takes its tilt in
+   the grip out (`pick`); it carries it over the large cup, straightens it again, aims it closed loop, lowers it
+   closed loop until its bottom is RELEASE_BOTTOM over the large cup's floor and opens (`drop_into`): the cup
+   falls the rest of the way along the large cup's tapered wall; the left rises and moves LEFT_ASIDE.
+3. The right, waiting open round the small cup, does the same with it into the middle cup.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+
+from mani_skill.utils.geometry.rotation_conversions import quaternion_apply
+
+from maniladder_ms.geometry import uprighting
+from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
+from maniladder_ms.solvers.bimanual import HandoverSolver, close_hands, glide
+from maniladder_ms.solvers.control import top_down_quat
+from maniladder_ms.solvers.postures import LEAP_SYNERGIES
+from maniladder_ms.tasks.rigid.nest_cups_hands import CUP_HEIGHT, NestCupsHandsEnv
+
+# the top-down grasp: the hand's yaw (TCP x along the fingers: +x, away from the robot, the thumb towards it), the
+# TCP this far under the cup's rim, and this far from its axis in the TCP frame (x towards the fingertips, y along
+# the finger row; the left hand's row mirrored): PlaceMugOnCoasterHand's mug grasp. On seed 103 the offset's row
+# component not mirrored for the left pushed the middle cup 4 cm at the close; at 3.5 cm under the rim the small cup
+# slipped out in the lift
+YAW = {"left": 0.0, "right": 0.0}
+GRASP_BELOW_RIM = 0.04
+GRASP_OFFSET = (-0.015, -0.015, 0.0)
+APPROACH_ABOVE = 0.1  # the hands come down onto their grasps from this far above
+PRESHAPE_STEPS = 5
+CLOSE_STEPS = 40  # the hands close over this many control steps
+CARRY_BOTTOM = 0.12  # m: the carried cup's bottom this high over the table (over the 9 cm rims)
+LIFT_MARGIN = 0.01  # m: the lift goes this much higher, the carry and the lowering start there
+CARRY_STEP = 0.01  # m a control step along the lift and the carry
+# the held cup's bottom this far over the container's floor when the hand lets go: its lowest fingertip ~1 cm over
+# the container's rim (seed 100). At 7 cm the dropped middle cup wedged 6 mm high in the large one (seeds 100, 106)
+RELEASE_BOTTOM = 0.055
+LOWER_STEP = 0.004  # m a control step of the closed-loop lowering
+STRAIGHTEN_STEPS = 30  # control steps at most for the wrist to take the held cup's tilt out
+AIMS = 2  # closed-loop moves putting the held cup's axis over the container's, before the lowering
+# the release: the squeeze relaxed (targets to the joints' positions), the thumb opens over RELEASE_STEPS, then the
+# fingers over FINGER_OPEN_STEPS. Opening everything at once over 10 steps, or the fingers first, the opening
+# fingers swung the small cup out of the middle one's mouth and it stayed lying on them (seeds 100, 106, 108)
+RELEASE_STEPS = 10
+FINGER_OPEN_STEPS = 30
+OUTER_JOINTS = [2, 3, 6, 7, 10, 11, 13, 14, 15]  # the fingers' PIP / DIP and the thumb's bends (LEAP joint order)
+RISE = 0.1  # m the open hand rises off the dropped cup
+LEFT_ASIDE = (-0.05, 0.12)  # the left moves this far (x, y) away once risen, clearing the right's way
+
+
+def grasp_pose(task: NestCupsHandsEnv, cup: str, side: str) -> tuple[torch.Tensor, torch.Tensor]:
+    """TCP (p, q) of `side`'s top-down grasp on `cup` standing on the table."""
+    n, dev = task.num_envs, task.device
+    q = top_down_quat(YAW[side], n, device=dev)
+    dx, dy, dz = GRASP_OFFSET
+    offset = torch.tensor([[dx, -dy if side == "left" else dy, dz]], device=dev).expand(n, 3)
+    p = task.cups[cup].pose.p + torch.tensor([0.0, 0.0, CUP_HEIGHT - GRASP_BELOW_RIM], device=dev)
+    return p + quaternion_apply(q, offset), q
+
+
+def come_down(s: HandoverSolver, task: NestCupsHandsEnv) -> dict:
+    """Both hands go above their grasps, take "preshape" and come down onto them (phase 1); returns each arm's
+    grasp pose."""
+    grasps = {"left_arm": grasp_pose(task, "middle", "left"), "right_arm": grasp_pose(task, "small", "right")}
+    s.move({a: (s.above(p, APPROACH_ABOVE), q) for a, (p, q) in grasps.items()}, max_steps=60)
+    s.set_ee("left_hand", "preshape", steps=0)
+    s.set_ee("right_hand", "preshape", steps=PRESHAPE_STEPS)
+    s.move({a: (p, q) for a, (p, q) in grasps.items()}, max_steps=40, pos_tol=0.003)
+    return grasps
+
+
+def pick(s: HandoverSolver, task: NestCupsHandsEnv, arm: str, ee: str, cup: str, grasp) -> torch.Tensor:
+    """Close `ee` on `cup`, lift it CARRY_BOTTOM clear of the table and straighten it in the grip; returns the arm's
+    orientation."""
+    p, q = grasp
+    close_hands(s, {ee: LEAP_SYNERGIES["power"]}, CLOSE_STEPS)
+    glide(s, {arm: (p, s.above(p, CARRY_BOTTOM + LIFT_MARGIN), q)}, step_length=CARRY_STEP, settle_steps=5)
+    return straighten(s, task, arm, cup)
+
+
+def held_tcp(s: HandoverSolver, task: NestCupsHandsEnv, arm: str, cup: str, at: torch.Tensor) -> torch.Tensor:
+    """The TCP position of `arm` that puts the held `cup`'s bottom centre at `at` (as it hangs in the grip now)."""
+    return at + s.tcp(arm).p - task.cups[cup].pose.p
+
+
+def straighten(s: HandoverSolver, task: NestCupsHandsEnv, arm: str, cup: str) -> torch.Tensor:
+    """Turn `arm`'s TCP (about itself) by the held cup's tilt in the grip; returns the new orientation."""
+    q = uprighting(task.cups[cup].pose.q, s.tcp(arm).q)
+    s.move({arm: (s.tcp(arm).p.clone(), q)}, max_steps=STRAIGHTEN_STEPS)
+    return q
+
+
+def drop_into(s: HandoverSolver, task: NestCupsHandsEnv, arm: str, ee: str, cup: str, container: str,
+              q: torch.Tensor):
+    """Carry the held `cup` level over `container`, aim it closed loop, lower it until its bottom is RELEASE_BOTTOM
+    over the container's floor, open the hand and rise (phases 2 and 3)."""
+    dev = task.device
+    high = torch.tensor([0.0, 0.0, CARRY_BOTTOM + LIFT_MARGIN], device=dev)
+    start = s.tcp(arm).p.clone()
+    over = held_tcp(s, task, arm, cup, task.cups[container].pose.p + high)
+    glide(s, {arm: (start, over, q)}, step_length=CARRY_STEP, settle_steps=10)
+    q = straighten(s, task, arm, cup)
+    for _ in range(AIMS):
+        s.move({arm: (held_tcp(s, task, arm, cup, task.cups[container].pose.p + high), q)}, max_steps=20,
+               pos_tol=0.002)
+    shape = task.shapes[container]
+    low = torch.tensor([0.0, 0.0, shape.floor + RELEASE_BOTTOM], device=dev)
+    steps = int(np.ceil((CARRY_BOTTOM + LIFT_MARGIN - shape.floor - RELEASE_BOTTOM) / LOWER_STEP))
+    for k in range(1, steps + 1):
+        # closed loop: the target keeps the held cup's axis over the container's as it goes down
+        base = task.cups[container].pose.p
+        at = base + high + (low - high) * k / steps
+        s.step({arm: (held_tcp(s, task, arm, cup, at), q)})
+    s.move({arm: (s.tcp(arm).p.clone(), q)}, max_steps=3)
+    hand = task.agent.controller.controllers[ee].qpos.clone()
+    s.close_hand(ee, hand, ramp_steps=3, hold_steps=0)
+    hand[:, OUTER_JOINTS] = 0  # the digits straighten at their outer joints (unhooking the cup), then open
+    s.close_hand(ee, hand, ramp_steps=RELEASE_STEPS, hold_steps=2)
+    s.close_hand(ee, "open", ramp_steps=FINGER_OPEN_STEPS, hold_steps=2)
+    s.move({arm: (s.above(s.tcp(arm).p.clone(), RISE), q)}, max_steps=30, pos_tol=0.02)
+
+
+@register_solver("NestCupsHands", control_modes=TCP_DELTA_MODES)
+def solve_nest_cups_hands(env, seed: int) -> dict:
+    """Phases 1-3 of the module docstring."""
+    with HandoverSolver.episode(env, seed) as s:
+        task: NestCupsHandsEnv = env.unwrapped
+        grasps = come_down(s, task)
+        q = pick(s, task, "left_arm", "left_hand", "middle", grasps["left_arm"])
+        drop_into(s, task, "left_arm", "left_hand", "middle", "large", q)
+        tcp = s.tcp("left_arm").p.clone()
+        tcp[:, 0] += LEFT_ASIDE[0]
+        tcp[:, 1] += LEFT_ASIDE[1]
+        s.move({"left_arm": (tcp, q)}, max_steps=20, pos_tol=0.02)
+        q = pick(s, task, "right_arm", "right_hand", "small", grasps["right_arm"])
+        drop_into(s, task, "right_arm", "right_hand", "small", "middle", q)
+        s.hold_until_success()
+        return s.info
