@@ -8,7 +8,8 @@ tasks are built; without this it would redo every task after every such edit. `r
 one result:
 
 1. the task's own parts are unchanged since the result's commit (`git diff`): its catalog row's played fields, its
-   task module, its solver module, the robot assets and collision decompositions; and
+   task module and its solver module (the robot assets and the shipped decompositions are every task's: a new
+   task's decomposition changes every hash, and what they do to this task is in its demos); and
 2. its calibration demos (the protocol's count and first seed), regenerated with the current code, are
    bit-identical, actions and env states, to the demos the result was trained on (`demos_digest`): the solver, the
    shared solver and env code it runs and the simulation along those episodes are unchanged.
@@ -27,9 +28,9 @@ import tempfile
 from pathlib import Path
 from typing import Optional
 
-from maniladder_ms.provenance import PLAYED_FIELDS, ROOT, TASK_DATA_DIRS, git_commit, task_hash
+from maniladder_ms.provenance import PLAYED_FIELDS, ROOT, git_commit, task_hash
 
-EVIDENCE = ("own parts unchanged (catalog row, task and solver modules, assets); {n} calibration demos regenerated "
+EVIDENCE = ("own parts unchanged (catalog row, task and solver modules); {n} calibration demos regenerated "
             "bit-identical (actions and env states); not checked: the policy's own rollouts, rendering")
 
 
@@ -68,7 +69,6 @@ def own_parts_changed(task_id: str, commit: str) -> list[str]:
     paths = [f"maniladder_ms/tasks/{tasks.FILES[task_id]}"]
     if task_id in solvers.solver_files():
         paths.append(f"maniladder_ms/solvers/{solvers.solver_files()[task_id]}")
-    paths += [f"maniladder_ms/{d}" for d in TASK_DATA_DIRS]
     changed = [p for p in paths if _git("diff", "--quiet", commit, "--", p).returncode != 0]
     catalog = "maniladder_ms/data/task_catalog.yaml"
     old = _git("show", f"{commit}:{catalog}")
