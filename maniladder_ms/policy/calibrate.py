@@ -781,7 +781,7 @@ def cmd_calibrate(args) -> int:
 
 def _revalidate(tasks: list[str], args) -> int:
     """`calibrate --revalidate`: `revalidate.revalidate_folder` over the tasks' results in --out; with --record the
-    equivalent versions go into each record's last entry of the measured version."""
+    equivalent versions go into the record's entries of the measured version."""
     from .records import add_equivalent
     from .revalidate import revalidate_folder
 
@@ -789,8 +789,7 @@ def _revalidate(tasks: list[str], args) -> int:
     if args.record:
         for row in rows:
             if row["status"] == "equivalent":
-                r = json.loads((Path(args.out) / f"{row['task']}.json").read_text())
-                add_equivalent(args.record, r)
+                add_equivalent(args.record, row["result"])
     return 0 if all(row["status"] in ("current", "equivalent") for row in rows) else 1
 
 

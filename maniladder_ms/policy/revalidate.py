@@ -82,7 +82,7 @@ def own_parts_changed(task_id: str, commit: str) -> list[str]:
 def revalidate(result_path: Path, work: Path, progress: bool = True) -> dict:
     """Check one result file against the current version of its task (see the module doc); on success add the
     version to its `equivalent_versions` and rewrite it. Returns {"task", "status": current | equivalent | changed,
-    "why"}; raises ValueError where it cannot tell (no commit, or the result's demos are not in `work`)."""
+    "why"} (and the rewritten "result" when equivalent); raises ValueError where it cannot tell (no commit, or the result's demos are not in `work`)."""
     from maniladder_ms.demos.files import demo_path
     from maniladder_ms.demos.recording import generate
     from maniladder_ms.policy.calibrate import demo_control_mode_for
@@ -90,8 +90,7 @@ def revalidate(result_path: Path, work: Path, progress: bool = True) -> dict:
     result_path = Path(result_path)
     r = json.loads(result_path.read_text())
     task, now = r["task"], task_hash(r["task"])
-    known = {r["task_hash"], *(e["task_hash"] for e in r.get("equivalent_versions", []))}
-    if now in known:
+    if now in equivalent_hashes(r):
         return {"task": task, "status": "current", "why": f"version {now} is the one measured"}
     changed = own_parts_changed(task, r.get("environment", {}).get("commit", ""))
     if changed:
@@ -111,7 +110,8 @@ def revalidate(result_path: Path, work: Path, progress: bool = True) -> dict:
     tmp_path = result_path.with_suffix(".partial")
     tmp_path.write_text(json.dumps(r, indent=1))
     tmp_path.replace(result_path)
-    return {"task": task, "status": "equivalent", "why": f"version {now} plays as {r['task_hash']}: {entry['evidence']}"}
+    return {"task": task, "status": "equivalent", "why": f"version {now} plays as {r['task_hash']}: {entry['evidence']}",
+            "result": r}
 
 
 def equivalent_hashes(result: dict) -> set[str]:
