@@ -6,6 +6,7 @@ import json
 from pathlib import Path
 
 import h5py
+import numpy as np
 
 from maniladder_ms.catalog import UnknownTaskError, default_catalog
 
@@ -89,6 +90,16 @@ def episode_reset_kwargs(ep: dict) -> dict:
 def state_at(states: dict, t: int) -> dict:
     """The env state of step `t` (batch of one) out of an episode's stacked `env_states`."""
     return {k: state_at(v, t) if isinstance(v, dict) else v[t : t + 1] for k, v in states.items()}
+
+
+def flat_state(state: dict) -> np.ndarray:
+    """A (nested) state dict as one flat array, keys in sorted order: states compare by their largest |difference|."""
+    import torch
+
+    return np.concatenate([
+        flat_state(state[k]) if isinstance(state[k], dict) else np.asarray(torch.as_tensor(state[k]).cpu()).ravel()
+        for k in sorted(state)
+    ])
 
 
 def torch_state(state: dict):

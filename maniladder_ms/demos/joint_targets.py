@@ -1,9 +1,10 @@
 """A demo's actions as absolute joint targets (`pd_joint_pos`), whatever mode it was recorded in.
 
 Every arm controller of our agents ends in PD drive targets: `pd_ee_delta_pose` solves IK for them, and
-`pd_joint_delta_pos` adds its delta to them. Replaying an episode from its first recorded state in its own
-mode and reading each arm controller's drive target after every step gives the `pd_joint_pos` action that
-sets the very same targets, so the converted episode replays the same motion. Parts that are identical in
+`pd_joint_delta_pos` adds its delta to them. Replaying an episode from its seeded reset (which reproduces its
+recorded first state: `demos verify`'s drift 0) in its own mode and reading each arm controller's drive target
+after every step gives the `pd_joint_pos` action that sets the very same targets, so the converted episode
+replays the same motion. Parts that are identical in
 both modes (grippers, LEAP hands, the mobile base's velocity) keep their recorded action slice.
 
 ManiSkill's `replay_trajectory` converts from `pd_joint_pos` to the delta modes, not back; the reference
@@ -18,11 +19,12 @@ from typing import Iterator
 import numpy as np
 
 from .files import (
-    DemoFileError, episode_arrays, episode_reset_kwargs, load_demo_json, open_demo_h5, replay_env_kwargs, state_at,
-    torch_state,
+    DemoFileError, episode_arrays, episode_reset_kwargs, flat_state, load_demo_json, open_demo_h5, replay_env_kwargs,
+    state_at,
 )
 
 TARGET_MODE = "pd_joint_pos"
+RESET_TOLERANCE = 1e-6  # the seeded reset reproduces a demo's first state exactly (`demos verify`'s drift 0)
 
 
 def _part_layout(agent, source_mode: str) -> list[tuple[str, int, bool]]:
@@ -65,9 +67,16 @@ def joint_target_episodes(h5_path, progress: bool = False) -> Iterator[tuple[np.
         try:
             for ep in tqdm(meta["episodes"], desc=f"joint targets {h5_path.parent.name}", disable=not progress):
                 actions, states = episode_arrays(h5, ep["episode_id"], str(h5_path))
-                # a reconfiguring reset rebuilds the agent: read its controller after it
+                # the seeded reset, as `demos verify` replays: writing the recorded first state back over it moves
+                # the replay off the recorded motion (PlaceMugOnCoasterHand, 20 demos: the LEAP arm's converted
+                # targets then differ by up to 0.12 rad, and episode 1 no longer succeeds)
                 env.reset(**episode_reset_kwargs(ep))
-                base.set_state_dict(torch_state(state_at(states, 0)))
+                gap = float(np.abs(flat_state(base.get_state_dict()) - flat_state(state_at(states, 0))).max())
+                if gap > RESET_TOLERANCE:
+                    raise DemoFileError(f"{h5_path}: episode {ep['episode_id']}: the seeded reset is {gap:.3g} away "
+                                        "from the recorded first state (the task changed since recording); "
+                                        "re-record the demos")
+                # a reconfiguring reset rebuilds the agent: read its controller after it
                 parts = base.agent.controller.controllers
                 layout = _part_layout(base.agent, source_mode)
                 out, info = [], {}

@@ -6,9 +6,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import torch
 
-from .files import episode_arrays, episode_reset_kwargs, load_demo_json, open_demo_h5, state_at, torch_state
+from .files import (
+    episode_arrays, episode_reset_kwargs, flat_state, load_demo_json, open_demo_h5, state_at, torch_state,
+)
 
 
 @dataclass
@@ -19,13 +20,6 @@ class EpisodeCheck:
     success_from_actions: bool  # replaying the recorded actions from the seeded reset succeeds
     success_from_states: bool  # the recorded final env state satisfies the success rule
     max_drift: float  # largest |state| difference between the action replay and the recorded states
-
-
-def _flat(state: dict) -> np.ndarray:
-    return np.concatenate([
-        _flat(state[k]) if isinstance(state[k], dict) else np.asarray(torch.as_tensor(state[k]).cpu()).ravel()
-        for k in sorted(state)
-    ])
 
 
 def verify(path: Path, progress: bool = True) -> list[EpisodeCheck]:
@@ -53,11 +47,11 @@ def verify(path: Path, progress: bool = True) -> list[EpisodeCheck]:
 def _check_episode(env, ep: dict, actions: np.ndarray, states: dict) -> EpisodeCheck:
     base = env.unwrapped
     env.reset(**episode_reset_kwargs(ep))
-    drift = float(np.abs(_flat(base.get_state_dict()) - _flat(state_at(states, 0))).max())
+    drift = float(np.abs(flat_state(base.get_state_dict()) - flat_state(state_at(states, 0))).max())
     info = {}
     for t, action in enumerate(actions):
         _, _, _, _, info = env.step(action)
-        drift = max(drift, float(np.abs(_flat(base.get_state_dict()) - _flat(state_at(states, t + 1))).max()))
+        drift = max(drift, float(np.abs(flat_state(base.get_state_dict()) - flat_state(state_at(states, t + 1))).max()))
     base.set_state_dict(torch_state(state_at(states, len(actions))))
     from_states = bool(base.evaluate()["success"][0])
     return EpisodeCheck(
