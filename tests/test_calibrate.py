@@ -4,6 +4,7 @@ import dataclasses
 import json
 import os
 import signal
+import shutil
 import subprocess
 import sys
 import time
@@ -429,12 +430,26 @@ def test_a_result_of_an_earlier_version_stands_for_the_current_one_only_if_its_d
     now = json.loads((out / f"{task}.json").read_text())
     assert [e["task_hash"] for e in now["equivalent_versions"]] == [task_hash(task)] and cal.stale_reason(now) is None
     check_run(tmp_path / "records", task, task_hash(task), "v4", "final", {"train_steps": 4000})  # no --change needed
+    trained_on = demo_path(work / task / old / "demos", task, "none", mode)
+    assert now["demos_digest"] == rv.demos_digest(trained_on)  # kept: later checks need no work folder
     assert main(args) == 0  # revalidated already: current
     (out / f"{task}.json").write_text(json.dumps(result))  # the same result again, its demos altered by one action
-    with h5py.File(demo_path(work / task / old / "demos", task, "none", mode), "r+") as f:
+    with h5py.File(trained_on, "r+") as f:
         f["traj_1"]["actions"][3, 0] += 1e-3
     assert main(args) == 1
     assert "equivalent_versions" not in json.loads((out / f"{task}.json").read_text())
+
+    shutil.rmtree(work)  # the work folder lost: the recorded digest decides alone
+    (out / f"{task}.json").write_text(json.dumps({**result, "demos_digest": now["demos_digest"]}))
+    assert main(args) == 0
+    assert [e["task_hash"] for e in json.loads((out / f"{task}.json").read_text())["equivalent_versions"]] == \
+        [task_hash(task)]
+    (out / f"{task}.json").write_text(json.dumps(result))  # neither a digest nor the demos: cannot tell, untouched
+    assert main(args) == 1 and json.loads((out / f"{task}.json").read_text()) == result
+    current = {**result, "task_hash": task_hash(task)}  # written before results carried a digest: it gets one
+    (out / f"{task}.json").write_text(json.dumps(current))
+    assert main(args) == 0
+    assert json.loads((out / f"{task}.json").read_text()) == {**current, "demos_digest": now["demos_digest"]}
 
 
 def test_calibration_report_shows_level_means_agreement_and_the_ladder_figures(tmp_path, capsys):

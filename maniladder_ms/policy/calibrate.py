@@ -356,6 +356,8 @@ class TaskCalibration:
         from maniladder_ms.evaluation.stats import wilson_interval
         from maniladder_ms.provenance import environment
 
+        from .revalidate import demos_digest
+
         ranges = level_ranges()
         successes = sum(t["successes"] for t, _ in per_seed.values())
         episodes = sum(t["episodes"] for t, _ in per_seed.values())
@@ -378,14 +380,15 @@ class TaskCalibration:
             "mean_steps": statistics.mean(t["mean_steps"] for t, _ in per_seed.values()), "timings_s": self._timings(),
             "cpu_s": self._timings(self.cpu_timings_path),
             "protocol": PROTOCOL_VERSION, "config": self.config.as_dict(), "calibration": self.protocol.as_dict(),
-            "task_hash": self.task_hash,
+            "task_hash": self.task_hash, "demos_digest": demos_digest(self.demo_h5),
             "environment": environment(renderer=self.renderer, device=self.device),
             "time": time.strftime("%Y-%m-%dT%H:%M:%S"),
         }
         path = self.out / f"{self.spec.id}.json"
         if path.is_file():
             old = json.loads(path.read_text())
-            volatile = ("time", "timings_s", "cpu_s", "environment")
+            # demos_digest: a function of the task version and demo seeds compared here (older results lack it)
+            volatile = ("time", "timings_s", "cpu_s", "environment", "demos_digest")
             if {k: v for k, v in old.items() if k not in volatile} == \
                     json.loads(json.dumps({k: v for k, v in result.items() if k not in volatile})):
                 return old  # a resume of a finished task: the result stays as it is (no new time stamp to commit)

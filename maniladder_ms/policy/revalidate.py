@@ -82,36 +82,67 @@ def own_parts_changed(task_id: str, commit: str) -> list[str]:
 def revalidate(result_path: Path, work: Path, progress: bool = True) -> dict:
     """Check one result file against the current version of its task (see the module doc); on success add the
     version to its `equivalent_versions` and rewrite it. Returns {"task", "status": current | equivalent | changed,
-    "why"} (and the rewritten "result" when equivalent); raises ValueError where it cannot tell (no commit, or the result's demos are not in `work`)."""
-    from maniladder_ms.demos.files import demo_path
-    from maniladder_ms.demos.recording import generate
-    from maniladder_ms.policy.calibrate import demo_control_mode_for
+    "why"} (and the rewritten "result" when equivalent); raises ValueError where it cannot tell (no commit, or no
+    record of the demos the result was trained on: neither its `demos_digest` nor the demos in `work`).
 
+    A result of the current version without a `demos_digest` (results written before calibrate recorded it) gets
+    one: from its demos in `work` where they are, else from the demos regenerated now, which are the trained-on
+    demos because the version is the measured one (the determinism the equivalence check itself rests on). Later
+    revalidations then need no work folder."""
     result_path = Path(result_path)
     r = json.loads(result_path.read_text())
     task, now = r["task"], task_hash(r["task"])
+    trained_on = _trained_on_demos(r, work)
     if now in equivalent_hashes(r):
-        return {"task": task, "status": "current", "why": f"version {now} is the one measured"}
+        if r.get("demos_digest"):
+            return {"task": task, "status": "current", "why": f"version {now} is the one measured"}
+        r["demos_digest"] = demos_digest(trained_on) if trained_on.is_file() else _regenerated_digest(r, progress)
+        _write(result_path, r)
+        return {"task": task, "status": "current", "why": f"version {now} is the one measured; its demos' digest "
+                                                          "is now recorded", "result": r}
     changed = own_parts_changed(task, r.get("environment", {}).get("commit", ""))
     if changed:
         return {"task": task, "status": "changed", "why": "changed since the result: " + ", ".join(changed)}
-    mode = r.get("demo_control_mode") or demo_control_mode_for(task)
-    trained_on = demo_path(Path(work) / task / r["task_hash"] / "demos", task, "none", mode)
-    if not trained_on.is_file():
-        raise ValueError(f"{task}: the demos the result was trained on are not in {work} ({trained_on})")
-    n, seed = r["calibration"]["demos"], r["calibration"]["demo_seed"]
-    with tempfile.TemporaryDirectory() as tmp:
-        report = generate(task, n, Path(tmp), seed=seed, control_mode=mode, progress=progress)
-        same = demos_digest(Path(report.path)) == demos_digest(trained_on)
-    if not same:
+    if not r.get("demos_digest") and not trained_on.is_file():
+        raise ValueError(f"{task}: the result records no demos_digest and the demos it was trained on are not in "
+                         f"{work} ({trained_on})")
+    before = r.get("demos_digest") or demos_digest(trained_on)
+    n = r["calibration"]["demos"]
+    if _regenerated_digest(r, progress) != before:
         return {"task": task, "status": "changed", "why": f"its {n} demos regenerated now differ from those trained on"}
+    r["demos_digest"] = before
     entry = {"task_hash": now, "commit": git_commit(), "evidence": EVIDENCE.format(n=n)}
     r.setdefault("equivalent_versions", []).append(entry)
+    _write(result_path, r)
+    return {"task": task, "status": "equivalent", "why": f"version {now} plays as {r['task_hash']}: {entry['evidence']}",
+            "result": r}
+
+
+def _trained_on_demos(r: dict, work: Path) -> Path:
+    """Where a calibration work folder keeps the demos the result was trained on."""
+    from maniladder_ms.demos.files import demo_path
+    from maniladder_ms.policy.calibrate import demo_control_mode_for
+
+    mode = r.get("demo_control_mode") or demo_control_mode_for(r["task"])
+    return demo_path(Path(work) / r["task"] / r["task_hash"] / "demos", r["task"], "none", mode)
+
+
+def _regenerated_digest(r: dict, progress: bool) -> str:
+    """`demos_digest` of the result's calibration demos (its count and first seed) generated with the current code."""
+    from maniladder_ms.demos.recording import generate
+    from maniladder_ms.policy.calibrate import demo_control_mode_for
+
+    mode = r.get("demo_control_mode") or demo_control_mode_for(r["task"])
+    with tempfile.TemporaryDirectory() as tmp:
+        report = generate(r["task"], r["calibration"]["demos"], Path(tmp), seed=r["calibration"]["demo_seed"],
+                          control_mode=mode, progress=progress)
+        return demos_digest(Path(report.path))
+
+
+def _write(result_path: Path, r: dict) -> None:
     tmp_path = result_path.with_suffix(".partial")
     tmp_path.write_text(json.dumps(r, indent=1))
     tmp_path.replace(result_path)
-    return {"task": task, "status": "equivalent", "why": f"version {now} plays as {r['task_hash']}: {entry['evidence']}",
-            "result": r}
 
 
 def equivalent_hashes(result: dict) -> set[str]:
