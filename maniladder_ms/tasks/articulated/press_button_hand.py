@@ -33,7 +33,7 @@ class PressButtonHandEnv(ManiLadderEnv):
     max_dense_reward = 4
     PARAMS = ("press_fraction", "button_x_range", "button_y_range", "button_yaw_range")
     button_shape = ButtonShape()
-    TASK_REGION = (-0.27, 0.02, -0.22, 0.22)  # button centres plus the housing's half diagonal
+    TASK_REGION = (-0.27, 0.02, -0.22, 0.22)  # holds the button centres plus the housing's half diagonal, with room
     # the index finger's links: the catalog asks for the press to be made with the index finger (not the
     # palm, another finger or the arm); the vocabulary's `ee.touches` has no per-finger form yet
     INDEX_LINKS = ("leap_index_pip", "leap_index_dip", "leap_index_tip")

@@ -40,7 +40,6 @@ class HandoverCubeEnv(HandoverTask):
     TASK_REGION = (-0.25, 0.1, -0.4, 0.4)
     PARAMS = HandoverTask.PARAMS + ("cube_half", "zone_half", "on_table_tol", "cube_x_range", "cube_y_range",
                                     "cube_yaw_range", "zone_x_range", "zone_y_range")
-    # layout ranges as (low, span)
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
