@@ -89,6 +89,7 @@ def test_calibrate_resumes_after_a_kill(tmp_path, monkeypatch):
     features and checkpoints, finishes both training seeds, and writes the task's pooled result with its
     provenance, the table and the plot. The work folder is the task version's: a changed task starts afresh."""
     from maniladder_ms import provenance
+    from maniladder_ms.policy.revalidate import demos_digest
 
     work, out = tmp_path / "work", tmp_path / "out"
     task_dir = work / "PickPlacePen" / provenance.task_hash("PickPlacePen")
@@ -132,6 +133,9 @@ def test_calibrate_resumes_after_a_kill(tmp_path, monkeypatch):
     assert result["agree"] is (result["measured_level"] == 1) and result["catalog_level"] == 1
     assert result["verdict"] == verdict(k, 2, 1) and result["purpose"] == "final" and result["seed_set"] == 2
     assert result["per_training_seed"]["0"]["selection"]["selected_step"] in (3, 6)
+    assert set(result["reached"]) == {"0", "1"} and all(0 <= share <= 1 for r in result["reached"].values()
+                                                           for share in r.values())
+    assert result["demos_digest"] == demos_digest(REPO / "demos" / "PickPlacePen" / "trajectory.none.pd_joint_pos.physx_cpu.h5")
     assert result["control_mode"] == "pd_joint_pos" and result["config"]["encoder"] == "random-projection"
     env = result["environment"]
     assert result["task_hash"] == provenance.task_hash("PickPlacePen") and env["renderer"] == "cpu"

@@ -373,6 +373,8 @@ class TaskCalibration:
             "verdict": verdict(successes, episodes, self.spec.level, ranges),
             "per_training_seed": {str(seed): {"successes": t["successes"], "episodes": t["episodes"], "success": t["rate"],
                                               "selection": sel} for seed, (t, sel) in per_seed.items()},
+            # how far each training seed's episodes got: the share reaching each of the task's intermediate flags
+            "reached": {str(seed): t.get("reached", {}) for seed, (t, _) in per_seed.items()},
             "training_seed_spread": {"min": min(rates), "max": max(rates),
                                      "sd": statistics.stdev(rates) if len(rates) > 1 else None},
             "control_mode": self.control_mode, "demo_control_mode": self.demo_control_mode, "horizon": self.spec.horizon,
@@ -387,8 +389,9 @@ class TaskCalibration:
         path = self.out / f"{self.spec.id}.json"
         if path.is_file():
             old = json.loads(path.read_text())
-            # demos_digest: a function of the task version and demo seeds compared here (older results lack it)
-            volatile = ("time", "timings_s", "cpu_s", "environment", "demos_digest")
+            # demos_digest and reached follow from what is compared (the task version, demo seeds and episodes) and
+            # older results lack them
+            volatile = ("time", "timings_s", "cpu_s", "environment", "demos_digest", "reached")
             if {k: v for k, v in old.items() if k not in volatile} == \
                     json.loads(json.dumps({k: v for k, v in result.items() if k not in volatile})):
                 return old  # a resume of a finished task: the result stays as it is (no new time stamp to commit)
