@@ -5,7 +5,7 @@ and lays it back at its flat place.
 2. Pinch it `GRASP_ABOVE` over its centre, read again once the hand is above it (the folded layer settles into
    the sheet's hollows in the first steps).
 3. Lift it `LIFT`, the fold peeling off the sheet behind it.
-4. Carry it to its flat place, lower it to `RELEASE_HEIGHT` above, release, retreat.
+4. Carry it to its flat place, lower it to `RELEASE_HEIGHT` above, release, retreat `RETREAT_HEIGHT` up (`retreat`).
 """
 
 from __future__ import annotations
@@ -13,13 +13,27 @@ from __future__ import annotations
 import numpy as np
 import sapien
 
-from maniladder_ms.solvers import register_solver
+from maniladder_ms.solvers import PlanningFailed, register_solver
 from maniladder_ms.solvers.panda import PLANNED_APPROACH_HEIGHT, PRECISE_SETTLE_STEPS, PandaSolver
 from maniladder_ms.tasks.cloth.flatten_towel_corner import FlattenTowelCornerEnv
 
 GRASP_ABOVE = 0.006  # the TCP this far above the corner particle's centre: the pads pinch its sides, clear of the sheet
 LIFT = 0.04  # the corner is carried this high, the fold peeling off the sheet behind it
 RELEASE_HEIGHT = 0.005  # above the corner's flat place, where the fingers open
+RETREAT_HEIGHT = 0.06  # above the release pose once the fingers are open (`PandaSolver.place`'s retreat)
+
+
+def retreat(robot: PandaSolver, pose: sapien.Pose):
+    """`robot.move(pose)`, by an RRT path where mplib cannot time the straight (screw) one: its TOPP raises
+    "Fail to parameterize path" on the retreat above the released corner on seed 191 (the arm had stopped 13 mm
+    above its release pose), once the towel was already flat; the dry-run plan raises before any step."""
+    try:
+        robot.move(pose)
+    except RuntimeError:
+        plan = robot.planner.move_to_pose_with_RRTConnect(pose, dry_run=True)
+        if plan == -1:
+            raise PlanningFailed(f"no path to {pose}")
+        robot.last = robot.planner.follow_path(plan)
 
 
 @register_solver("FlattenTowelCorner")
@@ -37,6 +51,9 @@ def solve_flatten_towel_corner(env, seed: int) -> dict:
         robot.grip(closed=True)
         robot.move(sapien.Pose([0, 0, LIFT]) * grasp)
         release = robot.top_down_pose(task.corner_goal()[0].cpu().numpy() + [0, 0, RELEASE_HEIGHT], yaw)
-        robot.place(release, approach_height=LIFT)
+        robot.move(sapien.Pose([0, 0, LIFT]) * release)
+        robot.move(release, settle_steps=PRECISE_SETTLE_STEPS)
+        robot.grip(closed=False)
+        retreat(robot, sapien.Pose([0, 0, RETREAT_HEIGHT]) * release)
         robot.hold_until_success()
         return robot.info

@@ -18,17 +18,17 @@ from maniladder_ms.tasks.rope.base import RopeTask
 
 @register_task("DragRopeToGoal")
 class DragRopeToGoalEnv(RopeTask, ManiLadderEnv):
-    """**Task:** a rope lies on the table on one side of the robot's centre line, a square goal zone is
-    marked on the other side; grasp the rope near its middle and drag the whole rope into the zone.
+    """**Task:** a rope lies on the table on the robot's left (+y), a square goal zone is marked on its
+    right; grasp the rope near its middle and drag the whole rope into the zone.
 
     **Randomisation:**
     - the rope (`rope.RopeConfig()`: 40 cm, 20 capsules of 1.6 cm diameter) lies flat in a gentle S:
       the in-plane turn between capsules k and k + 1 is amp * sin(2 pi (k + 1) / 20 + phase), amp
       uniform in [0, `rope_max_amp`], phase uniform; the mean of its capsule centres is at x uniform in
-      `rope_x_range`, |y| uniform in `rope_abs_y_range` on a random side; its first capsule heads within
+      `rope_x_range`, y uniform in `rope_y_range` (the robot's left); its first capsule heads within
       +-`rope_max_yaw` (uniform) of +x or of -x;
     - the goal zone (a square tile of half side `zone_half`, axis-aligned) is centred at x uniform in
-      `zone_x_range`, |y| uniform in `zone_abs_y_range` on the other side.
+      `zone_x_range`, y uniform in `zone_y_range` (the robot's right).
 
     **Success:** at least `min_inside` of the rope's segments (capsule centres) lie inside the zone's
     square footprint and on the table (centre at most `on_table_height` up); and the rope was dragged:
@@ -40,7 +40,7 @@ class DragRopeToGoalEnv(RopeTask, ManiLadderEnv):
     max_dense_reward = 5
     TASK_REGION = (-0.35, 0.25, -0.35, 0.35)
     PARAMS = ("zone_half", "min_inside", "on_table_height", "grip_segments", "drag_share", "rope_x_range",
-              "rope_abs_y_range", "rope_max_yaw", "rope_max_amp", "zone_x_range", "zone_abs_y_range")
+              "rope_y_range", "rope_max_yaw", "rope_max_amp", "zone_x_range", "zone_y_range")
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)  # the rope (RopeTask)
@@ -55,12 +55,11 @@ class DragRopeToGoalEnv(RopeTask, ManiLadderEnv):
         with torch.device(self.device):
             b = len(env_idx)
             cfg = self.rope_config
-            side = torch.where(torch.rand(b) < 0.5, -1.0, 1.0)
             turns = rope.wavy_turns(b, cfg.segments, np.deg2rad(self.rope_max_amp))
             heading = symmetric_deg(b, self.rope_max_yaw) + torch.where(torch.rand(b) < 0.5, 0.0, np.pi)
-            middle = torch.stack([uniform(b, self.rope_x_range), side * uniform(b, self.rope_abs_y_range)], dim=1)
+            middle = torch.stack([uniform(b, self.rope_x_range), uniform(b, self.rope_y_range)], dim=1)
             self.rope.lay_flat(middle, heading, turns)
-            zone = torch.stack([uniform(b, self.zone_x_range), -side * uniform(b, self.zone_abs_y_range),
+            zone = torch.stack([uniform(b, self.zone_x_range), uniform(b, self.zone_y_range),
                                 torch.full((b,), MARKER_THICKNESS / 2)], dim=1)
             self.zone.set_pose(Pose.create_from_pq(zone))
             # lay_flat puts the mean of the capsule centres on `middle`
