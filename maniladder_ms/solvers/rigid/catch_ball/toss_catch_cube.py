@@ -9,7 +9,8 @@ under the parabola as a cup, moves to where the flight read at release says the 
    FOLLOW_STEPS more (the cube, now free, falls out of the open fingers under gravity), then it rises clear.
 4. Catch: from the cube's position and velocity at the first free control step, the right cup moves under the
    point where the parabola crosses the cup's height (`landing_point`), re-aimed every control step while the
-   cube flies; once the cube is CLOSE_DEPTH in between the partly closed fingers (CUP_OPENING), they close.
+   cube flies; once the cube is CLOSE_DEPTH in between the partly closed fingers (CUP_OPENING), they close, the
+   cup following the cube's centre horizontally for the GRASP_STEPS of the closing.
 5. The right lifts the cube by HOLD_RISE and holds.
 """
 
@@ -25,7 +26,11 @@ from maniladder_ms.solvers.driven import DrivenSolver
 from maniladder_ms.tasks.rigid.catch_ball.base import GRAVITY
 from maniladder_ms.tasks.rigid.catch_ball.toss_catch_cube import TossCatchCubeEnv
 
-CATCH_POINT = (-0.15, -0.32, 0.31)  # the right TCP at the nominal catch (the release state re-aims it in flight)
+# the flight's vertical plane (x of SWING_START and CATCH_POINT): the right forearm (panda_link4) reaches to ~4 cm
+# on the -x side of a flight at x = -0.15, and a cube released a few mm further -x clipped it on its way down
+# (seeds 110, 119, 140 of 100-149: kicked sideways 4 cm above the cup); at -0.12 no cube touched it
+FLIGHT_X = -0.12
+CATCH_POINT = (FLIGHT_X, -0.32, 0.31)  # the right TCP at the nominal catch (the release state re-aims it in flight)
 # the cup's fingers wait partly closed (normalised command: fingers 3.25 cm from the middle, a 6.5 cm gap for the
 # 4 cm cube, whose diagonal is 5.7 cm): little to close once the cube is in (fully open, 8 cm: it bounced out
 # sideways before the fingers met it on seeds 101, 102; 0.52, a 5.6 cm gap: the cube jammed at the fingertips)
@@ -37,7 +42,7 @@ AIM_INSIDE = 0.005  # m: the cube passes the fingertips this far on the near (+y
 # far finger stops it and it does not slide out between the fingers' sides
 CUP_CLOSING = (0.0, -1.0, 0.0)
 THROW_YAW = -np.pi / 4  # the left hand's yaw during the swing (fingers closing along (1, -1)): the cleanest release
-SWING_START = (-0.15, 0.15, 0.25)  # left TCP when the swing starts
+SWING_START = (FLIGHT_X, 0.15, 0.25)  # left TCP when the swing starts
 SWING_PITCH = np.deg2rad(45.0)  # swing direction above the horizontal, towards -y
 # the swing's x component (over its y and z ones, 0.71 each): -0.18 m/s at the TCP, against the +x drift the cube
 # takes at release (+0.24 m/s on seeds 100-103 without it)
@@ -48,6 +53,10 @@ FOLLOW_STEPS = 2  # the hand keeps its course this long after opening
 CLEAR_RISE = 0.15  # m the left hand rises after the toss
 CLOSE_DEPTH = 0.02  # the cup closes once the cube's centre is this far below the fingertips' height plus cube_half
 # (its bottom 2 cm in between the fingers): seeds 100-103 4/4 (at 0, with the fingers at CUP_OPENING 0.52: 1/4)
+# control steps the fingers close while the cup follows the cube's centre horizontally: the cube's landing on the
+# far finger kicks it along the open sides of the cup (+0.2 to +0.4 m/s along x on seeds 105, 113, 142), and a cup
+# that held still closed on its edge and lost it (seeds 100-149: 48/50 with the flight at FLIGHT_X, 45/50 without)
+GRASP_STEPS = 10
 HOLD_RISE = 0.05
 MAX_FLIGHT_STEPS = 20
 
@@ -96,7 +105,12 @@ def solve_toss_catch_cube(env, seed: int) -> dict:
             aim[:, 1] -= AIM_INSIDE
             aim[:, 2] = cup[:, 2]
             s.step({"right_arm": (aim, cup_q)})
-        s.grasp("right_gripper")
+        s.grip(True, "right_gripper", steps=0)
+        height = s.tcp("right_arm").p[:, 2].clone()
+        for _ in range(GRASP_STEPS):
+            follow = task.cube.pose.p.clone()
+            follow[:, 2] = height
+            s.step({"right_arm": (follow, cup_q)})
         p = s.tcp("right_arm").p + torch.tensor([0.0, 0.0, HOLD_RISE], device=device)
         s.move({"right_arm": (p, cup_q)}, max_steps=20)
         s.hold_until_success()
