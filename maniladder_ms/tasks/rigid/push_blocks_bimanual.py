@@ -26,9 +26,10 @@ class PushBlocksBimanualEnv(ManiLadderEnv):
     own colour on the same side; each arm pushes its block into its zone (non-prehensile: the block may
     not be lifted).
 
-    **Randomisation:** per side (left: y > 0, right: y < 0, mirrored ranges):
-    - the block (5 cm cube) has its centre uniform in x in `block_x_range`, |y| in `block_abs_y_range`, and its
-      yaw uniform in `block_yaw_range` (a cube: every yaw);
+    **Randomisation:** per side (left: y > 0, right: y < 0, mirrored ranges; both blocks are always placed, one in
+    front of each arm: the sides are the task's, not drawn):
+    - the block (5 cm cube) has its centre uniform in x in `block_x_range`, |y| in `block_abs_y_range`, and
+      its yaw uniform in `block_yaw_range` (a cube: every yaw);
     - its zone (12 cm square tile, axis-aligned) is centred a distance uniform in `zone_distance_range` away from
       the block, in a direction within `zone_max_turn` (uniform) of straight ahead (+x), turned away from the
       centre line.

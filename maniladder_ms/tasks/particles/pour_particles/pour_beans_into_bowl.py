@@ -21,7 +21,7 @@ class PourBeansIntoBowlEnv(CupToBowl, ManiLadderEnv):
 
     **Randomisation:**
     - the cup (plastic, inner radius 2.5 cm, 8 cm tall, 5.8 cm wide outside) stands at x in `cup_x_range`,
-      |y| in `cup_abs_y_range` on a random side of the robot's centre line, holding `bean_count`
+      y in `cup_y_range` (the robot's left), holding `bean_count`
       beans (granular spheres of radius `bean_radius`; 80 of 4 mm: 4 layers) packed from its floor with a
       small random jitter;
     - the bowl (inner radius 8 cm at the rim, 5 cm tall) stands in front of it, x in `bowl_x_range`,
@@ -38,10 +38,9 @@ class PourBeansIntoBowlEnv(CupToBowl, ManiLadderEnv):
     max_dense_reward = 6
 
     TASK_REGION = (-0.2, 0.18, -0.25, 0.25)
-    PARAMS = ("bean_count", "bean_radius", "success_fraction", "cup_x_range", "cup_abs_y_range", "bowl_x_range",
+    PARAMS = ("bean_count", "bean_radius", "success_fraction", "cup_x_range", "cup_y_range", "bowl_x_range",
               "bowl_y_range")
     particle_name = "beans"
-    cup_either_side = True
 
     @property
     def particle_config(self) -> particles.ParticleConfig:
