@@ -20,7 +20,8 @@ class OpenJarHandsEnv(UnscrewCapTask):
 
     **Randomisation:** the jar (a 6 cm wide, 16 cm tall sealed body of ~0.6 kg and a 6.6 cm wide, 3.5 cm
     tall lid screwed home; `objects.jar`) has its centre uniform in x in `jar_x_range`, y in `jar_y_range`; its
-    yaw (where the lid's stripes point) uniform in `jar_yaw_range`.
+    yaw (where the lid's stripes point: two crossed stripes, a pattern that repeats every 90 degrees on the round
+    jar) uniform in `jar_yaw_range`.
 
     **Success:** (the UnscrewCap family rule, `UnscrewCapTask`) the lid's thread joint has turned by at
     least `release_angle` counter-clockwise, and so has the episode memory `held_turn`, which counts the
