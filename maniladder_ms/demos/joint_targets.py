@@ -4,8 +4,8 @@ Every arm controller of our agents ends in PD drive targets: `pd_ee_delta_pose` 
 `pd_joint_delta_pos` adds its delta to them. Replaying an episode from its seeded reset (which reproduces its
 recorded first state: `demos verify`'s drift 0) in its own mode and reading each arm controller's drive target
 after every step gives the `pd_joint_pos` action that sets the very same targets, so the converted episode
-replays the same motion. Parts that are identical in
-both modes (grippers, LEAP hands, the mobile base's velocity) keep their recorded action slice.
+replays the same motion. Parts that are identical in both modes (grippers, LEAP hands, the mobile base's velocity)
+keep their recorded action slice.
 
 ManiSkill's `replay_trajectory` converts from `pd_joint_pos` to the delta modes, not back; the reference
 policy acts in absolute joint targets (see `maniladder_ms.policy.flow`), hence this direction.
@@ -67,9 +67,9 @@ def joint_target_episodes(h5_path, progress: bool = False) -> Iterator[tuple[np.
         try:
             for ep in tqdm(meta["episodes"], desc=f"joint targets {h5_path.parent.name}", disable=not progress):
                 actions, states = episode_arrays(h5, ep["episode_id"], str(h5_path))
-                # the seeded reset, as `demos verify` replays: writing the recorded first state back over it moves
-                # the replay off the recorded motion (PlaceMugOnCoasterHand, 20 demos: the LEAP arm's converted
-                # targets then differ by up to 0.12 rad, and episode 1 no longer succeeds)
+                # the seeded reset, as `demos verify` replays: writing the recorded first state back over it moved
+                # single-arm LEAP replays off the recorded motion (PlaceMugOnCoasterHand's calibration demos 0 and 2:
+                # converted arm targets 0.12 and 0.05 rad off; its demo 1 no longer succeeded)
                 env.reset(**episode_reset_kwargs(ep))
                 gap = float(np.abs(flat_state(base.get_state_dict()) - flat_state(state_at(states, 0))).max())
                 if gap > RESET_TOLERANCE:

@@ -53,8 +53,8 @@ def _rendered_episodes(h5_path, cameras, size, progress, stride, control_mode, r
     recorded = replay_env_kwargs(load_demo_json(Path(h5_path))).get("control_mode")
     mode = control_mode or recorded or ""
     identity = {"cameras": list(cameras), "size": size, "stride": stride, "control_mode": mode}
-    if mode != (recorded or ""):  # converted actions: renders cached before the conversion replayed from the seeded
-        identity["actions"] = "joint targets from the seeded reset"  # reset held other actions: not reused
+    if mode != (recorded or ""):  # converted actions (caches made before the conversion replayed from the seeded
+        identity["actions"] = "joint targets from the seeded reset"  # reset hold other actions: refused, not reused)
     if renders is not None and Path(renders).is_file():
         data = np.load(renders)
         held = json.loads(str(data["identity"]))
