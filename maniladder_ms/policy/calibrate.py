@@ -734,8 +734,9 @@ def add_parser(sub) -> None:
     cp.add_argument("--revalidate", action="store_true",
                     help="train nothing: check each task's result in --out, measured on an earlier version of the "
                          "task, against the current one (own parts unchanged since its commit, its demos regenerated "
-                         "bit-identical from the demos in --work), and if they match mark it as standing for the "
-                         "current version (and in --record's record)")
+                         "bit-identical to those it was trained on: the result's demos_digest, or for an older result "
+                         "the demos in --work), and if they match mark it as standing for the current version (and "
+                         "in --record's record)")
     cp.add_argument("--quiet", action="store_true", help="no progress bars")
     cp.set_defaults(func=cmd_calibrate)
 

@@ -54,12 +54,18 @@ def add_equivalent(records: Path, result: dict) -> dict:
     for entry in record["entries"]:
         if entry["task_hash"] == result["task_hash"]:
             entry["equivalent_task_hashes"] = sorted(set(entry.get("equivalent_task_hashes", [])) | set(new))
-    path = Path(records) / f"{result['task']}.json"
     if record["entries"]:
-        tmp = path.with_suffix(".partial")
-        tmp.write_text(json.dumps(record, indent=1))
-        tmp.replace(path)
+        _save(records, record)
     return record
+
+
+def _save(records: Path, record: dict) -> None:
+    """Write a task's record whole or not at all (a temporary file, then a rename)."""
+    path = Path(records) / f"{record['task']}.json"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(".partial")
+    tmp.write_text(json.dumps(record, indent=1))
+    tmp.replace(path)
 
 
 def _changes(before: Optional[dict], params: dict, horizon: int) -> dict:
@@ -119,11 +125,7 @@ def record_run(records: Path, result: dict, params: dict, reason: Optional[str] 
         "ci95": result["ci95"], "training_seeds": len(result.get("per_training_seed", {})) or 1,
         "measured_level": result["measured_level"], "verdict": result["verdict"],
     })
-    path = Path(records) / f"{task}.json"
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(".partial")
-    tmp.write_text(json.dumps(record, indent=1))
-    tmp.replace(path)
+    _save(records, record)
     return record
 
 

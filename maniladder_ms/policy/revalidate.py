@@ -118,24 +118,27 @@ def revalidate(result_path: Path, work: Path, progress: bool = True) -> dict:
             "result": r}
 
 
+def _demo_mode(r: dict) -> str:
+    """The control mode the result's calibration demos were recorded in."""
+    from maniladder_ms.policy.calibrate import demo_control_mode_for
+
+    return r.get("demo_control_mode") or demo_control_mode_for(r["task"])
+
+
 def _trained_on_demos(r: dict, work: Path) -> Path:
     """Where a calibration work folder keeps the demos the result was trained on."""
     from maniladder_ms.demos.files import demo_path
-    from maniladder_ms.policy.calibrate import demo_control_mode_for
 
-    mode = r.get("demo_control_mode") or demo_control_mode_for(r["task"])
-    return demo_path(Path(work) / r["task"] / r["task_hash"] / "demos", r["task"], "none", mode)
+    return demo_path(Path(work) / r["task"] / r["task_hash"] / "demos", r["task"], "none", _demo_mode(r))
 
 
 def _regenerated_digest(r: dict, progress: bool) -> str:
     """`demos_digest` of the result's calibration demos (its count and first seed) generated with the current code."""
     from maniladder_ms.demos.recording import generate
-    from maniladder_ms.policy.calibrate import demo_control_mode_for
 
-    mode = r.get("demo_control_mode") or demo_control_mode_for(r["task"])
     with tempfile.TemporaryDirectory() as tmp:
         report = generate(r["task"], r["calibration"]["demos"], Path(tmp), seed=r["calibration"]["demo_seed"],
-                          control_mode=mode, progress=progress)
+                          control_mode=_demo_mode(r), progress=progress)
         return demos_digest(Path(report.path))
 
 
