@@ -34,10 +34,10 @@ class HookCubeWithToolEnv(ManiLadderEnv):
 
     **Randomisation:**
     - the cube (side 2 x `cube_half`) lies flat, its yaw uniform in `cube_yaw_range` (a cube: every yaw), its
-      centre uniform in x in `cube_x_range`, y in `cube_y_range`: 0.9-0.97 m ahead of the arm base, where the gripper cannot reach
+      centre uniform in x in `cube_x_range`, y in `cube_y_range`: 0.91-0.96 m ahead of the arm base, where the gripper cannot reach
       (the Panda reaches 0.855 m from its shoulder joint, 0.33 m above the table);
     - the target zone (square tile, side 2 x `zone_half`) lies on the cube's line (same y), its centre
-      uniform in x in `zone_x_range` (0.29-0.45 m to pull);
+      uniform in x in `zone_x_range` (0.32-0.42 m to pull);
     - the hook (handle `handle_length` long, hook `hook_length` long pointing to +y, both 2.5 cm wide and
       3 cm high) lies flat to the robot's right, its centre uniform in x in `tool_x_range`, y in `tool_y_range`,
       its handle along +x turned by a uniform yaw within +-`tool_max_yaw`.
@@ -54,7 +54,7 @@ class HookCubeWithToolEnv(ManiLadderEnv):
     **Level 2:** (against Level 1's single pick-and-place, PickPlacePen: 2 stages, grasp and place, 92 steps
     mean): 3 stages in sequence, 168 steps mean (grasp the tool's handle; carry the hook over the cube and
     lower it, its pulling face 30 cm out from the grasp, into the 2-3 cm gap beside the cube and 2 cm
-    beyond its far corner; pull the cube 0.29-0.45 m); every position error of the grasp shows up 30 cm out
+    beyond its far corner; pull the cube 0.32-0.42 m); every position error of the grasp shows up 30 cm out
     at the hook, and the cube is only ever moved through the tool (5 cm zone tolerance, 80% of the way
     by the held hook).
     """

@@ -27,17 +27,17 @@ class MobileFetchMugEnv(ManiLadderEnv):
 
     **Randomisation:** the side table (50 x 50 cm, its top level with the main table's, its near edge in
     line with the main table's) stands with its centre at x = `SIDE_TABLE_X` = -0.5, y uniform in
-    `side_table_y_range` (15-25 cm of floor between the tables); the mug (7.4 cm wide, 9 cm tall, loop handle,
+    `side_table_y_range` (18-22 cm of floor between the tables); the mug (7.4 cm wide, 9 cm tall, loop handle,
     ~0.2 kg) stands upright on it at x uniform in `mug_x_range`, y within +-`mug_max_dy` of the side table's
-    centre, its yaw uniform in `mug_yaw_range`; the zone's centre is uniform in x in `zone_x_range`, y within
-    +-`zone_max_y` on the main table. The robot
-    starts at its rest pose (arm joints with the usual noise), the base at y = 0.
+    centre, its yaw uniform in `mug_yaw_range` (the handle on the mug's -x side at yaw 0); the zone's centre is
+    uniform in x in `zone_x_range`, y within +-`zone_max_y` on the main table. The robot starts at its rest pose
+    (arm joints with the usual noise), the base at y = 0.
 
     Out of reach from the start: the arm's shoulder (Panda joint 2) stands at (-0.955, 0, 0.003); the TCP
     comes at most 0.95 m from it (the farthest of 6000 random arm postures within the joint limits, refined
     by a local search: 0.947 m; the Panda's rated reach is 0.855 m to the flange), while every point of the
-    mug (its handle included, 8 cm from its axis) lies at least 1.03 m from it (the mug's axis at least
-    1.11 m away: x >= -0.55, y >= 1.04). The base must drive about a metre and back.
+    mug (its handle included, 8 cm from its axis) lies at least 1.10 m from it (the mug's axis at least
+    1.18 m away: x >= -0.515, y >= 1.105). The base must drive about a metre and back.
 
     **Success:** the mug was fetched: at some control step the gripper held it (`ee.holds`) with its bottom
     at least `lift_height` above the table top (episode memory `fetched`); and now the mug's centre lies
@@ -49,8 +49,8 @@ class MobileFetchMugEnv(ManiLadderEnv):
     3 stages, ~105 steps in its samples, horizon 150), the base must drive: ~1 m to the side table and ~1 m
     back at up to 0.5 m/s, the arm's TCP riding with it, between a pick and a place at two places no single
     arm pose reaches; 4 stages (drive to the side table, grasp and lift, drive back with the mug hanging
-    from a rim grasp, set it down within 4 cm and upright within 10 degrees and release), 241 steps mean
-    (212-263) within a horizon of 600.
+    from a rim grasp, set it down within 4 cm and upright within 10 degrees and release), 248 steps mean
+    (233-258, 20 demos) within a horizon of 600.
     """
 
     SUPPORTED_ROBOTS = ["ml_tidybot"]
@@ -61,7 +61,7 @@ class MobileFetchMugEnv(ManiLadderEnv):
     mug_shape = MugShape()
     SIDE_TABLE_HALF = (0.25, 0.25)  # x, y half extents of the side table's top (its top is level with the main table's)
     SIDE_TABLE_X = -0.5  # its near edge in line with the main table's (x = -0.75), which the base drives along
-    # the cameras look over both tables (the side table lies 0.85-1.45 m to the left of the robot's axis)
+    # the cameras look over both tables (the side table lies 0.88-1.42 m to the left of the robot's axis)
     CAMERA_VIEWS = {
         "front_camera": ([0.65, 0.3, 0.85], [-0.75, 0.55, -0.1]),
         "left_camera": ([0.1, 1.55, 0.6], [-0.55, 0.5, 0.0]),

@@ -33,8 +33,8 @@ class CableIntoClipHandEnv(RopeTask, ManiLadderEnv):
     `rope_x_range`, y uniform in `rope_y_range`, its first capsule's heading uniform in `rope_yaw_range`; the
     clip (a 4 mm base plate and two 8 mm thick walls, `slot_width` apart, `clip_depth` high above the plate and
     `clip_length` long, open at both ends) has its centre on the table a distance uniform in `clip_gap_range` to
-    the left or the right (equally likely) of the cable's middle capsule (index 10), at right angles to that
-    capsule's heading, and its axis within +-`clip_max_yaw` (uniform) of that heading.
+    the left of the cable's middle capsule (index 10), seen along that capsule's heading (a negative gap: to its
+    right), at right angles to the heading, and its axis within +-`clip_max_yaw` (uniform) of that heading.
 
     **Success:** at least `min_segments` of the cable's capsules lie inside the clip's slot (`metrics.
     inside_channel_fraction` times the capsule count: the capsule's centre between the walls, at most half of
@@ -58,7 +58,7 @@ class CableIntoClipHandEnv(RopeTask, ManiLadderEnv):
 
     SUPPORTED_ROBOTS = ["ml_panda_leap"]
     max_dense_reward = 6
-    # cable and clip: the cable's middle within x [-0.15, -0.05], |y| <= 0.08, its tips up to 20 cm further,
+    # cable and clip: the cable's middle within x [-0.14, -0.06], |y| <= 0.07, its tips up to 20 cm further,
     # the clip up to 12 cm (and its 3.5 cm half length) beyond the middle
     TASK_REGION = (-0.4, 0.2, -0.35, 0.35)
     PARAMS = ("min_segments", "slot_width", "clip_depth", "clip_length", "rope_x_range", "rope_y_range",
@@ -81,10 +81,9 @@ class CableIntoClipHandEnv(RopeTask, ManiLadderEnv):
             k = self.grasp_segment
             along = centres[:, k + 1, :2] - centres[:, k - 1, :2]
             yaw = torch.atan2(along[:, 1], along[:, 0])
-            side = torch.where(torch.rand(b) < 0.5, 1.0, -1.0)
             gap = uniform(b, self.clip_gap_range)
-            normal = torch.stack([-torch.sin(yaw), torch.cos(yaw)], dim=1)
-            xy = centres[:, k, :2] + (side * gap)[:, None] * normal
+            left = torch.stack([-torch.sin(yaw), torch.cos(yaw)], dim=1)  # the capsule's heading turned +90 degrees
+            xy = centres[:, k, :2] + gap[:, None] * left
             axis = yaw + (torch.rand(b) * 2 - 1) * np.deg2rad(self.clip_max_yaw)
             self.clip.set_pose(Pose.create_from_pq(torch.cat([xy, torch.zeros(b, 1)], dim=1), yaw_quat(axis)))
 

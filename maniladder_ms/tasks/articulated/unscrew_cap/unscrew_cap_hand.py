@@ -17,7 +17,8 @@ class UnscrewCapHandEnv(UnscrewCapTask):
 
     **Randomisation:** the bottle (an 8 cm wide, 11 cm tall body, a 4.4 cm wide, 3 cm tall neck and a
     6 cm wide, 3 cm tall cap screwed home; `objects.jar`) has its centre uniform in x in `jar_x_range`, y in
-    `jar_y_range`; its yaw (where the cap's stripes point) uniform in `jar_yaw_range`.
+    `jar_y_range`; its yaw (where the cap's stripes point: two crossed stripes, a pattern that repeats every
+    90 degrees on the round bottle) uniform in `jar_yaw_range`.
 
     **Success:** (the UnscrewCap family rule, `UnscrewCapTask`, for a clamped container) the cap's thread
     joint has turned by at least `release_angle` counter-clockwise, and so has the episode memory
