@@ -19,7 +19,7 @@ import torch
 
 from mani_skill.envs.scene import ManiSkillScene
 
-from .tabletop import WOOD_DENSITY
+from .cabinet import _panel as _box  # a box of collision and visual on a link, wood
 
 # prismatic joints slide along their frame's x axis: this half turn about z points it along -x (the drawer opens
 # towards the robot)
@@ -78,11 +78,6 @@ class DrawerCabinetShape:
     def handle_centre(self) -> np.ndarray:
         """Centre of the handle bar, drawer closed (cabinet frame)."""
         return np.array([self.front_face_x - self.bar_standoff, 0.0, self.bar_height])
-
-
-def _box(link, centre, half, material):
-    link.add_box_collision(sapien.Pose(p=centre), half_size=half, density=WOOD_DENSITY)
-    link.add_box_visual(sapien.Pose(p=centre), half_size=half, material=material)
 
 
 def build_drawer_cabinet(scene: ManiSkillScene, name: str, shape: DrawerCabinetShape, color, drawer_color,

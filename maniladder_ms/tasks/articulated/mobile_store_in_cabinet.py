@@ -5,9 +5,6 @@ from __future__ import annotations
 
 from typing import Any
 
-import numpy as np
-import sapien
-import sapien.render
 import torch
 
 from mani_skill.utils.structs.pose import Pose
@@ -79,15 +76,9 @@ class MobileStoreInCabinetEnv(ManiLadderEnv):
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
-        hx, hy = self.SIDE_TABLE_HALF
-        hz = TABLE_HALF_SIZE[2]
-        builder = self.scene.create_actor_builder()
-        builder.add_box_collision(half_size=[hx, hy, hz])
-        if self.scene.can_render():
-            mat = sapien.render.RenderMaterial(base_color=[0.45, 0.5, 0.55, 1], roughness=0.7, metallic=0.0)
-            builder.add_box_visual(half_size=[hx, hy, hz], material=mat)
-        builder.initial_pose = sapien.Pose(p=[self.SIDE_TABLE_X, float(np.mean(self.cabinet_y_range)), -hz])
-        self.side_table = builder.build_kinematic(name="side_table")
+        # a fixture whose top is level with the main table's (`_initialize_episode` lowers it by its height)
+        self.side_table = build_flat_box(self.scene, "side_table", [*self.SIDE_TABLE_HALF, TABLE_HALF_SIZE[2]],
+                                         color=(0.45, 0.5, 0.55, 1), kinematic=True)
         self.cabinet = build_drawer_cabinet(self.scene, "cabinet", self.cabinet_shape, color=(0.85, 0.82, 0.75, 1),
                                             drawer_color=(0.62, 0.45, 0.3, 1), handle_color=(0.25, 0.25, 0.28, 1))
         self.drawer = self.cabinet.links_map["cabinet_drawer"]
