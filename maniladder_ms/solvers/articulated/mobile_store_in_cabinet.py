@@ -6,10 +6,11 @@ block into it and push the drawer closed by the handle (TCP deltas and base velo
 2. Drive: the base sideways until the handle lies straight ahead of the arm.
 3. Open: grasp the handle bar top-down, fingers closing along the slide (either side of the bar), and pull the
    drawer out by `PULL` in steps of `PULL_STEP`; let go and rise.
-4. Pick the block top-down (fingers across two faces) and lift it to `CARRY_HEIGHT`.
+4. Drive back to the start x (the pull pushed the base back), the block straight ahead; pick it top-down
+   (fingers across two faces) and lift it to `CARRY_HEIGHT`.
 5. Place: carry it over the middle of the drawer's open part, lower it to `DROP_GAP` above the drawer's floor,
    open, rise.
-6. Close: grasp the handle again and push it `PUSH_PAST` beyond the closed position (the slide's stop holds the
+6. Close: drive back until the handle lies ahead, grasp it again and push it `PUSH_PAST` beyond the closed position (the slide's stop holds the
    drawer at closed) in steps of `PULL_STEP`; let go, rise; hold until success.
 """
 
@@ -28,9 +29,11 @@ CARRY_HEIGHT = 0.22  # TCP height above the table top while driving and carrying
 # cabinet's top (15 cm)
 PULL = 0.15  # m the drawer is pulled out: its open part (~14.5 cm) takes the 4 cm block with room to spare
 PULL_STEP = 0.01  # m the TCP target moves along the slide a control step while pulling or pushing
-PUSH_PAST = 0.02  # m the push's last target lies past the closed handle position
+PUSH_PAST = 0.02  # m the push's last target lies past the closed handle position (1 cm left seed 100's drawer
+# 1.07 cm open)
 DROP_GAP = 0.01  # the block's bottom this far above the drawer's floor when the gripper opens
-HANDLE_YAW = np.pi / 2  # TCP x axis along world y: the fingers close along x, one each side of the bar
+HANDLE_YAW = np.pi / 2  # TCP x axis along world y: the fingers close along x, one each side of the bar (closing
+# along y, they landed on the bar: seed 100)
 
 
 @register_solver("MobileStoreInCabinet", control_modes=TCP_DELTA_MODES)
