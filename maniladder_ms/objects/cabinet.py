@@ -65,23 +65,31 @@ class CabinetShape:
                          self.stem_height + 2 * self.post_half_length])
 
 
-def _panel(link, centre, half, material):
+def add_panel(link, centre, half, material):
+    """A wooden box (collision and visual) on `link`, centred at `centre` with half sizes `half`."""
     link.add_box_collision(sapien.Pose(p=centre), half_size=half, density=WOOD_DENSITY)
     link.add_box_visual(sapien.Pose(p=centre), half_size=half, material=material)
+
+
+def add_carcass(builder, name: str, shape, color, shelf: bool):
+    """A cabinet's fixed body, the articulation's root link: back, two sides, bottom and top panels (and a middle
+    shelf), from `shape`'s depth, width, height and panel thickness; open at the front (-x)."""
+    carcass = builder.create_link_builder()
+    carcass.set_name(f"{name}_carcass")
+    mat = sapien.render.RenderMaterial(base_color=list(color), roughness=0.7)
+    d, w, h, t = shape.depth / 2, shape.width / 2, shape.height, shape.panel
+    add_panel(carcass, [d - t / 2, 0, h / 2], [t / 2, w, h / 2], mat)  # back
+    for side in (1, -1):
+        add_panel(carcass, [0, side * (w - t / 2), h / 2], [d, t / 2, h / 2], mat)
+    for z in (t / 2, h - t / 2) + ((h / 2,) if shelf else ()):  # bottom, top (, shelf)
+        add_panel(carcass, [0, 0, z], [d, w - t, t / 2], mat)
+    return carcass
 
 
 def build_cabinet(scene: ManiSkillScene, name: str, shape: CabinetShape, color, door_color, handle_color):
     """The cabinet articulation, its root fixed where `set_pose` puts it (a cabinet does not slide)."""
     builder = scene.create_articulation_builder()
-    carcass = builder.create_link_builder()
-    carcass.set_name(f"{name}_carcass")
-    mat = sapien.render.RenderMaterial(base_color=list(color), roughness=0.7)
-    d, w, h, t = shape.depth / 2, shape.width / 2, shape.height, shape.panel
-    _panel(carcass, [d - t / 2, 0, h / 2], [t / 2, w, h / 2], mat)  # back
-    for side in (1, -1):
-        _panel(carcass, [0, side * (w - t / 2), h / 2], [d, t / 2, h / 2], mat)
-    for z in (t / 2, h - t / 2, h / 2):  # bottom, top, shelf
-        _panel(carcass, [0, 0, z], [d, w - t, t / 2], mat)
+    carcass = add_carcass(builder, name, shape, color, shelf=True)
     door_mat = sapien.render.RenderMaterial(base_color=list(door_color), roughness=0.6)
     handle_mat = sapien.render.RenderMaterial(base_color=list(handle_color), roughness=0.3, metallic=0.6)
     for door in DOORS:
@@ -96,7 +104,7 @@ def _add_door(builder, carcass, name: str, door: str, shape: CabinetShape, door_
     link.set_name(f"{name}_{door}_door")
     gap = 0.002  # between the doors, and between door and carcass, so that closed doors do not rub
     half_w = shape.door_width / 2 - gap
-    _panel(link, [-shape.door / 2, -side * shape.door_width / 2, shape.height / 2],
+    add_panel(link, [-shape.door / 2, -side * shape.door_width / 2, shape.height / 2],
            [shape.door / 2, half_w, shape.height / 2 - gap], door_mat)
     top = shape.post_top(door)
     # the post stands upright: a cylinder (its axis is its local x) turned by 90 degrees about y
@@ -104,7 +112,7 @@ def _add_door(builder, carcass, name: str, door: str, shape: CabinetShape, door_
     link.add_cylinder_collision(post, shape.post_radius, shape.post_half_length, density=WOOD_DENSITY)
     link.add_cylinder_visual(post, shape.post_radius, shape.post_half_length, material=handle_mat)
     stem_len = shape.handle_standoff / 2
-    _panel(link, [-shape.door - stem_len, top[1], shape.stem_height], [stem_len, shape.stem_half, shape.stem_half],
+    add_panel(link, [-shape.door - stem_len, top[1], shape.stem_height], [stem_len, shape.stem_half, shape.stem_half],
            handle_mat)
     axis = MINUS_Z_AXIS_JOINT if side > 0 else Z_AXIS_JOINT  # opening swings the free edge towards -x
     link.set_joint_name(f"{name}_{door}_hinge")

@@ -19,7 +19,7 @@ import torch
 
 from mani_skill.envs.scene import ManiSkillScene
 
-from .cabinet import _panel as _box  # a box of collision and visual on a link, wood
+from .cabinet import add_carcass, add_panel
 
 # prismatic joints slide along their frame's x axis: this half turn about z points it along -x (the drawer opens
 # towards the robot)
@@ -84,15 +84,8 @@ def build_drawer_cabinet(scene: ManiSkillScene, name: str, shape: DrawerCabinetS
                          handle_color):
     """The cabinet articulation, its root fixed where `set_pose` puts it (a cabinet does not slide)."""
     builder = scene.create_articulation_builder()
-    carcass = builder.create_link_builder()
-    carcass.set_name(f"{name}_carcass")
-    mat = sapien.render.RenderMaterial(base_color=list(color), roughness=0.7)
+    carcass = add_carcass(builder, name, shape, color, shelf=False)
     d, w, h, t = shape.depth / 2, shape.width / 2, shape.height, shape.panel
-    _box(carcass, [d - t / 2, 0, h / 2], [t / 2, w, h / 2], mat)  # back
-    for side in (1, -1):
-        _box(carcass, [0, side * (w - t / 2), h / 2], [d, t / 2, h / 2], mat)
-    for z in (t / 2, h - t / 2):  # bottom, top
-        _box(carcass, [0, 0, z], [d, w - t, t / 2], mat)
 
     drawer = builder.create_link_builder(carcass)
     drawer.set_name(f"{name}_drawer")
@@ -101,21 +94,21 @@ def build_drawer_cabinet(scene: ManiSkillScene, name: str, shape: DrawerCabinetS
     g, wt = shape.gap, shape.wall
     # front panel: covers the carcass front, `gap` in front of it, its bottom edge level with the carcass' bottom
     # panel's top (clear of the table it slides over)
-    _box(drawer, [-d - g - shape.front / 2, 0, (h + t) / 2], [shape.front / 2, w - g, (h - t) / 2 - g], dmat)
+    add_panel(drawer, [-d - g - shape.front / 2, 0, (h + t) / 2], [shape.front / 2, w - g, (h - t) / 2 - g], dmat)
     # the box behind it: bottom plate, two sides and a back wall, clear of the carcass panels by `gap`
     half_len, half_w = shape.box_length / 2, w - t - g
     cx, z0 = -d + half_len, t + g
-    _box(drawer, [cx, 0, z0 + wt / 2], [half_len, half_w, wt / 2], dmat)
+    add_panel(drawer, [cx, 0, z0 + wt / 2], [half_len, half_w, wt / 2], dmat)
     wall_z = z0 + shape.wall_height / 2
     for side in (1, -1):
-        _box(drawer, [cx, side * (half_w - wt / 2), wall_z], [half_len, wt / 2, shape.wall_height / 2], dmat)
-    _box(drawer, [cx + half_len - wt / 2, 0, wall_z], [wt / 2, half_w - wt, shape.wall_height / 2], dmat)
+        add_panel(drawer, [cx, side * (half_w - wt / 2), wall_z], [half_len, wt / 2, shape.wall_height / 2], dmat)
+    add_panel(drawer, [cx + half_len - wt / 2, 0, wall_z], [wt / 2, half_w - wt, shape.wall_height / 2], dmat)
     # handle: the bar along y and a stem from each of its ends back to the front panel
     bar = shape.handle_centre()
-    _box(drawer, bar, [shape.bar_half, shape.bar_half_length, shape.bar_half], hmat)
+    add_panel(drawer, bar, [shape.bar_half, shape.bar_half_length, shape.bar_half], hmat)
     stem_len = (shape.bar_standoff - shape.bar_half) / 2
     for side in (1, -1):
-        _box(drawer, [shape.front_face_x - stem_len, side * (shape.bar_half_length - shape.bar_half), bar[2]],
+        add_panel(drawer, [shape.front_face_x - stem_len, side * (shape.bar_half_length - shape.bar_half), bar[2]],
              [stem_len, shape.bar_half, shape.bar_half], hmat)
     drawer.set_joint_name(f"{name}_slide")
     drawer.set_joint_properties(
