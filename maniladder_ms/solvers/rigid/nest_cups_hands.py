@@ -17,7 +17,8 @@ import torch
 
 from mani_skill.utils.geometry.rotation_conversions import quaternion_apply
 
-from maniladder_ms.geometry import uprighting
+from maniladder_ms.agents.effectors import TOUCH_FORCE, contact_forces
+from maniladder_ms.geometry import tilt, uprighting
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.bimanual import HandoverSolver, close_hands, glide
 from maniladder_ms.solvers.control import top_down_quat
@@ -43,6 +44,8 @@ CARRY_STEP = 0.01  # m a control step along the lift and the carry
 RELEASE_BOTTOM = 0.055
 LOWER_STEP = 0.004  # m a control step of the closed-loop lowering
 STRAIGHTEN_STEPS = 30  # control steps at most for the wrist to take the held cup's tilt out
+HOLD_TILT = np.deg2rad(3.0)  # rad: the held cup tilted more than this in the grip, the lowering waits
+HOLD_STEPS = 15  # control steps the lowering waits at most in all
 AIMS = 2  # closed-loop moves putting the held cup's axis over the container's, before the lowering
 # the release: the squeeze relaxed (targets to the joints' positions), the thumb opens over RELEASE_STEPS, then the
 # fingers over FINGER_OPEN_STEPS. Opening everything at once over 10 steps, or the fingers first, the opening
@@ -96,6 +99,13 @@ def straighten(s: HandoverSolver, task: NestCupsHandsEnv, arm: str, cup: str) ->
     return q
 
 
+def _touching(task: NestCupsHandsEnv, arm: str, cup: str, container: str) -> bool:
+    """Whether `arm`'s hand or the held `cup` presses on `container`."""
+    side = arm.split("_")[0]
+    on_cup = contact_forces(task.scene, task.cups[container], [task.cups[cup]]).norm(dim=-1) >= TOUCH_FORCE
+    return bool((task.ee.touches(task.cups[container], side) | on_cup.any(dim=0)).any())
+
+
 def drop_into(s: HandoverSolver, task: NestCupsHandsEnv, arm: str, ee: str, cup: str, container: str,
               q: torch.Tensor):
     """Carry the held `cup` level over `container`, aim it closed loop, lower it until its bottom is RELEASE_BOTTOM
@@ -112,10 +122,21 @@ def drop_into(s: HandoverSolver, task: NestCupsHandsEnv, arm: str, ee: str, cup:
     shape = task.shapes[container]
     low = torch.tensor([0.0, 0.0, shape.floor + RELEASE_BOTTOM], device=dev)
     steps = int(np.ceil((CARRY_BOTTOM + LIFT_MARGIN - shape.floor - RELEASE_BOTTOM) / LOWER_STEP))
-    for k in range(1, steps + 1):
-        # closed loop: the target keeps the held cup's axis over the container's as it goes down
-        base = task.cups[container].pose.p
-        at = base + high + (low - high) * k / steps
+    k, holds, touched = 0, 0, False
+    while k < steps:
+        # closed loop: the target keeps the held cup's axis over the container's as it goes down, and until the
+        # hand or the cup first touches the container the wrist turns by the cup's tilt in the grip every step (the
+        # cup turns in the grip as it is carried), the descent waiting (at most HOLD_STEPS in all) while it is
+        # tilted past HOLD_TILT. After a touch the tilt comes from the contact, not the grip: the wrist keeps its
+        # orientation (turning it then drove the cup across the rim)
+        touched = touched or _touching(task, arm, cup, container)
+        if touched or bool((tilt(task.cups[cup]) <= HOLD_TILT).all()) or holds >= HOLD_STEPS:
+            k += 1
+        else:
+            holds += 1
+        if not touched:
+            q = uprighting(task.cups[cup].pose.q, s.tcp(arm).q)
+        at = task.cups[container].pose.p + high + (low - high) * k / steps
         s.step({arm: (held_tcp(s, task, arm, cup, at), q)})
     s.move({arm: (s.tcp(arm).p.clone(), q)}, max_steps=3)
     hand = task.agent.controller.controllers[ee].qpos.clone()
