@@ -46,6 +46,8 @@ LOWER_STEP = 0.004  # m a control step of the closed-loop lowering
 STRAIGHTEN_STEPS = 30  # control steps at most for the wrist to take the held cup's tilt out
 HOLD_TILT = np.deg2rad(3.0)  # rad: the held cup tilted more than this in the grip, the lowering waits
 HOLD_STEPS = 15  # control steps the lowering waits at most in all
+TOUCH_BACK = 0.005  # m the held cup rises off a touch of the hand on the container before it is let go
+TOUCH_AIM_STEPS = 10  # control steps at most of that move
 AIMS = 2  # closed-loop moves putting the held cup's axis over the container's, before the lowering
 # the release: the squeeze relaxed (targets to the joints' positions), the thumb opens over RELEASE_STEPS, then the
 # fingers over FINGER_OPEN_STEPS. Opening everything at once over 10 steps, or the fingers first, the opening
@@ -99,11 +101,15 @@ def straighten(s: HandoverSolver, task: NestCupsHandsEnv, arm: str, cup: str) ->
     return q
 
 
-def _touching(task: NestCupsHandsEnv, arm: str, cup: str, container: str) -> bool:
-    """Whether `arm`'s hand or the held `cup` presses on `container`."""
-    side = arm.split("_")[0]
-    on_cup = contact_forces(task.scene, task.cups[container], [task.cups[cup]]).norm(dim=-1) >= TOUCH_FORCE
-    return bool((task.ee.touches(task.cups[container], side) | on_cup.any(dim=0)).any())
+def _hand_touches(task: NestCupsHandsEnv, arm: str, container: str) -> bool:
+    """Whether `arm`'s hand presses on `container`."""
+    return bool(task.ee.touches(task.cups[container], arm.split("_")[0]).any())
+
+
+def _cup_touches(task: NestCupsHandsEnv, cup: str, container: str) -> bool:
+    """Whether the held `cup` presses on `container`."""
+    forces = contact_forces(task.scene, task.cups[container], [task.cups[cup]])
+    return bool((forces.norm(dim=-1) >= TOUCH_FORCE).any())
 
 
 def drop_into(s: HandoverSolver, task: NestCupsHandsEnv, arm: str, ee: str, cup: str, container: str,
@@ -124,12 +130,22 @@ def drop_into(s: HandoverSolver, task: NestCupsHandsEnv, arm: str, ee: str, cup:
     steps = int(np.ceil((CARRY_BOTTOM + LIFT_MARGIN - shape.floor - RELEASE_BOTTOM) / LOWER_STEP))
     k, holds, touched = 0, 0, False
     while k < steps:
-        # closed loop: the target keeps the held cup's axis over the container's as it goes down, and until the
-        # hand or the cup first touches the container the wrist turns by the cup's tilt in the grip every step (the
-        # cup turns in the grip as it is carried), the descent waiting (at most HOLD_STEPS in all) while it is
-        # tilted past HOLD_TILT. After a touch the tilt comes from the contact, not the grip: the wrist keeps its
-        # orientation (turning it then drove the cup across the rim)
-        touched = touched or _touching(task, arm, cup, container)
+        # closed loop: the target keeps the held cup's axis over the container's as it goes down. Until the hand or
+        # the cup first touches the container the wrist also turns by the cup's tilt in the grip every step (the
+        # cup turns in the grip as it is carried: 7 deg at the release on seed 132, its bottom then caught the
+        # middle cup's wall), the descent waiting (at most HOLD_STEPS in all) while it is tilted past HOLD_TILT;
+        # after a touch the tilt comes from the contact, not the grip, and the wrist keeps its orientation. The
+        # hand itself touching the container (the thumb, wrapped round the cup down to its bottom, landing on the
+        # container's rim: seeds 108, 134) ends the lowering there: the cup is let go over the mouth, where going
+        # on pushed the container away and tipped the cup over the rim
+        if _hand_touches(task, arm, container):
+            # back off the rim, put the cup's axis over the container's again (the touch pushed the container:
+            # 1.4 cm in one step on seed 100) and let go from there
+            above = task.cups[container].pose.p.clone()
+            above[:, 2] = task.cups[cup].pose.p[:, 2] + TOUCH_BACK
+            s.move({arm: (held_tcp(s, task, arm, cup, above), q)}, max_steps=TOUCH_AIM_STEPS, pos_tol=0.002)
+            break
+        touched = touched or _cup_touches(task, cup, container)
         if touched or bool((tilt(task.cups[cup]) <= HOLD_TILT).all()) or holds >= HOLD_STEPS:
             k += 1
         else:
