@@ -46,8 +46,6 @@ LOWER_STEP = 0.004  # m a control step of the closed-loop lowering
 STRAIGHTEN_STEPS = 30  # control steps at most for the wrist to take the held cup's tilt out
 HOLD_TILT = np.deg2rad(3.0)  # rad: the held cup tilted more than this in the grip, the lowering waits
 HOLD_STEPS = 15  # control steps the lowering waits at most in all
-TOUCH_BACK = 0.005  # m the held cup rises off a touch of the hand on the container before it is let go
-TOUCH_AIM_STEPS = 10  # control steps at most of that move
 AIMS = 2  # closed-loop moves putting the held cup's axis over the container's, before the lowering
 # the release: the squeeze relaxed (targets to the joints' positions), the thumb opens over RELEASE_STEPS, then the
 # fingers over FINGER_OPEN_STEPS. Opening everything at once over 10 steps, or the fingers first, the opening
@@ -113,7 +111,7 @@ def _cup_touches(task: NestCupsHandsEnv, cup: str, container: str) -> bool:
 
 
 def drop_into(s: HandoverSolver, task: NestCupsHandsEnv, arm: str, ee: str, cup: str, container: str,
-              q: torch.Tensor):
+              q: torch.Tensor, upright: bool = False):
     """Carry the held `cup` level over `container`, aim it closed loop, lower it until its bottom is RELEASE_BOTTOM
     over the container's floor, open the hand and rise (phases 2 and 3)."""
     dev = task.device
@@ -128,24 +126,13 @@ def drop_into(s: HandoverSolver, task: NestCupsHandsEnv, arm: str, ee: str, cup:
     shape = task.shapes[container]
     low = torch.tensor([0.0, 0.0, shape.floor + RELEASE_BOTTOM], device=dev)
     steps = int(np.ceil((CARRY_BOTTOM + LIFT_MARGIN - shape.floor - RELEASE_BOTTOM) / LOWER_STEP))
-    k, holds, touched = 0, 0, False
+    k, holds, touched = 0, 0, not upright
     while k < steps:
-        # closed loop: the target keeps the held cup's axis over the container's as it goes down. Until the hand or
-        # the cup first touches the container the wrist also turns by the cup's tilt in the grip every step (the
-        # cup turns in the grip as it is carried: 7 deg at the release on seed 132, its bottom then caught the
-        # middle cup's wall), the descent waiting (at most HOLD_STEPS in all) while it is tilted past HOLD_TILT;
-        # after a touch the tilt comes from the contact, not the grip, and the wrist keeps its orientation. The
-        # hand itself touching the container (the thumb, wrapped round the cup down to its bottom, landing on the
-        # container's rim: seeds 108, 134) ends the lowering there: the cup is let go over the mouth, where going
-        # on pushed the container away and tipped the cup over the rim
-        if _hand_touches(task, arm, container):
-            # back off the rim, put the cup's axis over the container's again (the touch pushed the container:
-            # 1.4 cm in one step on seed 100) and let go from there
-            above = task.cups[container].pose.p.clone()
-            above[:, 2] = task.cups[cup].pose.p[:, 2] + TOUCH_BACK
-            s.move({arm: (held_tcp(s, task, arm, cup, above), q)}, max_steps=TOUCH_AIM_STEPS, pos_tol=0.002)
-            break
-        touched = touched or _cup_touches(task, cup, container)
+        # closed loop: the target keeps the held cup's axis over the container's as it goes down. With `upright`,
+        # until the hand or the cup first touches the container the wrist also turns by the cup's tilt in the
+        # grip every step, the descent waiting (at most HOLD_STEPS in all) while it is tilted past HOLD_TILT;
+        # after a touch the tilt comes from the contact, not the grip, and the wrist keeps its orientation
+        touched = touched or _hand_touches(task, arm, container) or _cup_touches(task, cup, container)
         if touched or bool((tilt(task.cups[cup]) <= HOLD_TILT).all()) or holds >= HOLD_STEPS:
             k += 1
         else:
@@ -176,6 +163,6 @@ def solve_nest_cups_hands(env, seed: int) -> dict:
         tcp[:, 1] += LEFT_ASIDE[1]
         s.move({"left_arm": (tcp, q)}, max_steps=20, pos_tol=0.02)
         q = pick(s, task, "right_arm", "right_hand", "small", grasps["right_arm"])
-        drop_into(s, task, "right_arm", "right_hand", "small", "middle", q)
+        drop_into(s, task, "right_arm", "right_hand", "small", "middle", q, upright=True)
         s.hold_until_success()
         return s.info
