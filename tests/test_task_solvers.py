@@ -31,7 +31,6 @@ BELOW_BAR_SWEEP = {
     "FillCupToLine": "solver below the bar: 44/50 over seeds 100-149, all overfill (docs/tasks/FillCupToLine.md)",
     "PourThroughFunnel": "solver below the bar: 4/7 on seeds 100-106, the 50-seed sweep not run "
                          "(docs/tasks/PourThroughFunnel.md)",
-    "NestCupsHands": "solver below the bar: 44/50 over seeds 100-149 (docs/tasks/NestCupsHands.md)",
 }
 BELOW_BAR_SHORT = {"FillCupToLine": "solver below the bar: seeds 100 and 102 overfill"}
 
