@@ -182,8 +182,14 @@ def test_the_committed_calibration_report_labels_protocols_and_stale_rows(tmp_pa
     write_calibration_report(REPO / "docs" / "calibration", out=tmp_path)
     text = capsys.readouterr().out
     assert "LadderFlow v3 (superseded by v4: not comparable)" in text
-    stale = {line.split(":")[0].removeprefix("STALE ") for line in text.splitlines() if line.startswith("STALE ")}
+    # newest protocol first: the v4 development runs (labelled as such), then v3, the folder's own results
+    assert text.startswith("LadderFlow v4 development runs in development/ (current protocol; one training seed")
+    dev, v3 = text.split("LadderFlow v3 (superseded")
+    stale = {line.split(":")[0].removeprefix("STALE ") for line in v3.splitlines() if line.startswith("STALE ")}
     assert stale == {"LiftBasketHands", "LiftBottleHand", "LiftRopeHand", "StretchRopeHands"}
+    committed = {p.stem for p in (REPO / "docs" / "calibration" / "development").glob("*.json")}
+    shown = {line.split()[0] for line in dev.splitlines()[1:] if line.split() and line.split()[0] in committed}
+    assert shown == committed and "development" in dev.splitlines()[3]
 
 
 def test_task_hash_follows_the_task_version():

@@ -50,6 +50,8 @@ from .flow import PROTOCOL_VERSION, LadderFlowConfig
 
 # evaluation seed sets (`maniladder eval --seed s`: episode k resets with seed 1,000,000 + 10,000 s + k)
 SEED_SETS = {"development": 1, "final": 2}
+# the committed development results live in this subfolder of the committed calibration folder (docs/calibration)
+DEVELOPMENT_FOLDER = "development"
 RETIRED_SEED_SETS = {0: "chose the randomisation pilot's layout scales (v3's evaluation set): no longer held out"}
 STAGES = ("demos", "features", "train", "select", "evaluate")
 VERDICTS = ("inside", "outside", "straddles")
@@ -877,7 +879,9 @@ def write_calibration_report(folder: Path, out: Optional[Path] = None) -> Path:
     """`maniladder report <calibration folder>`: per protocol in the folder (newest first), the table, the level
     means and agreement table, and the figures (per task against the bands, suite means by level, level means,
     success against the difficulty scores) as one HTML page (`report/report.html`); rows that no longer measure
-    their task as built are marked stale."""
+    their task as built are marked stale. The development runs in the folder's `development/` (the ladder's
+    decisions while tasks are refined) follow their protocol's results as sections of their own, labelled so: they
+    place no task."""
     import base64
     import html
     import io
@@ -886,26 +890,37 @@ def write_calibration_report(folder: Path, out: Optional[Path] = None) -> Path:
 
     folder = Path(folder)
     rows = load_results(folder, protocol=None)
-    if not rows:
+    development = folder / DEVELOPMENT_FOLDER
+    dev_rows = load_results(development, protocol=None) if development.is_dir() else []
+    if not rows and not dev_rows:
         raise ValueError(f"{folder} holds no calibration results (<task>.json)")
-    write_summary(folder)
+    if rows:
+        write_summary(folder)
     out = Path(out) if out else folder / "report"
     out.mkdir(parents=True, exist_ok=True)
     sections, text = [], io.StringIO()
-    for protocol in sorted({str(r.get("protocol")) for r in rows}, reverse=True):
-        mine = [r for r in rows if str(r.get("protocol")) == protocol]
-        summary = {"protocol": protocol, "tasks": mine, "n_tasks": len(mine), "n_agree": sum(r["agree"] for r in mine),
-                   "n_inside": sum(r.get("verdict") == "inside" for r in mine)}
+    dev_kind = (f" development runs in {DEVELOPMENT_FOLDER}/", "; one training seed on the development seed set: "
+                "decisions while a task is refined, not the numbers that place it")
+    # newest protocol first; within one, the folder's own results before its development runs
+    sections_of = sorted({(str(r.get("protocol")), 0) for r in rows} | {(str(r.get("protocol")), 1) for r in dev_rows},
+                         key=lambda pk: (pk[0], -pk[1]), reverse=True)
+    for protocol, is_dev in sections_of:
+        kind, note = dev_kind if is_dev else ("", "")
+        mine = [r for r in (dev_rows if is_dev else rows) if str(r.get("protocol")) == protocol]
+        summary = {"protocol": protocol, "tasks": mine, "n_tasks": len(mine),
+                   "n_agree": sum(r["agree"] for r in mine), "n_inside": sum(r.get("verdict") == "inside" for r in mine)}
         buf = io.StringIO()
-        label = "current protocol" if protocol == PROTOCOL_VERSION else f"superseded by {PROTOCOL_VERSION}: not comparable"
-        print(f"LadderFlow {protocol} ({label})", file=buf)
+        label = ("current protocol" if protocol == PROTOCOL_VERSION
+                 else f"superseded by {PROTOCOL_VERSION}: not comparable") + note
+        title = f"LadderFlow {protocol}{kind} ({label})"
+        print(title, file=buf)
         print_calibration(summary, buf)
         stale = [(r["task"], why) for r in mine if (why := stale_reason(r))]
         for task, why in stale:
             print(f"STALE {task}: {why}", file=buf)
-        run = ladder_run(mine, f"LadderFlow {protocol}")
+        run = ladder_run(mine, f"LadderFlow {protocol}{kind}")
         print_ladder(run["summary"], mine, buf)
-        png_path = out / f"calibration_{protocol}.png"
+        png_path = out / f"calibration_{protocol}{'_development' if kind else ''}.png"
         plot_calibration(mine, png_path)
         figures = [("success per task against the level bands", png_path.read_bytes()),
                    ("suite means by level (the paper's Table 3 layout)", fig_grid([run])),
@@ -913,8 +928,7 @@ def write_calibration_report(folder: Path, out: Optional[Path] = None) -> Path:
                    ("success against the catalog's difficulty scores", fig_scores(mine))]
         imgs = "".join(f'<img alt="{html.escape(alt)}" src="data:image/png;base64,{base64.b64encode(png).decode()}">'
                        for alt, png in figures)
-        sections.append(f"<h2>LadderFlow {html.escape(protocol)} ({html.escape(label)})</h2>{imgs}"
-                        f"<pre>{html.escape(buf.getvalue())}</pre>")
+        sections.append(f"<h2>{html.escape(title)}</h2>{imgs}<pre>{html.escape(buf.getvalue())}</pre>")
         text.write(buf.getvalue() + "\n")
     page = (f'<!DOCTYPE html><html><head><meta charset="utf-8"><title>ManiLadder calibration</title></head><body>'
             f"<h1>ManiLadder calibration</h1>{''.join(sections)}</body></html>")
