@@ -44,8 +44,8 @@ def solve_mobile_store_in_cabinet(env, seed: int) -> dict:
         task: MobileStoreInCabinetEnv = env.unwrapped
         n, device = task.num_envs, task.device
         shape = task.cabinet_shape
-        q_handle = top_down_quat(robot.neutral_yaw(torch.full((n,), HANDLE_YAW, device=device), np.pi), n,
-                                 device=device)
+        handle_yaw = robot.neutral_yaw(torch.full((n,), HANDLE_YAW, device=device), np.pi)
+        q_handle = top_down_quat(handle_yaw, n, device=device)
         tcp = robot.tcp("arm").p.clone()
         robot.move({"arm": (_at_height(tcp, CARRY_HEIGHT), q_handle)}, max_steps=40, pos_tol=0.01, rot_tol=0.05)
         # the base's y joint moves the arm along world y: put the handle straight ahead of the shoulder
@@ -53,7 +53,7 @@ def solve_mobile_store_in_cabinet(env, seed: int) -> dict:
         handle = task.handle_position()
         drive_base_to(robot, base_start + _along_y(handle[:, 1] - tcp[:, 1]), max_steps=200)
 
-        _slide_handle(robot, task, q_handle, -PULL)
+        _slide_handle(robot, task, handle_yaw, -PULL)
 
         # the pull pushed the base back along x: drive it back to its start x, the block straight ahead
         drive_base_to(robot, base_start + _along_y(task.block.pose.p[:, 1] - tcp[:, 1]), max_steps=100)
@@ -79,7 +79,7 @@ def solve_mobile_store_in_cabinet(env, seed: int) -> dict:
         robot.move({"arm": (_at_height(robot.tcp("arm").p, CARRY_HEIGHT), q_block)}, max_steps=30, pos_tol=0.01)
 
         drive_base_to(robot, base_start + _along_y(task.handle_position()[:, 1] - tcp[:, 1]), max_steps=100)
-        _slide_handle(robot, task, q_handle, task.opening() + PUSH_PAST)
+        _slide_handle(robot, task, handle_yaw, task.opening() + PUSH_PAST)
         robot.hold_until_success()
         return robot.info
 
@@ -93,12 +93,12 @@ def _along_y(dy: torch.Tensor) -> torch.Tensor:
     return torch.stack([zeros, dy, zeros], dim=1)
 
 
-def _slide_handle(robot: DrivenSolver, task: MobileStoreInCabinetEnv, q: torch.Tensor, distance):
-    """Grasp the handle bar top-down, move it `distance` (m, per sub-scene; + pushes in along +x) in `PULL_STEP`
-    steps, let go and rise to `CARRY_HEIGHT`."""
+def _slide_handle(robot: DrivenSolver, task: MobileStoreInCabinetEnv, yaw: torch.Tensor, distance):
+    """Grasp the handle bar top-down, fingers closing across `yaw`, move it `distance` (m, per sub-scene; + pushes
+    in along +x) in `PULL_STEP` steps, let go and rise to `CARRY_HEIGHT`."""
     handle = task.handle_position()
-    robot.pick("arm", "gripper", handle, robot.neutral_yaw(torch.full((task.num_envs,), HANDLE_YAW,
-                                                                       device=task.device), np.pi), lift=0)
+    q = top_down_quat(yaw, task.num_envs, device=task.device)
+    robot.pick("arm", "gripper", handle, yaw, lift=0)
     distance = torch.as_tensor(distance, dtype=torch.float32, device=task.device).expand(task.num_envs)
     steps = int(np.ceil(float(distance.abs().max()) / PULL_STEP))
     for k in range(1, steps + 1):
