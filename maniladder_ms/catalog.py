@@ -87,6 +87,9 @@ class TaskSpec:
     params: dict = dataclasses.field(default_factory=dict)
     # `success` with `{param:unit}` placeholders, as written in the catalog; `success` is it rendered
     success_template: str = ""
+    # the layout axes whose spread follows from other draws (`layout.object_breadths`): {object: {"x"|"y": [terms]}},
+    # a term a layout param of the row (its width counts) or a width in m; read by the layout tables, not by the task
+    layout_derived: dict = dataclasses.field(default_factory=dict)
     # the language instruction (`instructions.yaml`): the canonical one and its paraphrases (same meaning)
     instruction: str = ""
     paraphrases: tuple[str, ...] = ()
@@ -298,6 +301,8 @@ def _parse_tasks(data: dict, source: str):
         params = raw.get("params") or {}
         if not isinstance(params, dict):
             raise CatalogError(f"{where}: params must be a mapping of name -> value, got {params!r}")
+        derived = raw.get("layout_derived") or {}
+        _check_layout_derived(derived, params, where)
         yield TaskSpec(
             id=raw["id"],
             env_id=raw["env_id"],
@@ -316,7 +321,26 @@ def _parse_tasks(data: dict, source: str):
             horizon=raw["horizon"],
             demo_plan=raw["demo"].get("plan", ""),
             scores={k: raw["scores"][k] for k in SCORE_KEYS},
+            layout_derived=derived,
         )
+
+
+def _check_layout_derived(derived, params: dict, where: str):
+    """`layout_derived` is {object: {"x"|"y": [terms]}}, each term a param of the row or a positive width in m."""
+    if not isinstance(derived, dict):
+        raise CatalogError(f"{where}: layout_derived must be a mapping of object -> {{axis: [terms]}}, got {derived!r}")
+    for obj, axes in derived.items():
+        if not isinstance(axes, dict) or not axes or set(axes) - {"x", "y"}:
+            raise CatalogError(f"{where}: layout_derived[{obj!r}] must map 'x' and/or 'y' to a list of terms, "
+                               f"got {axes!r}")
+        for axis, terms in axes.items():
+            if not isinstance(terms, list) or not terms:
+                raise CatalogError(f"{where}: layout_derived[{obj!r}][{axis!r}] must be a non-empty list, got {terms!r}")
+            for term in terms:
+                number = isinstance(term, (int, float)) and not isinstance(term, bool)
+                if not (term in params if isinstance(term, str) else number and term > 0):
+                    raise CatalogError(f"{where}: layout_derived[{obj!r}][{axis!r}]: {term!r} is neither a param of "
+                                       f"this row nor a positive width in m")
 
 
 def _validate_ladder(tasks: tuple[TaskSpec, ...], data: dict, source: str):

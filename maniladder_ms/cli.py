@@ -92,7 +92,7 @@ def cmd_show(args) -> int:
             ("description", spec.description), ("success", spec.success), ("instruction", spec.instruction)]
     rows += [(f"paraphrase {i}", p) for i, p in enumerate(spec.paraphrases, 1)]
     rows += [(f"param {k}", str(v)) for k, v in spec.params.items()]
-    objects = object_breadths(dict(spec.params))
+    objects = object_breadths(dict(spec.params), spec.layout_derived)
     if objects:  # the breadth of its layout params (docs/calibration/layout-policy.md)
         rows.append(("layout", format_breadth(objects)))
     if spec.implemented:

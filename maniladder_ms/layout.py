@@ -64,6 +64,7 @@ class ObjectBreadth:
     sides: int  # 2 when |y| is drawn on a random side, else 1
     yaw_deg: float | None  # the width of its yaw range (deg), None when its yaw is not drawn
     relative: bool  # its position is an offset from another object's
+    derived: tuple[str, ...] = ()  # the axes whose width the row's `layout_derived` gives (in the table's frame)
 
     @property
     def area_cm2(self) -> float | None:
@@ -73,8 +74,11 @@ class ObjectBreadth:
         return round(self.x_cm * self.y_cm * self.sides, 2)
 
 
-def object_breadths(params: dict) -> list[ObjectBreadth]:
-    """The layout breadth of every object a row's params place, in the params' order."""
+def object_breadths(params: dict, derived: dict | None = None) -> list[ObjectBreadth]:
+    """The layout breadth of every object a row's params place, in the params' order. `derived` (the row's
+    `layout_derived`) gives an object's axis whose spread follows from other draws (docs/calibration/layout-policy.md,
+    rule 1): that axis's width in the table's frame is the sum of its terms' widths, and the object counts in the
+    table's frame (an offset's parent spread is then in its terms)."""
     found: dict[str, dict] = {}
     for name, value in params.items():
         for pattern, kind in ((_POS_RANGE, "range"), (_POS_MAX, "max"), (_YAW_RANGE, "yaw_range"), (_MAX_YAW, "max_yaw")):
@@ -90,13 +94,32 @@ def object_breadths(params: dict) -> list[ObjectBreadth]:
             else:
                 axes[m["axis"]] = width
             break
+    for obj in derived or {}:
+        found.setdefault(obj, {})
     out = []
     for obj, axes in found.items():
         x = axes.get("x", axes.get("dx"))
         y = next((axes[k] for k in ("y", "abs_y", "dy") if k in axes), None)
+        given = (derived or {}).get(obj, {})
+        if "x" in given:
+            x = sum(_term_width(params, t) for t in given["x"])
+        if "y" in given:
+            y = sum(_term_width(params, t) for t in given["y"])
         out.append(ObjectBreadth(obj, _cm(x), _cm(y), 2 if "abs_y" in axes else 1, axes.get("yaw"),
-                                 "dx" in axes or "dy" in axes))
+                                 ("dx" in axes or "dy" in axes) and not given, tuple(sorted(given))))
     return out
+
+
+def _term_width(params: dict, term) -> float:
+    """A `layout_derived` term's width (m): a range param's high - low, a `max_` param's 2 x value, a number itself."""
+    if not isinstance(term, str):
+        return float(term)
+    value = params[term]
+    if _is_range(value):
+        return value[1] - value[0]
+    if _is_number(value) and "max_" in term:
+        return 2 * value
+    raise ValueError(f"layout_derived term {term!r} = {value!r}: expected a [low, high] range or a max_ param")
 
 
 def _is_number(value) -> bool:
@@ -120,6 +143,8 @@ def format_breadth(objects: Sequence[ObjectBreadth]) -> str:
             size = f"{_g(o.x_cm) if o.x_cm is not None else '-'}x{_g(o.y_cm) if o.y_cm is not None else '-'} cm"
             if o.sides == 2:
                 size += " x2 sides"
+            if o.derived:
+                size += f" ({' and '.join(o.derived)} derived)"
             if o.area_cm2 is not None:
                 size += f" = {_g(o.area_cm2)} cm2"
             bits.append(size)
@@ -159,7 +184,8 @@ class TaskBreadth:
 
 def layout_breadth(specs: Iterable) -> list[TaskBreadth]:
     """One `TaskBreadth` per catalog task spec, in the order given."""
-    return [TaskBreadth(s.level, s.suite, s.id, tuple(object_breadths(dict(s.params)))) for s in specs]
+    return [TaskBreadth(s.level, s.suite, s.id, tuple(object_breadths(dict(s.params), s.layout_derived)))
+            for s in specs]
 
 
 def breadth_tables(specs: Iterable) -> str:

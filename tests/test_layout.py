@@ -147,3 +147,43 @@ def test_the_layout_policy_shows_the_catalogs_breadth():
     """docs/calibration/layout-policy.md holds `breadth_tables` of today's Level 1-2 rows (regenerate with
     `python -m maniladder_ms.layout` after a layout edit)."""
     assert breadth_tables(_low_levels()) in POLICY.read_text()
+
+
+def test_a_derived_axis_counts_its_spread_in_the_tables_frame():
+    """`layout_derived` (rule 1's derived spreads): a zone whose y is the cube's, an offset whose parent is drawn."""
+    params = {"cube_x_range": [0.3, 0.34], "cube_y_range": [-0.05, 0.05], "zone_x_range": [-0.08, -0.02],
+              "table_y_range": [1.13, 1.17], "mug_x_range": [-0.5, -0.44], "mug_max_dy": 0.025}
+    cube, zone, table, mug = object_breadths(params, {"zone": {"y": ["cube_y_range"]},
+                                                      "mug": {"y": ["mug_max_dy", "table_y_range"]}})
+    assert zone.area_cm2 == 60 and zone.derived == ("y",) and not zone.relative
+    assert mug.y_cm == 9 and mug.area_cm2 == 54 and not mug.relative  # 5 cm of offset over the table's 4 cm
+    assert object_breadths(params)[3].relative  # undeclared: an offset, not summed
+    (book,) = object_breadths({"book_max_y": 0.1}, {"book": {"x": [0.0144]}})
+    assert book.area_cm2 == 28.8  # a width set by geometry, in m
+
+
+def test_a_bad_layout_derived_term_is_a_catalog_error(tmp_path):
+    import yaml
+
+    from maniladder_ms.catalog import CatalogError, load_catalog
+
+    data = yaml.safe_load((REPO / "maniladder_ms" / "data" / "task_catalog.yaml").read_text())
+    row = next(r for r in data["tasks"] if r["id"] == "HookCubeWithTool")
+    row["layout_derived"] = {"zone": {"y": ["cube_z_range"]}}
+    path = tmp_path / "catalog.yaml"
+    path.write_text(yaml.safe_dump(data))
+    with pytest.raises(CatalogError, match="cube_z_range.*neither a param of this row"):
+        load_catalog(path, instructions=REPO / "maniladder_ms" / "data" / "instructions.yaml")
+
+
+# Level 2 rows not yet in rule 1's band; a row leaves this list when its layout change lands (the test fails until then)
+OUTSIDE_THE_BAND = {"Stack6Blocks": "6 blocks need 2x3 slots ~9 cm apart to fit 120 cm2 (a class change)",
+                    "InsertPegInHole": "840 cm2 on two sides", "PlaceMugOnCoasterHand": "180 cm2, mug yaw 360 deg",
+                    "InsertPegBimanual": "204 cm2"}
+
+
+def test_every_level_1_2_layout_lies_in_the_band():
+    """Rule 1: every built Level 1-2 task's summed area in 10-120 cm2 (derived spreads counted), widest yaw <= 90 deg."""
+    outside = {r.task: (r.area_cm2, r.yaw_deg) for r in layout_breadth(_low_levels())
+               if not (10 <= r.area_cm2 <= 120 and r.yaw_deg <= 90)}
+    assert set(outside) == set(OUTSIDE_THE_BAND), outside
