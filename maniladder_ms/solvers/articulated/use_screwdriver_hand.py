@@ -26,7 +26,7 @@ import torch
 
 from mani_skill.utils.geometry.rotation_conversions import quaternion_apply, quaternion_invert
 
-from maniladder_ms.geometry import matrix_yaw, wrap_angle, yaw_of
+from maniladder_ms.geometry import matrix_yaw, wrap_angle
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.control import top_down_quat
 from maniladder_ms.solvers.driven import DrivenSolver
@@ -34,12 +34,7 @@ from maniladder_ms.solvers.twist import J7_LIMIT, J7_MARGIN, LEAD, tcp_yaw, wris
 from maniladder_ms.tasks.articulated.use_screwdriver_hand import HANDLE_LENGTH, UseScrewdriverHandEnv
 
 ARM, HAND = "arm", "hand"
-# the hand's yaw at the grasp against the octagonal handle's (whose shape repeats every `HANDLE_PERIOD`): half a
-# period off, so the fingers meet it the same way on every seed. Of the 8 failures of 50 on seeds 100-149 with the
-# hand at yaw 0 (the handle's yaw against it uniform), 7 had the handle 4-14 degrees off the hand's yaw modulo 45; the
-# 18 seeds 13-22 degrees off all succeeded (the tool pivoted out of line in the grasp on the failures)
-HANDLE_PERIOD = np.pi / 4
-GRASP_OFFSET = np.pi / 8
+GRASP_YAW = 0.0  # the hand's yaw at the grasp: the rest pose's (joint 7 mid-range)
 APPROACH = 0.1  # m above the handle's top where the hand takes its preshape
 GRASP_DEPTH = 0.06  # m: the TCP aimed this far below the handle's top as the hand closes (the palm stops on the top)
 LIFT = 0.14  # m the hand rises after the grasp (the tip, 7 cm below the handle, clears the 7.5 cm stand)
@@ -54,12 +49,6 @@ SLOT_PERIOD = np.pi / 2  # the cross slot repeats every quarter turn
 # rad the yaw target leads the hand's in the turn: at the twist module's `LEAD` (0.3) the tip walked out along a slot
 # arm into the gap round the head on seed 103 (8/10 on seeds 100-109); at 0.15 9/10, no slower in control steps
 TURN_LEAD = 0.15
-# the turn's tip offset in the TCP frame follows the measured one by this share a control step: measured afresh every
-# step, a tool pivoting in the grasp fed back (the hand chased the tip pinned in the slot and tipped the tool further:
-# 101, 108 dropped it at ~100 degrees); fixed at the turn's start, the tip walked out of the slot as the tool shifted
-# in the hand (108). Chosen on 12 seeds of 100-149 (the 8 failures of the first sweep and 100-103): 0.2 11/12,
-# 0.05 9/12, fixed 8/12
-TIP_FILTER = 0.2
 TURN_STEPS = 200  # control steps one turn may take (pi at ~0.035 rad a step: ~90)
 # the turn stops once the tip has risen this far out of the slot (the blade slipped out: seed 108 at ~105 degrees);
 # the solver then takes the tip back up, aligns and inserts it again, at most `ENGAGES` times in all
@@ -78,11 +67,10 @@ def tip_in_tcp(s: DrivenSolver, task) -> torch.Tensor:
     return quaternion_apply(quaternion_invert(tcp.q), task.tip() - tcp.p)
 
 
-def tip_target(s: DrivenSolver, task, goal: torch.Tensor, yaw: torch.Tensor, tip=None):
-    """(p, q): the top-down TCP pose at `yaw` that puts the tip at `goal` (n, 3); `tip`: the tip in the TCP frame
-    (None: as measured now)."""
+def tip_target(s: DrivenSolver, task, goal: torch.Tensor, yaw: torch.Tensor):
+    """(p, q): the top-down TCP pose at `yaw` that puts the measured tip at `goal` (n, 3)."""
     q = top_down_quat(yaw, goal.shape[0], goal.device)
-    return goal - quaternion_apply(q, tip_in_tcp(s, task) if tip is None else tip), q
+    return goal - quaternion_apply(q, tip_in_tcp(s, task)), q
 
 
 def move_tip(s: DrivenSolver, task, goal, yaw=None, max_steps: int = MOVE_STEPS, tol: float = TIP_TOL):
@@ -97,8 +85,7 @@ def move_tip(s: DrivenSolver, task, goal, yaw=None, max_steps: int = MOVE_STEPS,
 
 def pick(s: DrivenSolver, task):
     top = task.screwdriver.pose.p + torch.tensor([0.0, 0.0, HANDLE_LENGTH], device=task.device)
-    yaw = DrivenSolver.neutral_yaw(yaw_of(task.screwdriver.pose.q) + GRASP_OFFSET, HANDLE_PERIOD)
-    q = top_down_quat(yaw, top.shape[0], top.device)
+    q = top_down_quat(GRASP_YAW, top.shape[0], top.device)
     s.release(HAND, steps=1)
     s.move({ARM: (s.above(top, APPROACH), q)}, max_steps=80)
     s.set_ee(HAND, "preshape", steps=5)
@@ -125,14 +112,12 @@ def turn(s: DrivenSolver, task):
     """Counter-clockwise about the vertical through the tip, held `INSERT_DEPTH` deep on the screw's axis, until
     success, joint 7 nears its limit or the blade slips out of the slot."""
     deep = lambda: s.above(task.head_top(), -INSERT_DEPTH)  # noqa: E731
-    tip = tip_in_tcp(s, task)
     for _ in range(TURN_STEPS):
-        tip = tip + TIP_FILTER * (tip_in_tcp(s, task) - tip)
         out = task.tip()[:, 2] > task.head_top()[:, 2] - SLIPPED
         if bool(s.info["success"].all()) or bool((wrist_angle(s, ARM) <= -J7_LIMIT + J7_MARGIN).all()) \
                 or bool(out.all()):
             return
-        s.step({ARM: tip_target(s, task, deep(), tcp_yaw(s, ARM) + TURN_LEAD, tip)})
+        s.step({ARM: tip_target(s, task, deep(), tcp_yaw(s, ARM) + TURN_LEAD)})
 
 
 def engage_and_turn(s: DrivenSolver, task):
