@@ -52,7 +52,7 @@ def test_a_screw_turned_without_the_held_screwdriver_does_not_count():
 def test_the_solver_turn_counts_and_ends_when_the_tip_leaves_the_slot():
     env = _make()
     try:
-        info = solver_for("UseScrewdriverHand").fn(env, 100)
+        info = solver_for("UseScrewdriverHand").run(env, 100)
         task = env.unwrapped
         assert bool(info["success"].all())
         assert abs(float(info["tool_turn"][0])) >= np.deg2rad(task.turn_angle)
