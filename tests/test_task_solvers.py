@@ -29,6 +29,8 @@ BELOW_BAR_SWEEP = {
     "WrapRopeAroundBoxHands": "solver below the bar: 19/50 over seeds 100-149 "
                               "(docs/tasks/WrapRopeAroundBoxHands.md)",
     "FillCupToLine": "solver below the bar: 44/50 over seeds 100-149, all overfill (docs/tasks/FillCupToLine.md)",
+    "NestCupsHands": "solver below the bar: 44/50 over seeds 100-149, the left thumb landing on the large cup's rim "
+                     "(docs/tasks/NestCupsHands.md)",
 }
 BELOW_BAR_SHORT = {"FillCupToLine": "solver below the bar: seeds 100 and 102 overfill"}
 

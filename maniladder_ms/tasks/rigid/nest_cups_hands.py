@@ -34,8 +34,8 @@ LARGE_BOTTOM_RADIUS = 0.036  # inner radius at the large cup's floor (its rim: 4
 # tilted 20-30 degrees in the grip (seed 103)
 CUP_DENSITY = 2000.0
 CUP_FRICTION = 1.0
-# contact offset of the cups' shapes: below NEST_CLEARANCE, so seated cups' walls (3 mm apart, 24 sector hulls and
-# 24 floor wedges each) do not all generate contacts with each other (at the vessels' 5 mm a nested pair stepped
+# contact offset of the cups' shapes: below NEST_CLEARANCE, so seated cups' walls (3 mm apart, 24 sector hulls
+# each) do not all generate contacts with each other (at the vessels' 5 mm a nested pair stepped
 # ~4x slower than apart)
 CUP_CONTACT_OFFSET = 0.001
 CUP_COLORS = {"large": (0.85, 0.3, 0.25, 1), "middle": (0.95, 0.75, 0.2, 1), "small": (0.25, 0.5, 0.85, 1)}
@@ -71,8 +71,8 @@ def cup_shapes() -> dict[str, containers.ContainerShape]:
 def cup_hulls(shape: containers.ContainerShape) -> list[np.ndarray]:
     """The cup's convex pieces: its wall as `containers.shell_hulls`' SHELL_SECTIONS sector hulls and its floor as
     ONE hull, the SHELL_SECTIONS-gon disc that `shell_hulls`' floor wedges tile (the same solid: the wedges' union is
-    convex). One floor shape instead of 24 on the table and on the next cup's floor: `maniladder bench` 0.26-0.29x
-    PickCube-v1 with the wedges, see docs/tasks/NestCupsHands.md for the measurement after."""
+    convex). One floor shape instead of 24 on the table and on the next cup's floor: `maniladder bench` (state, random
+    actions) 0.21x PickCube-v1 with the wedges, 0.29x with the disc (before `evaluate`'s own savings)."""
     walls = containers.shell_hulls(replace(shape, floor=0.0))
     angles = np.linspace(0.0, 2 * np.pi, containers.SHELL_SECTIONS, endpoint=False)
     r = shape.inner[0][1] + shape.wall
