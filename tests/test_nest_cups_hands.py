@@ -64,3 +64,38 @@ def test_cups_start_apart_and_in_size_order(env):
     for inner, outer in zip(NAMES[1:], NAMES[:-1]):  # each cup's outer wall fits inside the next one's inner wall
         gap = task.shapes[outer].rim_radius - task.shapes[inner].rim_radius - task.shapes[inner].wall
         assert 0.002 <= gap <= 0.005
+
+
+def test_cup_collision_is_the_sector_walls_and_one_floor_disc():
+    """`cup_hulls`: the walls are `containers.shell_hulls`' sectors, the floor one disc of the volume (and
+    height) of `shell_hulls`' floor wedges together."""
+    import trimesh
+
+    from maniladder_ms.objects import containers
+    from maniladder_ms.tasks.rigid.nest_cups_hands import cup_hulls, cup_shapes
+
+    for shape in cup_shapes().values():
+        wedges_and_walls = containers.shell_hulls(shape)
+        mine = cup_hulls(shape)
+        walls = [p for p in wedges_and_walls if p[:, 2].max() > shape.floor + 1e-9]
+        wedges = [p for p in wedges_and_walls if p[:, 2].max() <= shape.floor + 1e-9]
+        assert len(walls) == len(wedges) == containers.SHELL_SECTIONS and len(mine) == len(walls) + 1
+        for a, b in zip(walls, mine[:-1]):
+            np.testing.assert_allclose(a, b)
+        disc = trimesh.convex.convex_hull(mine[-1])
+        wedge_volume = sum(trimesh.convex.convex_hull(w).volume for w in wedges)
+        assert disc.volume == pytest.approx(wedge_volume, rel=1e-9)
+        assert disc.bounds[:, 2].tolist() == [0.0, shape.floor]
+
+
+def test_rule_reads_the_inner_cup_in_the_containers_frame(env):
+    """`nested`'s quaternion arithmetic gives the container-frame position `Pose` arithmetic gives."""
+    env.reset(seed=1)
+    task = env.unwrapped
+    _pose(task, "large", [-0.1, 0.02, 0.01], tilt_deg=25.0)
+    _pose(task, "middle", [-0.08, 0.05, 0.04], tilt_deg=-40.0)
+    a, b = task.cups["middle"].pose, task.cups["large"].pose
+    local = (b.inv() * a).p
+    got = task.nested("middle", "large")
+    assert float(got["axis_offset"][0]) == pytest.approx(float(torch.linalg.norm(local[0, :2])), abs=1e-6)
+    assert float(got["rim_gap"][0]) == pytest.approx(float(local[0, 2]), abs=1e-6)  # equal heights
