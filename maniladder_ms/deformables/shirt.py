@@ -12,7 +12,10 @@ peeled off it again; the bending drives are soft, so a fold stays where it is la
   body (every drive at rest but for the two crease links of each folded row or column);
 - `body_frame`: where the body lies now (centre, its hem-to-collar axis and the axis across it);
 - `sleeve_out`: how far each sleeve's cuff lies beyond the body's side edge (> 0: out, seen from above);
-- `flat_place`: where particles would lie if the shirt lay flat around its body as it lies now.
+- `flat_place`, `local_place`: where particles (or points of the rest frame) would lie if the shirt lay flat
+  around its body as it lies now;
+- `outline_excess`: how far particles (a sleeve's) reach beyond the body's outline;
+- `hem_collar_pairs`: the particles a fold of the body in half (hem onto collar) lays together.
 """
 
 from __future__ import annotations
@@ -137,6 +140,15 @@ def sleeve_out(points: torch.Tensor, layout: cloth.ClothLayout, side: str) -> to
     return outward.amin(dim=1) - body_half_width(layout)
 
 
+def local_place(points: torch.Tensor, layout: cloth.ClothLayout, local_xy: np.ndarray) -> torch.Tensor:
+    """Where points given in the shirt's rest frame `local_xy` [k, 2] (m; its layout's frame) lie with the body as it
+    lies now (`body_frame`), seen from above, [B, k, 2]."""
+    centre, along, across = body_frame(points, layout)
+    origin = layout.positions[frame_ids(layout), :2].mean(axis=0)
+    rest = torch.as_tensor(np.asarray(local_xy) - origin, dtype=points.dtype, device=points.device)
+    return centre[:, None] + rest[None, :, :1] * along[:, None] + rest[None, :, 1:] * across[:, None]
+
+
 def flat_place(points: torch.Tensor, layout: cloth.ClothLayout, ids: list[int]) -> torch.Tensor:
     """Where the particles `ids` lie when the shirt lies flat around its body as the body lies now (`body_frame`
     applied to their rest positions), seen from above, [B, len(ids), 2]."""
@@ -144,3 +156,28 @@ def flat_place(points: torch.Tensor, layout: cloth.ClothLayout, ids: list[int]) 
     rest = torch.as_tensor(layout.positions[:, :2], dtype=points.dtype, device=points.device)
     rest = rest[ids] - rest[frame_ids(layout)].mean(dim=0)
     return centre[:, None] + rest[None, :, :1] * along[:, None] + rest[None, :, 1:] * across[:, None]
+
+
+def outline_excess(points: torch.Tensor, layout: cloth.ClothLayout, ids: list[int]) -> torch.Tensor:
+    """How far (m) the particles `ids` reach beyond the body's outline seen from above, [B]: the largest distance,
+    along or across the body (`body_frame`), by which a particle centre lies outside the rectangle of the body's
+    rest outline (its particle centres plus half a tile); <= 0 when all lie within it."""
+    spacing = spacing_of(layout)
+    body = layout.positions[body_ids(layout), :2]
+    lo, hi = body.min(axis=0) - spacing / 2, body.max(axis=0) + spacing / 2
+    centre, along, across = body_frame(points, layout)
+    origin = layout.positions[frame_ids(layout), :2].mean(axis=0)
+    rel = points[:, ids, :2] - centre[:, None]
+    local = torch.stack([(rel * along[:, None]).sum(-1), (rel * across[:, None]).sum(-1)], dim=-1)
+    local = local + torch.as_tensor(origin, dtype=points.dtype, device=points.device)
+    lo_t = torch.as_tensor(lo, dtype=points.dtype, device=points.device)
+    hi_t = torch.as_tensor(hi, dtype=points.dtype, device=points.device)
+    return torch.maximum(lo_t - local, local - hi_t).amax(dim=-1).amax(dim=1)
+
+
+def hem_collar_pairs(layout: cloth.ClothLayout) -> list[tuple[int, int]]:
+    """The (hem, collar) particle pairs of each body column: they lie together when the body is folded in half,
+    hem onto collar."""
+    hem = sorted(layout.named["hem"], key=lambda i: layout.positions[i, 1])
+    collar = sorted(layout.named["collar"], key=lambda i: layout.positions[i, 1])
+    return list(zip(hem, collar))

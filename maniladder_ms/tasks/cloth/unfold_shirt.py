@@ -37,7 +37,7 @@ class UnfoldShirtEnv(ManiLadderEnv):
     **Success:** the shirt's covered area seen from above (`cloth.coverage`: particle tiles of the spacing's size
     in the shirt's own grid axes) is at least `min_coverage` of its flat area (lies flat); both sleeves are out:
     every particle of each sleeve's cuff (its outermost column) lies beyond the body's outline on the sleeve's
-    side, seen from above across the body as it lies now (`shirt.sleeve_out` > 0); and the gripper touches no
+    side, seen from above across the body as it lies now (`shirt.sleeve_out` positive); and the gripper touches no
     particle of the shirt (`ee.touches`: it lies so by itself).
 
     **Level 3:** its Level-2 suite-mate FoldTowelInHalf turns one half of a rectangle over with two corner
