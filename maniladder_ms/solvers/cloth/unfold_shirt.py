@@ -19,7 +19,7 @@ import numpy as np
 import sapien
 
 from maniladder_ms.deformables import shirt
-from maniladder_ms.solvers import register_solver
+from maniladder_ms.solvers import PlanningFailed, register_solver
 from maniladder_ms.solvers.panda import PLANNED_APPROACH_HEIGHT, PRECISE_SETTLE_STEPS, PandaSolver
 from maniladder_ms.tasks.cloth.unfold_shirt import UnfoldShirtEnv
 
@@ -30,9 +30,25 @@ PINCH_OPENING = 0.2
 LIFT = 0.05  # a cuff corner is first lifted this high, peeling the folded layer off the body
 ARC_HEIGHT = 0.08  # then carried over the middle of its way this high
 RELEASE_ABOVE = 0.01  # above the flat place (table level plus a radius), where the fingers open
+PLACE_RETREAT = 0.06  # the hand rises this far once the fingers are open (`PandaSolver.place`'s default)
 GRASP_TRIES = 2  # a pinch that comes up empty is tried again from where the particle lies now
 CORRECT_STEPS = 90  # a corrective carry starts only while this many steps of the horizon remain
 CORRECT_CARRIES = 2
+
+
+def _move(robot: PandaSolver, pose: sapien.Pose, settle_steps: int = 0):
+    """`robot.move(pose, settle_steps)`, by an RRT path where mplib cannot time the straight (screw) one: its TOPP
+    raised "Fail to parameterize path" planning the lift straight up from a pinched cuff on seed 187 (the arm had
+    stopped on the folded layer); the dry-run plan raises before any step, so elsewhere the actions are the same."""
+    try:
+        robot.move(pose, settle_steps=settle_steps)
+    except RuntimeError:
+        plan = robot.planner.move_to_pose_with_RRTConnect(pose, dry_run=True)
+        if plan == -1:
+            raise PlanningFailed(f"no path to {pose}")
+        robot.last = robot.planner.follow_path(plan)
+        for _ in range(settle_steps):
+            robot.hold_still()
 
 
 def _pinch(robot: PandaSolver, task: UnfoldShirtEnv, i: int, inner: int, rest_yaw: float):
@@ -43,10 +59,10 @@ def _pinch(robot: PandaSolver, task: UnfoldShirtEnv, i: int, inner: int, rest_ya
         diagonal = points[inner, :2] - points[i, :2]
         yaw = float(np.arctan2(diagonal[1], diagonal[0])) + np.pi / 2
         yaw = rest_yaw + (yaw - rest_yaw + np.pi / 2) % np.pi - np.pi / 2  # the last joint kept mid-range
-        robot.move(sapien.Pose([0, 0, PLANNED_APPROACH_HEIGHT]) * robot.top_down_pose(points[i], yaw))
+        _move(robot, sapien.Pose([0, 0, PLANNED_APPROACH_HEIGHT]) * robot.top_down_pose(points[i], yaw))
         robot.planner.open_gripper(t=4, gripper_state=PINCH_OPENING)
         grasp = robot.top_down_pose(task.shirt.positions()[0, i].cpu().numpy() + [0, 0, GRASP_ABOVE], yaw)
-        robot.move(grasp, settle_steps=PRECISE_SETTLE_STEPS)
+        _move(robot, grasp, settle_steps=PRECISE_SETTLE_STEPS)
         robot.grip(closed=True)
         if bool(task.ee.holds(task.shirt.spheres[i])[0]):
             return grasp, yaw
@@ -67,12 +83,16 @@ def _carry(robot: PandaSolver, task: UnfoldShirtEnv, i: int, inner: int, rest_ya
     if pinched is None:
         return False
     grasp, yaw = pinched
-    robot.move(sapien.Pose([0, 0, LIFT]) * grasp)
+    _move(robot, sapien.Pose([0, 0, LIFT]) * grasp)
     middle = (task.shirt.positions()[0, i].cpu().numpy() + _goal(task, i)) / 2
     apex = robot.top_down_pose([middle[0], middle[1], ARC_HEIGHT], yaw)
     if robot.planner.move_to_pose_with_screw(apex, dry_run=True) != -1:
-        robot.move(apex)
-    robot.place(robot.top_down_pose(_goal(task, i) + [0, 0, RELEASE_ABOVE], yaw), approach_height=LIFT)
+        _move(robot, apex)
+    release = robot.top_down_pose(_goal(task, i) + [0, 0, RELEASE_ABOVE], yaw)  # `robot.place`'s moves
+    _move(robot, sapien.Pose([0, 0, LIFT]) * release)
+    _move(robot, release, settle_steps=PRECISE_SETTLE_STEPS)
+    robot.grip(closed=False)
+    _move(robot, sapien.Pose([0, 0, PLACE_RETREAT]) * release)
     return True
 
 
