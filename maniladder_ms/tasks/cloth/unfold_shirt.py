@@ -46,7 +46,8 @@ class UnfoldShirtEnv(ManiLadderEnv):
     lie under nothing, the sleeves' cuffs beside them), every carry picking a particle of an upper layer that
     rests on the body two radii (2 cm) up, 2.5 cm from its neighbours, and laying it at a place that only the
     body's current pose gives (the body slides under each carry), with a rule that checks both sleeves besides
-    the area. Demo lengths and T: docs/tasks/UnfoldShirt.md.
+    the area. Demos take ~356 steps of a 500-step horizon, 8 stages (pinch and carry four corners):
+    T = 10 log10 356 + 8 = 33.5 against FoldTowelInHalf's 27.0 and FlattenTowelCorner's 21.
     """
 
     max_dense_reward = 6

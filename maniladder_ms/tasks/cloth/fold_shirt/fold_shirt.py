@@ -30,7 +30,8 @@ class FoldShirtEnv(FoldShirtTask):
     Here three folds of one sheet in an order (the sleeves first, or the hem would bury them), two of them made
     by the two arms at once on either side of the body, the third by both arms carrying the hem's two corners
     together 17.5 cm over the body onto the collar, on top of the folded sleeves; the rule checks every sleeve
-    particle and every hem-collar pair. Demo lengths and T: docs/tasks/FoldShirt.md.
+    particle and every hem-collar pair. Demos take ~363 steps of a 500-step horizon (seeds 100-104), 6 stages:
+    T = 10 log10 363 + 6 = 31.6 against FoldTowelInHalf's 27.0.
     """
 
     SUPPORTED_ROBOTS = ["ml_dual_panda"]
