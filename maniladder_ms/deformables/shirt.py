@@ -181,3 +181,16 @@ def hem_collar_pairs(layout: cloth.ClothLayout) -> list[tuple[int, int]]:
     hem = sorted(layout.named["hem"], key=lambda i: layout.positions[i, 1])
     collar = sorted(layout.named["collar"], key=lambda i: layout.positions[i, 1])
     return list(zip(hem, collar))
+
+
+def draw_pose(b: int, x_range, max_y: float, max_yaw: float, rest_z: float):
+    """The shirt tasks' start pose of `b` shirts (torch's default device): yaw uniform in +-`max_yaw` (deg), x
+    uniform in `x_range`, y in +-`max_y`, lying at `rest_z`; drawn in that order (seeds keep their layouts)."""
+    from mani_skill.utils.structs.pose import Pose
+
+    from maniladder_ms.geometry import yaw_quat
+    from maniladder_ms.layout import symmetric_deg, uniform
+
+    yaw = symmetric_deg(b, max_yaw)
+    xyz = torch.stack([uniform(b, x_range), (torch.rand(b) * 2 - 1) * max_y, torch.full((b,), rest_z)], dim=1)
+    return Pose.create_from_pq(xyz, yaw_quat(yaw))

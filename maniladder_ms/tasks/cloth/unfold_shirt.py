@@ -7,12 +7,8 @@ from typing import Any
 import numpy as np
 import torch
 
-from mani_skill.utils.structs.pose import Pose
-
 from maniladder_ms.deformables import cloth, shirt
 from maniladder_ms.envs import ManiLadderEnv, register_task
-from maniladder_ms.geometry import yaw_quat
-from maniladder_ms.layout import symmetric_deg, uniform
 
 
 @register_task("UnfoldShirt")
@@ -70,10 +66,8 @@ class UnfoldShirtEnv(ManiLadderEnv):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            yaw = symmetric_deg(b, self.shirt_max_yaw)
-            xyz = torch.stack([uniform(b, self.shirt_x_range), (torch.rand(b) * 2 - 1) * self.shirt_max_y,
-                               torch.full((b,), self.cloth_config.radius)], dim=1)
-            self.shirt.set_shape(self._folded_positions, self._folded_quats, Pose.create_from_pq(xyz, yaw_quat(yaw)))
+            pose = shirt.draw_pose(b, self.shirt_x_range, self.shirt_max_y, self.shirt_max_yaw, self.cloth_config.radius)
+            self.shirt.set_shape(self._folded_positions, self._folded_quats, pose)
 
     def cuff_goals(self, side: str) -> torch.Tensor:
         """Where the sleeve's cuff particles lie when the shirt lies flat around its body as it lies now, [B, k, 2]."""

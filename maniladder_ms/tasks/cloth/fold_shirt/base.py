@@ -7,12 +7,8 @@ from typing import Any
 
 import torch
 
-from mani_skill.utils.structs.pose import Pose
-
 from maniladder_ms.deformables import cloth, shirt
 from maniladder_ms.envs import ManiLadderEnv
-from maniladder_ms.geometry import yaw_quat
-from maniladder_ms.layout import symmetric_deg, uniform
 
 
 class FoldShirtTask(ManiLadderEnv):
@@ -45,10 +41,8 @@ class FoldShirtTask(ManiLadderEnv):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            yaw = symmetric_deg(b, self.shirt_max_yaw)
-            xyz = torch.stack([uniform(b, self.shirt_x_range), (torch.rand(b) * 2 - 1) * self.shirt_max_y,
-                               torch.full((b,), self.cloth_config.radius)], dim=1)
-            self.shirt.set_rest_shape(Pose.create_from_pq(xyz, yaw_quat(yaw)))
+            pose = shirt.draw_pose(b, self.shirt_x_range, self.shirt_max_y, self.shirt_max_yaw, self.cloth_config.radius)
+            self.shirt.set_rest_shape(pose)
 
     def _get_obs_extra(self, info: dict):
         obs = {f"{side}_tcp_pose": self.ee.tcp(side).raw_pose for side in self.ee.sides}
