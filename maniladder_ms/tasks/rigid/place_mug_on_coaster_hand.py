@@ -24,8 +24,9 @@ class PlaceMugOnCoasterHandEnv(ManiLadderEnv):
 
     **Randomisation:** the mug (8.4 cm wide, 9 cm tall, loop handle; ~0.13 kg; `objects.mug`) stands upright,
     its centre uniform in x in `mug_x_range`, y in `mug_y_range`, its yaw uniform in `mug_yaw_range` (the handle
-    pointing anywhere); the coaster (11 cm across, 5 mm thick, fixed to the table) has its centre uniform in x in
-    `coaster_x_range`, y in `coaster_y_range` (a 12-30 cm carry).
+    pointing to the robot's left, away from the coaster, within 45 degrees of +y); the coaster (11 cm across,
+    5 mm thick, fixed to the table) has its centre uniform in x in `coaster_x_range`, y in `coaster_y_range`
+    (a 13.5-30 cm carry).
 
     **Success:** the mug was carried: at some control step the hand held it (`ee.holds`: a finger pressing
     against the thumb or palm) with its body at least `lift_height` clear of the table (its lowest point; episode
@@ -34,7 +35,7 @@ class PlaceMugOnCoasterHandEnv(ManiLadderEnv):
     `rest_tol` of the coaster's top), and no part of the hand touches it (`ee.touches`: released).
 
     **Level 2:** (against Level 1's LiftBottleHand: one power grasp and a lift, 2 stages, ~80-step demos, no
-    placement, no release) 4 stages (grasp, lift and carry 12-30 cm, set down, release), ~210-step demos; the
+    placement, no release) 4 stages (grasp, lift and carry 13.5-30 cm, set down, release), ~200-step demos; the
     mug hangs in the grip tilted by 5-25 degrees and must end within 2 cm of the coaster's centre and 10 degrees
     of upright, so the wrist takes the tilt out before the set-down; and the hand must open off the standing mug
     without pushing or tipping it: the fingers opening straight from the power grasp throw it 8-10 cm or tip
