@@ -35,10 +35,11 @@ SET_DOWN_GAP = 0.002  # m: the set-down stops with the mug's bottom this close t
 RELEASE_STEPS = 20  # control steps over which the fingers, then the thumb, open
 LOWER_SLACK = 10  # control steps the set-down may take beyond its planned STRAIGHTEN_ABOVE / LOWER_STEP
 RETREAT_HEIGHT = 0.08  # m the open hand rises off the placed mug (clear of its rim and handle)
-# measured: seeds 100-149 48/50 (110, 147 fail); the demo seeds 0-24 21/25. What fails: the mug slips down out of
-# the fingers in the carry (a grasp with the handle on the index finger's side, wrist yaw near -pi/2, slips most);
-# relaxing and opening the fingers tilts the standing mug 5-10 degrees and it lands 2-2.5 cm off centre (seed 18);
-# the rising open hand catches the mug and drags it off the coaster (seed 16)
+# measured on PlaceMugOnCoasterHand, the mug's yaw in [225, 315]: seeds 100-149 45/50 (117, 130, 131, 147, 148
+# fail), held out 150-199 48/50 (163, 179). What fails (seen on the demo seeds as first built, yaw over 360 deg): the
+# mug slips down out of the fingers in the carry (a grasp with the handle on the index finger's side, wrist yaw near
+# -pi/2, slips most); relaxing and opening the fingers tilts the standing mug 5-10 degrees and it lands 2-2.5 cm off
+# centre (seed 18); the rising open hand catches the mug and drags it off the coaster (seed 16)
 
 
 def _straighten(s: DrivenSolver, task, arm: str, max_steps: int = 30) -> torch.Tensor:
