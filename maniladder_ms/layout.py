@@ -86,7 +86,7 @@ def object_breadths(params: dict, derived: dict | None = None) -> list[ObjectBre
             if m is None or not (_is_range(value) if kind.endswith("range") else _is_number(value)):
                 continue
             axes = found.setdefault(m["obj"], {})
-            width = value[1] - value[0] if kind.endswith("range") else 2 * value
+            width = _width(value)
             if kind in ("yaw_range", "max_yaw"):
                 axes["yaw"] = width
             elif m["axis"] == "offset":
@@ -94,13 +94,14 @@ def object_breadths(params: dict, derived: dict | None = None) -> list[ObjectBre
             else:
                 axes[m["axis"]] = width
             break
-    for obj in derived or {}:
+    derived = derived or {}
+    for obj in derived:
         found.setdefault(obj, {})
     out = []
     for obj, axes in found.items():
         x = axes.get("x", axes.get("dx"))
         y = next((axes[k] for k in ("y", "abs_y", "dy") if k in axes), None)
-        given = (derived or {}).get(obj, {})
+        given = derived.get(obj, {})
         if "x" in given:
             x = sum(_term_width(params, t) for t in given["x"])
         if "y" in given:
@@ -110,15 +111,18 @@ def object_breadths(params: dict, derived: dict | None = None) -> list[ObjectBre
     return out
 
 
+def _width(value) -> float:
+    """A param's spread: a [low, high] range's high - low, a `max_` number's 2 x value (drawn in +-value)."""
+    return value[1] - value[0] if _is_range(value) else 2 * value
+
+
 def _term_width(params: dict, term) -> float:
-    """A `layout_derived` term's width (m): a range param's high - low, a `max_` param's 2 x value, a number itself."""
+    """A `layout_derived` term's width (m): a range or `max_` param's `_width`, a number itself."""
     if not isinstance(term, str):
         return float(term)
     value = params[term]
-    if _is_range(value):
-        return value[1] - value[0]
-    if _is_number(value) and "max_" in term:
-        return 2 * value
+    if _is_range(value) or (_is_number(value) and "max_" in term):
+        return _width(value)
     raise ValueError(f"layout_derived term {term!r} = {value!r}: expected a [low, high] range or a max_ param")
 
 
