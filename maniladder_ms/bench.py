@@ -56,23 +56,26 @@ def _backend(obs_mode: str = "state") -> str:
 
 def bench(targets: list[BenchTarget | str], steps: int = 300, obs_mode: str = "state", progress=None,
           cameras: Optional[Sequence[str]] = None, render_every: int = 1) -> list[dict]:
-    """Rows of {env_id (the label), steps_per_s, ratio}; targets are env ids or `BenchTarget`s; the
-    reference (PickCube-v1 with its own camera, rendering every step) is measured before and after, and
-    averaged. `cameras` / `render_every` apply to the ManiLadder targets: a visual policy's view (e.g. the
-    three third-view cameras) and its chunk length."""
+    """Rows of {env_id (the label), steps_per_s, ratio, reference_steps_per_s}; targets are env ids or
+    `BenchTarget`s. The reference (PickCube-v1 with its own camera, rendering every step) is measured before the
+    first target and after each one, and each target's ratio is to the mean of the two reference runs beside it,
+    so that a machine whose load drifts over a long list (a shared 2-core machine: PickCube-v1 ran 274 steps/s
+    at the start of a 14-task list) compares each target with the reference as loaded when it ran. The reference
+    row gives the mean of all its runs. `cameras` / `render_every` apply to the ManiLadder targets: a visual
+    policy's view (e.g. the three third-view cameras) and its chunk length."""
     torch.set_num_threads(1)
     targets = [env_target(t) if isinstance(t, str) else t for t in targets]
-    before = steps_per_second(REFERENCE_ENV, steps, obs_mode)
-    rates = {}
+    references = [steps_per_second(REFERENCE_ENV, steps, obs_mode)]
+    rows = []
     for target in targets:
         if progress:
             progress(target.label)
         kwargs = dict(target.make_kwargs)
         if cameras and target.env_id.startswith("ManiLadder-"):
             kwargs["cameras"] = tuple(cameras)
-        rates[target.label] = steps_per_second(target.env_id, steps, obs_mode, render_every=render_every, **kwargs)
-    after = steps_per_second(REFERENCE_ENV, steps, obs_mode)
-    reference = (before + after) / 2
-    rows = [dict(env_id=REFERENCE_ENV, steps_per_s=reference, ratio=1.0)]
-    rows += [dict(env_id=e, steps_per_s=r, ratio=r / reference) for e, r in rates.items()]
-    return rows
+        rate = steps_per_second(target.env_id, steps, obs_mode, render_every=render_every, **kwargs)
+        references.append(steps_per_second(REFERENCE_ENV, steps, obs_mode))
+        beside = (references[-2] + references[-1]) / 2
+        rows.append(dict(env_id=target.label, steps_per_s=rate, ratio=rate / beside, reference_steps_per_s=beside))
+    mean = sum(references) / len(references)
+    return [dict(env_id=REFERENCE_ENV, steps_per_s=mean, ratio=1.0, reference_steps_per_s=mean)] + rows

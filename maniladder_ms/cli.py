@@ -208,8 +208,9 @@ def cmd_bench(args) -> int:
     cameras = [c for c in (args.cameras or "").split(",") if c]
     rows = bench(targets, steps=args.steps, obs_mode=args.obs_mode, cameras=cameras or None,
                  render_every=args.render_every, progress=lambda e: print(f"  measuring {e} ...", file=sys.stderr))
-    print_table(("env", "steps/s", "ratio to PickCube-v1"),
-                [(r["env_id"], f"{r['steps_per_s']:.0f}", f"{r['ratio']:.2f}") for r in rows])
+    print_table(("env", "steps/s", "ratio to PickCube-v1", "PickCube-v1 beside it (steps/s)"),
+                [(r["env_id"], f"{r['steps_per_s']:.0f}", f"{r['ratio']:.2f}", f"{r['reference_steps_per_s']:.0f}")
+                 for r in rows])
     return 0
 
 

@@ -150,14 +150,28 @@ def test_bench_prints_ratios(capsys):
     assert main(["bench", "PickPlacePen", "--steps", "20"]) == 0
     out = capsys.readouterr().out
     line = next(l for l in out.splitlines() if l.startswith("ManiLadder-PickPlacePen-v1"))
-    assert float(line.split()[-1]) > 0
+    _, rate, ratio, beside = line.split()
+    assert float(ratio) == pytest.approx(float(rate) / float(beside), abs=0.01 + 0.02 * float(ratio))
+
+
+def test_bench_compares_each_target_with_the_reference_runs_beside_it(monkeypatch):
+    """A load that drifts along the list: each target's ratio is to the reference runs just before and after it."""
+    import maniladder_ms.bench as bench_module
+
+    reference_rates = iter([100.0, 80.0, 40.0])
+    monkeypatch.setattr(bench_module, "steps_per_second",
+                        lambda env_id, *a, **k: next(reference_rates) if env_id == bench_module.REFERENCE_ENV else 30.0)
+    rows = bench_module.bench(["ManiLadder-A-v1", "ManiLadder-B-v1"], steps=1)
+    assert [r["env_id"] for r in rows] == [bench_module.REFERENCE_ENV, "ManiLadder-A-v1", "ManiLadder-B-v1"]
+    assert rows[0]["steps_per_s"] == pytest.approx(220 / 3)
+    assert [r["ratio"] for r in rows[1:]] == pytest.approx([30 / 90, 30 / 60])
 
 
 def test_bench_rgb_with_declared_cameras_and_chunks(capsys):
     assert main(["bench", "PickPlacePen", "--steps", "8", "--obs-mode", "rgb",
                  "--cameras", "front_camera,left_camera,top_camera", "--render-every", "4"]) == 0
     line = next(l for l in capsys.readouterr().out.splitlines() if l.startswith("ManiLadder-PickPlacePen-v1"))
-    assert float(line.split()[-1]) > 0
+    assert float(line.split()[2]) > 0
 
 
 def test_render_agent_and_showcase(tmp_path, capsys):
