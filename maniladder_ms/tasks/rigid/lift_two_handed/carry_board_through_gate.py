@@ -112,12 +112,17 @@ class CarryBoardThroughGateEnv(LiftTwoHandedTask):
         q = quaternion_invert(gate.q)[:, None].expand(-1, points.shape[1], -1)
         return quaternion_apply(q, points - gate.p[:, None])
 
+    def on_board(self, local: torch.Tensor) -> torch.Tensor:
+        """(num_envs, k, 3) world positions of the points `local` (k, 3) given in the board's frame."""
+        board = self.board.pose
+        q = board.q[:, None].expand(-1, local.shape[0], -1)
+        return board.p[:, None] + quaternion_apply(q, local[None].expand(self.num_envs, -1, -1))
+
     def board_corners(self) -> torch.Tensor:
         """(num_envs, 4, 3) world positions of the board's four bottom corners."""
         hx, hy = BOARD_WIDTH / 2, self.board_length / 2
-        local = torch.tensor([[sx * hx, sy * hy, 0.0] for sx in (1, -1) for sy in (1, -1)], device=self.device)
-        q = self.board.pose.q[:, None].expand(-1, 4, -1)
-        return self.board.pose.p[:, None] + quaternion_apply(q, local[None].expand(self.num_envs, -1, -1))
+        return self.on_board(torch.tensor([[sx * hx, sy * hy, 0.0] for sx in (1, -1) for sy in (1, -1)],
+                                          device=self.device))
 
     def gate_touched(self) -> torch.Tensor:
         """(num_envs,) bool: a post feels a contact force above `TOUCH_FORCE` from the board or a robot link (the
@@ -143,8 +148,8 @@ class CarryBoardThroughGateEnv(LiftTwoHandedTask):
         """World grasp points on the board's top-face centre line, `GRASP_INSET` in from each end, half the
         board's thickness down (the finger pads' middle), keyed by the arm that takes them."""
         y = self.board_length / 2 - GRASP_INSET
-        return {side: (self.board.pose * Pose.create_from_pq(torch.tensor(
-            [[0.0, sign * y, BOARD_THICKNESS / 2]], device=self.device))).p for side, sign in SIDE_SIGNS.items()}
+        local = torch.tensor([[0.0, sign * y, BOARD_THICKNESS / 2] for sign in SIDE_SIGNS.values()], device=self.device)
+        return dict(zip(SIDE_SIGNS, self.on_board(local).unbind(dim=1)))
 
     def _get_obs_extra(self, info: dict):
         info = dict(info, carried=info["through"])
