@@ -11,10 +11,11 @@ import sapien
 import torch
 from mani_skill.utils.geometry.rotation_conversions import quaternion_apply, quaternion_invert
 from mani_skill.agents.registration import REGISTERED_AGENTS
+from mani_skill.utils.structs.pose import Pose
 
 import maniladder_ms  # noqa: F401  (registers the agents)
 from maniladder_ms.agents import AGENT_UIDS
-from maniladder_ms.agents.effectors import contact_forces, leap_fingertip, link_forces
+from maniladder_ms.agents.effectors import _y_axis, contact_forces, leap_fingertip, link_forces
 from maniladder_ms.solvers.control import Driver, drive_base_to, hold_action
 from maniladder_ms.solvers.postures import LEAP_SYNERGIES
 from maniladder_ms.solvers.driven import DrivenSolver
@@ -40,6 +41,14 @@ CAMERAS = {
 def make(uid, mode="pd_joint_pos", **kw):
     kw.setdefault("robot_init_qpos_noise", 0.0)
     return gym.make("ManiLadder-AgentGallery-v1", robot_uids=uid, control_mode=mode, obs_mode="state", **kw)
+
+
+def test_y_axis_is_the_rotation_matrix_column_bit_for_bit():
+    """The gripper's hold check reads a finger's opening direction without the full matrix: the same bits."""
+    q = torch.randn(256, 4, generator=torch.Generator().manual_seed(0))
+    for quats in (q / q.norm(dim=1, keepdim=True), q):  # unit, and not (the matrix formula normalises)
+        column = Pose.create_from_pq(torch.zeros(len(quats), 3), quats).to_transformation_matrix()[..., :3, 1]
+        assert torch.equal(_y_axis(quats), column)
 
 
 def test_registered():
