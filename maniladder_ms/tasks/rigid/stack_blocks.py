@@ -4,14 +4,15 @@ from __future__ import annotations
 
 from typing import Any
 
+import numpy as np
 import torch
 
 from mani_skill.utils.building import actors
 from mani_skill.utils.structs.pose import Pose
 
 from maniladder_ms.envs import ManiLadderEnv, register_task
-from maniladder_ms.geometry import spaced_xy, yaw_quat
-from maniladder_ms.layout import uniform_deg
+from maniladder_ms.geometry import yaw_quat
+from maniladder_ms.layout import uniform, uniform_deg
 
 # metres from the TCP: a block the gripper (hand or fingers) touches has its centre within this; the
 # Panda hand is about 20 cm wide and its fingers 5 cm long
@@ -26,8 +27,10 @@ BLOCK_COLORS = [
 class StackBlocksEnv(ManiLadderEnv):
     """**Task:** stack `num_blocks` cubes (2 x `half_size`) into a single tower (any order).
 
-    **Randomisation:** block centres are sampled uniformly in x in `block_x_range`, y in `block_y_range`, with
-    at least `min_block_spacing` between any two, each with a yaw uniform in `block_yaw_range` (a cube: every yaw).
+    **Randomisation:** block `i` starts in its own slot: its centre uniform in x in `block_<i>_x_range`, y in
+    `block_<i>_y_range` (the catalog's six slots: a 2 x 3 grid 12 cm apart, each 4 x 4 cm, +-2 cm about its
+    centre), each with a yaw uniform in `block_yaw_range` (a cube: every yaw). The slots keep any two blocks at
+    least `min_block_spacing` apart (checked when the scene loads).
 
     **Success:** all `num_blocks` blocks form one tower: with the blocks sorted by height, the lowest rests on the table (centre within
     `z_tol` of one half-size) and each next block's centre is within `xy_tol` of the one below
@@ -40,14 +43,14 @@ class StackBlocksEnv(ManiLadderEnv):
     puts the blocks back to sleep), so a demo replayed from its recorded states keeps its success.
 
     **Level 2:** (against Level 1's single pick-and-place, PickPlacePen: 2 stages, grasp and place, 92 steps
-    mean) five pick-and-place cycles in sequence (10 stages), ~440 steps (at most ~490; horizon 600), each block
+    mean) five pick-and-place cycles in sequence (10 stages), ~465 steps (at most ~505; horizon 600), each block
     centred within `xy_tol` = 2 cm of the one below, and the six-block tower must end at rest by itself: one
     misplaced or knocked block undoes the earlier cycles.
     """
 
     TASK_REGION = (-0.2, 0.2, -0.3, 0.3)
-    PARAMS = ("num_blocks", "half_size", "xy_tol", "z_tol", "static_lin", "static_ang",
-              "block_x_range", "block_y_range", "block_yaw_range", "min_block_spacing")
+    PARAMS = ("num_blocks", "half_size", "xy_tol", "z_tol", "static_lin", "static_ang", "block_yaw_range",
+              "min_block_spacing") + tuple(f"block_{i}_{axis}_range" for i in range(len(BLOCK_COLORS)) for axis in "xy")
 
     @property
     def max_dense_reward(self) -> float:
@@ -56,6 +59,7 @@ class StackBlocksEnv(ManiLadderEnv):
     def _load_scene(self, options: dict):
         if not 2 <= self.num_blocks <= len(BLOCK_COLORS):
             raise ValueError(f"num_blocks must be in [2, {len(BLOCK_COLORS)}], got {self.num_blocks}")
+        self._check_slots_apart()
         super()._load_scene(options)
         self.blocks = [
             actors.build_cube(self.scene, half_size=self.half_size, color=BLOCK_COLORS[i], name=f"block_{i}",
@@ -67,15 +71,25 @@ class StackBlocksEnv(ManiLadderEnv):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            xy = self._sample_spaced_xy(b)
             for i, block in enumerate(self.blocks):
-                xyz = torch.cat([xy[:, i], torch.full((b, 1), self.half_size)], dim=1)
+                x_range, y_range = self._slot(i)
+                xyz = torch.stack([uniform(b, x_range), uniform(b, y_range), torch.full((b,), self.half_size)], dim=1)
                 block.set_pose(Pose.create_from_pq(xyz, yaw_quat(uniform_deg(b, self.block_yaw_range))))
 
-    def _sample_spaced_xy(self, b: int) -> torch.Tensor:
-        """(b, num_blocks, 2) positions, pairwise at least `min_block_spacing` apart."""
-        (x_lo, x_hi), (y_lo, y_hi) = self.block_x_range, self.block_y_range
-        return spaced_xy(b, self.num_blocks, (x_lo, y_lo), (x_hi, y_hi), self.min_block_spacing)
+    def _slot(self, i: int) -> tuple[tuple[float, float], tuple[float, float]]:
+        """Block `i`'s start slot: its x and y ranges (m)."""
+        return getattr(self, f"block_{i}_x_range"), getattr(self, f"block_{i}_y_range")
+
+    def _check_slots_apart(self):
+        """Raise unless every two of the used slots keep their blocks `min_block_spacing` apart wherever in their
+        slots they land (the nearest points of two rectangles)."""
+        for i in range(self.num_blocks):
+            for j in range(i):
+                gaps = [max(a[0] - b[1], b[0] - a[1], 0.0) for a, b in zip(self._slot(i), self._slot(j))]
+                nearest = float(np.hypot(*gaps))
+                if nearest < self.min_block_spacing and not np.isclose(nearest, self.min_block_spacing):
+                    raise ValueError(f"slots {j} and {i} can put two blocks closer than min_block_spacing "
+                                     f"{self.min_block_spacing} m (nearest {nearest:.3f} m)")
 
     def _block_positions(self) -> torch.Tensor:
         return torch.stack([blk.pose.p for blk in self.blocks], dim=1)  # (b, n, 3)

@@ -21,11 +21,12 @@ class InsertPegInHoleEnv(InsertPegTask):
 
     **Randomisation:**
     - the peg (a box of square section 2 x `peg_half`, `peg_length` long) stands upright, its yaw uniform in
-      `peg_yaw_range` (a square section: every yaw), its centre uniform in x in `peg_x_range`, |y| in
-      `peg_abs_y_range` on a random side of the robot's centre line;
+      `peg_yaw_range` (a square section: every yaw), its centre uniform in x in `peg_x_range`, y in
+      `peg_y_range` (9 x 6 cm, left of the robot's centre line);
     - the block (a fixture: 1 cm walls around a hole of side 2 x `peg_half` + `clearance`, `hole_depth`
-      deep over a 1 cm floor) stands on the other side, centre x in `block_x_range`, |y| in
-      `block_abs_y_range`, yaw uniform in +-`block_max_yaw`.
+      deep over a 1 cm floor) stands on the right, centre x in `block_x_range`, y in `block_y_range`
+      (10 x 6 cm), yaw uniform in +-`block_max_yaw`. One side each: which side is not the task (layout
+      policy rule 1, docs/calibration/layout-policy.md).
 
     **Success:** (the InsertPeg family rule, `InsertPegTask`) the centre of the peg's lower end, in the
     block's frame, lies at least `insert_depth` below the hole's rim and inside the hole's square opening
@@ -40,18 +41,17 @@ class InsertPegInHoleEnv(InsertPegTask):
 
     max_dense_reward = 7
     TASK_REGION = (-0.2, 0.15, -0.3, 0.3)
-    PARAMS = InsertPegTask.PARAMS + ("peg_x_range", "peg_abs_y_range", "peg_yaw_range", "block_x_range",
-                                     "block_abs_y_range", "block_max_yaw")
+    PARAMS = InsertPegTask.PARAMS + ("peg_x_range", "peg_y_range", "peg_yaw_range", "block_x_range",
+                                     "block_y_range", "block_max_yaw")
 
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            side = torch.where(torch.rand(b) < 0.5, -1.0, 1.0)
-            peg_xyz = torch.stack([uniform(b, self.peg_x_range), side * uniform(b, self.peg_abs_y_range),
+            peg_xyz = torch.stack([uniform(b, self.peg_x_range), uniform(b, self.peg_y_range),
                                    torch.full((b,), self.peg_length / 2)], dim=1)
             self.peg.set_pose(Pose.create_from_pq(peg_xyz, yaw_quat(uniform_deg(b, self.peg_yaw_range))))
-            block_xyz = torch.stack([uniform(b, self.block_x_range), -side * uniform(b, self.block_abs_y_range),
+            block_xyz = torch.stack([uniform(b, self.block_x_range), uniform(b, self.block_y_range),
                                      torch.zeros(b)], dim=1)
             self.block.set_pose(Pose.create_from_pq(block_xyz, yaw_quat(symmetric_deg(b, self.block_max_yaw))))
 
