@@ -426,6 +426,13 @@ def test_a_result_of_an_earlier_version_stands_for_the_current_one_only_if_its_d
     with pytest.raises(ValueError, match="does not name"):
         rv.own_parts_changed("PickPlacePen", head + "+dirty")
     assert rv.own_parts_changed("PickPlacePen", head) == []
+    # a result from a checkout with uncommitted edits measured its commit's task if the task's hash there is its own
+    at_head = rv.task_hash_at(head, "PickPlacePen")
+    assert rv.measured_commit("PickPlacePen", head + "+dirty", at_head) == head
+    with pytest.raises(ValueError, match="uncommitted edits changed it"):
+        rv.measured_commit("PickPlacePen", head + "+dirty", "0123456789abcdef")
+    with pytest.raises(ValueError, match="records no commit"):
+        rv.measured_commit("PickPlacePen", "", at_head)
     task, old, mode = "PickPlacePen", "0123456789abcdef", cal.demo_control_mode_for("PickPlacePen")
     work, out = tmp_path / "work", tmp_path / "out"
     generate(task, 2, work / task / old / "demos", seed=0, control_mode=mode, progress=False)

@@ -60,23 +60,63 @@ def _catalog_row(yaml_text: str, task_id: str) -> dict:
     return {k: rows[task_id].get(k) for k in PLAYED_FIELDS} if task_id in rows else {}
 
 
+def task_hash_at(commit: str, task_id: str) -> str:
+    """`task_hash(task_id)` with each of the task's source files (today's import closure) as committed at `commit`;
+    its catalog row and data folders are today's, so a row changed since raises. Equal to a result's hash, it proves
+    what the result measured: those sources with this row and these data folders."""
+    from maniladder_ms.provenance import task_hash_parts
+
+    if row_changed_since(task_id, commit):
+        raise ValueError(f"{task_id}: its catalog row changed since {commit}")
+    parts = dict(task_hash_parts(task_id))
+    for f in parts:
+        if f.endswith(".py"):
+            blob = subprocess.run(["git", "-C", str(ROOT), "show", f"{commit}:{f}"], capture_output=True, timeout=60)
+            if blob.returncode != 0:
+                raise ValueError(f"{task_id}: {f} is not in commit {commit}")
+            parts[f] = hashlib.sha256(blob.stdout).hexdigest()
+    return hashlib.sha256(json.dumps(parts, sort_keys=True).encode()).hexdigest()[:16]
+
+
+def measured_commit(task_id: str, commit: str, measured_hash: Optional[str]) -> str:
+    """The commit whose task a result measured. A checkout with uncommitted edits records `<commit>+dirty`; the
+    result still measured `<commit>`'s task when the task's hash there is the result's (the edits touched nothing
+    the task imports: a calibration job that writes its records into its own checkout makes it dirty that way)."""
+    if not commit:
+        raise ValueError(f"{task_id}: the result records no commit, so nothing names what it measured")
+    if not commit.endswith("+dirty"):
+        return commit
+    clean = commit[: -len("+dirty")]
+    at_clean = task_hash_at(clean, task_id)
+    if at_clean != measured_hash:
+        raise ValueError(f"{task_id}: the result's commit {commit} does not name what it measured (the task at {clean} "
+                         f"is version {at_clean}, the result measured {measured_hash}: uncommitted edits changed it)")
+    return clean
+
+
 def own_parts_changed(task_id: str, commit: str) -> list[str]:
-    """What of the task's own parts differs between `commit` and the checkout now (empty: nothing)."""
+    """What of the task's own parts differs between `commit` (a clean one: `measured_commit`) and the checkout now
+    (empty: nothing)."""
     from maniladder_ms import solvers, tasks
 
-    if not commit or commit.endswith("+dirty"):
-        raise ValueError(f"{task_id}: the result's commit {commit or '(none)'} does not name what it measured")
+    if commit.endswith("+dirty"):
+        raise ValueError(f"{task_id}: {commit} does not name what was measured (`measured_commit` finds the clean one)")
     paths = [f"maniladder_ms/tasks/{tasks.FILES[task_id]}"]
     if task_id in solvers.solver_files():
         paths.append(f"maniladder_ms/solvers/{solvers.solver_files()[task_id]}")
     changed = [p for p in paths if _git("diff", "--quiet", commit, "--", p).returncode != 0]
+    if row_changed_since(task_id, commit):
+        changed.append("its catalog row")
+    return changed
+
+
+def row_changed_since(task_id: str, commit: str) -> bool:
+    """Whether the task's catalog row (its played fields) differs between `commit` and the checkout now."""
     catalog = "maniladder_ms/data/task_catalog.yaml"
     old = _git("show", f"{commit}:{catalog}")
     if old.returncode != 0:
         raise ValueError(f"{task_id}: commit {commit} is not in this checkout ({old.stderr.strip()})")
-    if _catalog_row(old.stdout, task_id) != _catalog_row((ROOT / catalog).read_text(), task_id):
-        changed.append("its catalog row")
-    return changed
+    return _catalog_row(old.stdout, task_id) != _catalog_row((ROOT / catalog).read_text(), task_id)
 
 
 def revalidate(result_path: Path, work: Path, progress: bool = True) -> dict:
@@ -100,7 +140,8 @@ def revalidate(result_path: Path, work: Path, progress: bool = True) -> dict:
         _write(result_path, r)
         return {"task": task, "status": "current", "why": f"version {now} is the one measured; its demos' digest "
                                                           "is now recorded", "result": r}
-    changed = own_parts_changed(task, r.get("environment", {}).get("commit", ""))
+    changed = own_parts_changed(task, measured_commit(task, r.get("environment", {}).get("commit", ""),
+                                                      r.get("task_hash")))
     if changed:
         return {"task": task, "status": "changed", "why": "changed since the result: " + ", ".join(changed)}
     if not r.get("demos_digest") and not trained_on.is_file():
