@@ -15,7 +15,7 @@ MEAN = re.compile(r"~?(\d+(?:\.\d+)?)(?: \(.*\))?")
 LEVEL_3_ROWS = 22  # Level 3 rows in the table when the budget was applied to Level 3
 # Level 3 horizons to be cut whose solver re-sweep within the new horizon has not run yet: each keeps its old
 # horizon until it has (docs/calibration/time-budget.md), and must still lie outside the band while listed here
-RESWEEP_PENDING = {"FoldTowelHand", "CarryBoardThroughGate", "PickThinCardHand", "HandoverPenHands"}
+RESWEEP_PENDING = set()
 
 
 def solver_table() -> dict[str, tuple[str, str, int]]:
