@@ -78,10 +78,7 @@ def _replay(path: Path, *args) -> str:
 
 
 # tasks whose demos ManiSkill's state replay does not keep successful (issue 40 tracks it; `expected_to_fail`)
-RGBD_REPLAY_FAILS = {
-    "FillCupToLine": "0/1 demos saved: success (held, in the band, particles in the cup below the settle speed) holds "
-                     "at the recording's last step but not after the replay from states; cause not yet found",
-}
+RGBD_REPLAY_FAILS: dict[str, str] = {}
 
 
 @pytest.mark.parametrize("task_id", expected_to_fail(sampled_tasks(TASKS, RGBD_SAMPLE), RGBD_REPLAY_FAILS))
