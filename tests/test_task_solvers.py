@@ -30,8 +30,6 @@ BELOW_BAR_SWEEP = {
                               "(docs/tasks/WrapRopeAroundBoxHands.md)",
     "UseScrewdriverHand": "solver below the bar: 42/50 over seeds 100-149, the tool pivots in the grasp "
                           "(docs/tasks/UseScrewdriverHand.md)",
-    "NestCupsHands": "solver below the bar: 44/50 over seeds 100-149, the left thumb landing on the large cup's rim "
-                     "(docs/tasks/NestCupsHands.md)",
 }
 BELOW_BAR_SHORT: dict[str, str] = {}
 

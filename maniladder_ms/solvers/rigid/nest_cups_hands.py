@@ -37,6 +37,15 @@ GRASP_OFFSET = (-0.015, -0.015, 0.0)
 APPROACH_ABOVE = 0.1  # the hands come down onto their grasps from this far above
 PRESHAPE_STEPS = 5
 CLOSE_STEPS = 40  # the hands close over this many control steps
+# the left's grip on the middle cup: "power" with the thumb's two outer bends (LEAP joints 14, 15) at THUMB_BENDS
+# (the right keeps "power": with 0.3 for both hands seeds 100-111 gave 8/12). With
+# "power"'s 0.8 the left thumb tip's lowest corner hangs 1-4 mm under the middle cup's bottom and 6 cm out from its
+# axis (seeds 0, 1, 3, 4): it lands on the large cup's rim with the cup's bottom still at the mouth (the first touch
+# with the bottom 0.1-0.2 cm under the rim, seeds 0-5) and shoves the cup 8-10 mm off axis; at 0.3 it is 14-15 mm
+# over the bottom (same seeds), the cup within 1 deg of upright in the grip. At 0.5 the cup slid 1.5-4 cm down
+# in the grip in the lift (seeds 0, 1, 3, 4, 7)
+THUMB_OUTER_BENDS = [14, 15]
+THUMB_BENDS = 0.3
 CARRY_BOTTOM = 0.12  # m: the carried cup's bottom this high over the table (over the 9 cm rims)
 LIFT_MARGIN = 0.01  # m: the lift goes this much higher, the carry and the lowering start there
 CARRY_STEP = 0.01  # m a control step along the lift and the carry
@@ -58,7 +67,19 @@ RELEASE_STEPS = 10
 FINGER_OPEN_STEPS = 30
 OUTER_JOINTS = [2, 3, 6, 7, 10, 11, 13, 14, 15]  # the fingers' PIP / DIP and the thumb's bends (LEAP joint order)
 RISE = 0.1  # m the open hand rises off the dropped cup
-LEFT_ASIDE = (-0.05, 0.12)  # the left moves this far (x, y) away once risen, clearing the right's way
+# the right's let-go: the index's and the ring's MCP side joints (SPREAD_JOINTS) go to RELEASE_SPREAD (index -,
+# ring +: apart) while the digits straighten and stay there as they open. The tapered small cup, its grip relaxed,
+# stayed wedged between the index's and the ring's DIP links (8-16 N) as it slid and the open hand carried it off
+# (seed 109; the hand moving 2 cm along -x or +x, or rising 2-3 cm, as it let go did not free it); at -0.3 / +0.3
+# it drops and seats
+RELEASE_SPREAD = (-0.3, 0.3)  # rad
+SPREAD_JOINTS = [0, 8]
+# the left moves this far (x, y, z) away once risen, clearing the right's way. With the middle cup seated where the
+# large one stands (x -0.14..-0.08, 11-17 cm from the right's wrist) the open left hand was in the right arm's way:
+# at (-0.05, 0.12, 0) and (-0.05, 0.2, 0) the left thumb touched the right palm, at (-0.05, 0.2, 0.1) the right
+# wrist, and the small cup went down 0.5-1.5 cm off the middle cup's axis onto its rim (seed 102); at
+# (-0.12, 0.25, 0) no contact and 102 succeeds
+LEFT_ASIDE = (-0.12, 0.25, 0.0)
 
 
 def grasp_pose(task: NestCupsHandsEnv, cup: str, side: str) -> tuple[torch.Tensor, torch.Tensor]:
@@ -82,11 +103,19 @@ def come_down(s: HandoverSolver, task: NestCupsHandsEnv) -> dict:
     return grasps
 
 
+def cup_grip(arm: str) -> np.ndarray:
+    """`arm`'s hand's 16 joint targets on its cup: "power", the left thumb's outer bends at THUMB_BENDS."""
+    grip = LEAP_SYNERGIES["power"].copy()
+    if arm == "left_arm":
+        grip[THUMB_OUTER_BENDS] = THUMB_BENDS
+    return grip
+
+
 def pick(s: HandoverSolver, task: NestCupsHandsEnv, arm: str, ee: str, cup: str, grasp) -> torch.Tensor:
-    """Close `ee` on `cup`, lift it CARRY_BOTTOM clear of the table and straighten it in the grip; returns the arm's
-    orientation."""
+    """Close `ee` on `cup` (`cup_grip`), lift it CARRY_BOTTOM clear of the table and straighten it in the grip;
+    returns the arm's orientation."""
     p, q = grasp
-    close_hands(s, {ee: LEAP_SYNERGIES["power"]}, CLOSE_STEPS)
+    close_hands(s, {ee: cup_grip(arm)}, CLOSE_STEPS)
     glide(s, {arm: (p, s.above(p, CARRY_BOTTOM + LIFT_MARGIN), q)}, step_length=CARRY_STEP, settle_steps=5)
     return straighten(s, task, arm, cup)
 
@@ -151,8 +180,11 @@ def drop_into(s: HandoverSolver, task: NestCupsHandsEnv, arm: str, ee: str, cup:
     hand = task.agent.controller.controllers[ee].qpos.clone()
     s.close_hand(ee, hand, ramp_steps=3, hold_steps=0)
     hand[:, OUTER_JOINTS] = 0  # the digits straighten at their outer joints (unhooking the cup), then open
+    opened = torch.zeros_like(hand)
+    if upright:  # the small cup: the index and the ring spread apart as they straighten (RELEASE_SPREAD)
+        hand[:, SPREAD_JOINTS] = opened[:, SPREAD_JOINTS] = torch.tensor(RELEASE_SPREAD, device=dev)
     s.close_hand(ee, hand, ramp_steps=RELEASE_STEPS, hold_steps=2)
-    s.close_hand(ee, "open", ramp_steps=FINGER_OPEN_STEPS, hold_steps=2)
+    s.close_hand(ee, opened, ramp_steps=FINGER_OPEN_STEPS, hold_steps=2)
     s.move({arm: (s.above(s.tcp(arm).p.clone(), RISE), q)}, max_steps=30, pos_tol=0.02)
 
 
@@ -165,8 +197,7 @@ def solve_nest_cups_hands(env, seed: int) -> dict:
         q = pick(s, task, "left_arm", "left_hand", "middle", grasps["left_arm"])
         drop_into(s, task, "left_arm", "left_hand", "middle", "large", q)
         tcp = s.tcp("left_arm").p.clone()
-        tcp[:, 0] += LEFT_ASIDE[0]
-        tcp[:, 1] += LEFT_ASIDE[1]
+        tcp += torch.tensor([LEFT_ASIDE], device=tcp.device)
         s.move({"left_arm": (tcp, q)}, max_steps=20, pos_tol=0.02)
         q = pick(s, task, "right_arm", "right_hand", "small", grasps["right_arm"])
         drop_into(s, task, "right_arm", "right_hand", "small", "middle", q, upright=True)
