@@ -433,6 +433,11 @@ def test_a_result_of_an_earlier_version_stands_for_the_current_one_only_if_its_d
         rv.measured_commit("PickPlacePen", head + "+dirty", "0123456789abcdef")
     with pytest.raises(ValueError, match="records no commit"):
         rv.measured_commit("PickPlacePen", "", at_head)
+    # a dirty result whose task's catalog row changed since is stale whatever its edits were: `changed`, not unknown
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(rv, "row_changed_since", lambda task_id, commit: True)
+        assert rv.measured_commit("PickPlacePen", head + "+dirty", "0123456789abcdef") == head
+        assert rv.own_parts_changed("PickPlacePen", head) == ["its catalog row"]
     task, old, mode = "PickPlacePen", "0123456789abcdef", cal.demo_control_mode_for("PickPlacePen")
     work, out = tmp_path / "work", tmp_path / "out"
     generate(task, 2, work / task / old / "demos", seed=0, control_mode=mode, progress=False)

@@ -81,12 +81,16 @@ def task_hash_at(commit: str, task_id: str) -> str:
 def measured_commit(task_id: str, commit: str, measured_hash: Optional[str]) -> str:
     """The commit whose task a result measured. A checkout with uncommitted edits records `<commit>+dirty`; the
     result still measured `<commit>`'s task when the task's hash there is the result's (the edits touched nothing
-    the task imports: a calibration job that writes its records into its own checkout makes it dirty that way)."""
+    the task imports: a calibration job that writes its records into its own checkout makes it dirty that way).
+    Where the task's catalog row changed since, the clean commit is returned whatever the edits were: the result is
+    stale either way, and `own_parts_changed` names the row."""
     if not commit:
         raise ValueError(f"{task_id}: the result records no commit, so nothing names what it measured")
     if not commit.endswith("+dirty"):
         return commit
     clean = commit[: -len("+dirty")]
+    if row_changed_since(task_id, clean):
+        return clean
     at_clean = task_hash_at(clean, task_id)
     if at_clean != measured_hash:
         raise ValueError(f"{task_id}: the result's commit {commit} does not name what it measured (the task at {clean} "
