@@ -295,18 +295,24 @@ def shell_profile(shape: ContainerShape) -> np.ndarray:
     return np.array([(r + shape.wall, z) for z, r in shape.inner] + [(r, z) for z, r in shape.inner[::-1]])
 
 
-def _shell_files(shape: ContainerShape) -> tuple[Path, list[Path]]:
-    """(visual mesh file, convex piece files) of `shell_hulls(shape)`, written once into the user cache."""
-    mesh = trimesh.creation.revolve(shell_profile(shape) if shape.floor == 0 else shape.profile(), sections=SECTIONS)
-    folder = cache_dir("shells", f"{shape.kind}_{mesh_key(mesh, ['sector hulls', SHELL_SECTIONS])}")
+def cached_pieces(mesh: trimesh.Trimesh, pieces: list[np.ndarray], name: str, settings: list) -> tuple[Path, list[Path]]:
+    """(visual mesh file, convex piece files) of `pieces` (point sets, each written as its hull) with `mesh` as the
+    visual, written once into the user cache under `shells/<name>_<key of mesh and settings>`."""
+    folder = cache_dir("shells", f"{name}_{mesh_key(mesh, settings)}")
     visual, parts = folder / "visual.obj", []
-    for k, piece in enumerate(shell_hulls(shape)):
+    for k, piece in enumerate(pieces):
         parts.append(folder / f"piece_{k:03d}.obj")
         if not visual.exists():
             trimesh.convex.convex_hull(piece).export(parts[-1])
     if not visual.exists():
         mesh.export(visual)  # written last: its presence marks a complete cache entry
     return visual, parts
+
+
+def _shell_files(shape: ContainerShape) -> tuple[Path, list[Path]]:
+    """(visual mesh file, convex piece files) of `shell_hulls(shape)`, written once into the user cache."""
+    mesh = trimesh.creation.revolve(shell_profile(shape) if shape.floor == 0 else shape.profile(), sections=SECTIONS)
+    return cached_pieces(mesh, shell_hulls(shape), shape.kind, ["sector hulls", SHELL_SECTIONS])
 
 
 def shell_builder(scene: ManiSkillScene, shape: ContainerShape, color, density: float, friction: float):

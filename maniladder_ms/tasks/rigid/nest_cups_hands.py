@@ -15,9 +15,7 @@ from mani_skill.utils.structs.pose import Pose
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.layout import uniform
 from maniladder_ms.objects import containers
-from maniladder_ms.objects.convex_cache import mesh_key
 from maniladder_ms.objects.tabletop import place_at_rest
-from maniladder_ms.paths import cache_dir
 
 # The three cups: tapered open shells (`containers.glass` profiles; inner radii at the inner floor and at the rim),
 # WALL thick, FLOOR thick at the bottom, CUP_HEIGHT tall, each wall leaning out by TAPER (radius per height). Each
@@ -83,14 +81,8 @@ def cup_hulls(shape: containers.ContainerShape) -> list[np.ndarray]:
 def cup_files(shape: containers.ContainerShape) -> tuple[Path, Path, list[Path]]:
     """(visual mesh, floor disc, wall piece files) of `cup_hulls(shape)`, written once into the user cache."""
     mesh = trimesh.creation.revolve(shape.profile(), sections=containers.SECTIONS)
-    folder = cache_dir("shells", f"cup_{mesh_key(mesh, ['sector walls, one floor disc', containers.SHELL_SECTIONS])}")
-    visual, files = folder / "visual.obj", []
-    for k, piece in enumerate(cup_hulls(shape)):
-        files.append(folder / f"piece_{k:03d}.obj")
-        if not visual.exists():
-            trimesh.convex.convex_hull(piece).export(files[-1])
-    if not visual.exists():
-        mesh.export(visual)  # written last: its presence marks a complete cache entry
+    visual, files = containers.cached_pieces(mesh, cup_hulls(shape), "cup",
+                                             ["sector walls, one floor disc", containers.SHELL_SECTIONS])
     return visual, files[-1], files[:-1]
 
 
