@@ -3,7 +3,7 @@ at a time, the hem strip first, then each sleeve by its cuff, each corner carrie
 flat place (`shirt.flat_place`: where it lies when the shirt lies flat around its collar half as that lies now).
 
 1. Hem: pinch each of the hem's two corners (lying upside down on the body) from above, fingers 4 cm apart
-   closing across the corner's diagonal (`_pinch`, as FoldTowelInHalf's corner pinch; tried again where it lies
+   closing across the corner's diagonal (`pinch`, as FoldTowelInHalf's corner pinch; tried again where it lies
    if it comes up empty), and carry it (`_carry`): lift `LIFT`, over the middle of its way `ARC_HEIGHT` high,
    lower to `RELEASE_ABOVE` over its flat place (read again there: the body slides under a carry), release,
    retreat.
@@ -15,23 +15,21 @@ flat place (`shirt.flat_place`: where it lies when the shirt lies flat around it
 
 from __future__ import annotations
 
+from functools import partial
+
 import numpy as np
 import sapien
 
 from maniladder_ms.deformables import shirt
 from maniladder_ms.solvers import PlanningFailed, register_solver
-from maniladder_ms.solvers.panda import PLANNED_APPROACH_HEIGHT, PRECISE_SETTLE_STEPS, PandaSolver
+from maniladder_ms.solvers.cloth.pinch import pinch
+from maniladder_ms.solvers.panda import PRECISE_SETTLE_STEPS, PandaSolver
 from maniladder_ms.tasks.cloth.unfold_shirt import UnfoldShirtEnv
 
-GRASP_ABOVE = 0.003  # the TCP this far above a cuff particle's centre: the pads pinch its sides
-# the fingers open to a 4 cm gap before coming down (fully open, a finger lands on the particle's neighbours,
-# as on a towel corner: test_ee_delta_gripper_picks_up_a_flat_towel_corner); the planner's gripper action
-PINCH_OPENING = 0.2
 LIFT = 0.05  # a cuff corner is first lifted this high, peeling the folded layer off the body
 ARC_HEIGHT = 0.08  # then carried over the middle of its way this high
 RELEASE_ABOVE = 0.01  # above the flat place (table level plus a radius), where the fingers open
 PLACE_RETREAT = 0.06  # the hand rises this far once the fingers are open (`PandaSolver.place`'s default)
-GRASP_TRIES = 2  # a pinch that comes up empty is tried again from where the particle lies now
 CORRECT_STEPS = 90  # a corrective carry starts only while this many steps of the horizon remain
 CORRECT_CARRIES = 2
 
@@ -51,25 +49,6 @@ def _move(robot: PandaSolver, pose: sapien.Pose, settle_steps: int = 0):
             robot.hold_still()
 
 
-def _pinch(robot: PandaSolver, task: UnfoldShirtEnv, i: int, inner: int, rest_yaw: float):
-    """Pinch particle `i` from above, fingers 4 cm apart closing across the line to particle `inner` (its
-    diagonal neighbour); returns the grasp pose and yaw, or None if it still is not held after GRASP_TRIES."""
-    for _ in range(GRASP_TRIES):
-        points = task.shirt.positions()[0].cpu().numpy()
-        diagonal = points[inner, :2] - points[i, :2]
-        yaw = float(np.arctan2(diagonal[1], diagonal[0])) + np.pi / 2
-        yaw = rest_yaw + (yaw - rest_yaw + np.pi / 2) % np.pi - np.pi / 2  # the last joint kept mid-range
-        _move(robot, sapien.Pose([0, 0, PLANNED_APPROACH_HEIGHT]) * robot.top_down_pose(points[i], yaw))
-        robot.planner.open_gripper(t=4, gripper_state=PINCH_OPENING)
-        grasp = robot.top_down_pose(task.shirt.positions()[0, i].cpu().numpy() + [0, 0, GRASP_ABOVE], yaw)
-        _move(robot, grasp, settle_steps=PRECISE_SETTLE_STEPS)
-        robot.grip(closed=True)
-        if bool(task.ee.holds(task.shirt.spheres[i])[0]):
-            return grasp, yaw
-        robot.planner.open_gripper(t=4, gripper_state=PINCH_OPENING)
-    return None
-
-
 def _goal(task: UnfoldShirtEnv, i: int) -> np.ndarray:
     """Particle `i`'s flat place (table level plus a radius), read now."""
     xy = shirt.flat_place(task.shirt.positions(), task.shirt.layout, [i])[0, 0].cpu().numpy()
@@ -79,7 +58,7 @@ def _goal(task: UnfoldShirtEnv, i: int) -> np.ndarray:
 def _carry(robot: PandaSolver, task: UnfoldShirtEnv, i: int, inner: int, rest_yaw: float) -> bool:
     """Pinch cuff particle `i`, lift it, carry it over the middle of its way `ARC_HEIGHT` high (if a straight
     path there exists) to `RELEASE_ABOVE` over its flat place, release, retreat."""
-    pinched = _pinch(robot, task, i, inner, rest_yaw)
+    pinched = pinch(robot, task.ee, task.shirt, i, inner, rest_yaw, move=partial(_move, robot))
     if pinched is None:
         return False
     grasp, yaw = pinched

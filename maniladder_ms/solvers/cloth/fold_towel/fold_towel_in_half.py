@@ -1,7 +1,7 @@
 """Scripted solver of FoldTowelInHalf (tasks/cloth/fold_towel/fold_towel_in_half.py): the Panda lays the short edge
 further from the robot onto the near one, one corner at a time, each carried in an arc over the fold line.
 
-1. Pinch the far edge's first corner from above (`_pinch`: fingers 4 cm apart closing across the towel's
+1. Pinch the far edge's first corner from above (`pinch`: fingers 4 cm apart closing across the towel's
    diagonal, as FlattenTowelCorner; tried again where it lies if it comes up empty).
 2. Carry it (`_carry`): lift `LIFT`, over the middle of its way `ARC_HEIGHT` high, lower to `RELEASE_ABOVE`
    over its partner corner (read again there), release, retreat.
@@ -16,39 +16,16 @@ import numpy as np
 import sapien
 
 from maniladder_ms.solvers import register_solver
-from maniladder_ms.solvers.panda import PLANNED_APPROACH_HEIGHT, PRECISE_SETTLE_STEPS, PandaSolver
+from maniladder_ms.solvers.cloth.pinch import pinch
+from maniladder_ms.solvers.panda import PandaSolver
 from maniladder_ms.tasks.cloth.fold_towel.fold_towel_in_half import FoldTowelInHalfEnv
 
-GRASP_ABOVE = 0.003  # the TCP this far above a corner particle's centre: the pads pinch its sides, clear of the sheet
-# the fingers open to a 4 cm gap before coming down (fully open, a finger lands on the corner's neighbours:
-# test_ee_delta_gripper_picks_up_a_flat_towel_corner); the planner's gripper action, -1 closed .. 1 open
-PINCH_OPENING = 0.2
 LIFT = 0.05  # a corner is first lifted this high
 ARC_HEIGHT = 0.11  # then carried over the middle of its way this high (about half the towel's half-length)
 RELEASE_ABOVE = 0.02  # above the partner corner, where the fingers open: one layer's thickness
-GRASP_TRIES = 2  # a pinch that comes up empty is tried again from where the corner lies now
 # after both corners: if the mean pair distance is above CORRECT_SHARE of the task's tolerance, the corner
 # furthest from its partner is carried again (low, no arc), while the episode has CORRECT_STEPS steps left
 CORRECT_SHARE, CORRECT_LIFT, CORRECT_STEPS = 0.75, 0.03, 75
-
-
-def _pinch(robot: PandaSolver, task: FoldTowelInHalfEnv, i: int, inner: int, rest_yaw: float):
-    """Pinch particle `i` from above, fingers 4 cm apart closing across the line to particle `inner` (its
-    diagonal neighbour); returns the grasp pose and yaw, or None if it still is not held after GRASP_TRIES."""
-    for _ in range(GRASP_TRIES):
-        points = task.towel.positions()[0].cpu().numpy()
-        diagonal = points[inner, :2] - points[i, :2]
-        yaw = float(np.arctan2(diagonal[1], diagonal[0])) + np.pi / 2
-        yaw = rest_yaw + (yaw - rest_yaw + np.pi / 2) % np.pi - np.pi / 2  # the last joint kept mid-range
-        robot.move(sapien.Pose([0, 0, PLANNED_APPROACH_HEIGHT]) * robot.top_down_pose(points[i], yaw))
-        robot.planner.open_gripper(t=4, gripper_state=PINCH_OPENING)
-        grasp = robot.top_down_pose(task.towel.positions()[0, i].cpu().numpy() + [0, 0, GRASP_ABOVE], yaw)
-        robot.move(grasp, settle_steps=PRECISE_SETTLE_STEPS)
-        robot.grip(closed=True)
-        if bool(task.ee.holds(task.towel.spheres[i])[0]):
-            return grasp, yaw
-        robot.planner.open_gripper(t=4, gripper_state=PINCH_OPENING)
-    return None
 
 
 def _carry(robot: PandaSolver, task: FoldTowelInHalfEnv, i: int, inner: int, j: int, rest_yaw: float,
@@ -56,7 +33,7 @@ def _carry(robot: PandaSolver, task: FoldTowelInHalfEnv, i: int, inner: int, j: 
     """Pinch particle `i`, lift it `lift`, carry it over the middle of its way `arc_height` high (if a
     straight path there exists: an RRT path may swing the held towel through the air) to one layer above
     particle `j` (read again there: the carry drags the sheet), release, retreat."""
-    pinched = _pinch(robot, task, i, inner, rest_yaw)
+    pinched = pinch(robot, task.ee, task.towel, i, inner, rest_yaw)
     if pinched is None:
         return False
     grasp, yaw = pinched
