@@ -19,11 +19,13 @@ from .base import LiftTwoHandedTask
 
 @register_task("LiftWideBox")
 class LiftWideBoxEnv(LiftTwoHandedTask):
-    """**Task:** lift an open box (a tote) 40 cm long, too long for one gripper, with both arms: each
+    """**Task:** lift an open box (a tote) 30-46 cm long, too long for one gripper, with both arms: each
     gripper takes one of its short end walls (the graspable lips) and they lift together.
 
-    **Randomisation:** the box (inner 2 x `inner_half`, walls `wall_height` high and `wall_thickness` thick,
-    open top, about 1.1 kg) lies with its long side across the table (along y), its centre uniform in
+    **Randomisation:** the box's inner half length is drawn uniform in `inner_half_length_range` at each build of
+    the scene (every seeded episode: fresh physics per seed), so where the grippers close follows the box the
+    cameras show; its inner half width is `inner_half_width`, its walls `wall_height` high and `wall_thickness`
+    thick, open top (0.9-1.3 kg). It lies with its long side across the table (along y), its centre uniform in
     x in `box_x_range`, y in `box_y_range`, its yaw uniform in +-`box_max_yaw` about that.
 
     **Success:** (the LiftTwoHanded family rule, `LiftTwoHandedTask`) the box bottom is at least
@@ -34,14 +36,15 @@ class LiftWideBoxEnv(LiftTwoHandedTask):
     SUPPORTED_ROBOTS = ["ml_dual_panda"]
     max_dense_reward = 6
     TASK_REGION = (-0.3, 0.1, -0.3, 0.3)
-    PARAMS = LiftTwoHandedTask.PARAMS + ("inner_half", "wall_height", "wall_thickness",
-                                         "box_x_range", "box_y_range", "box_max_yaw")
+    PARAMS = LiftTwoHandedTask.PARAMS + ("inner_half_length_range", "inner_half_width", "wall_height",
+                                         "wall_thickness", "box_x_range", "box_y_range", "box_max_yaw")
     base_thickness = 0.008
-    # layout ranges as (low, span)
-    # inner_half: long side along the box's local x
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
+        # drawn from the episode's seeded torch RNG (ManiSkill seeds it around a reconfiguration); one box for
+        # every sub-scene. inner_half: (long side, along the box's local x; short side)
+        self.inner_half = (float(uniform(1, self.inner_half_length_range)), self.inner_half_width)
         self.box = build_tray(self.scene, "box", self.inner_half, self.wall_height, self.wall_thickness,
                               self.base_thickness, color=(0.3, 0.45, 0.75, 1))
         self.item = self.box
