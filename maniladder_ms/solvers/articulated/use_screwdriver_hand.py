@@ -39,15 +39,6 @@ APPROACH = 0.1  # m above the handle's top where the hand takes its preshape
 GRASP_DEPTH = 0.06  # m: the TCP aimed this far below the handle's top as the hand closes (the palm stops on the top)
 LIFT = 0.14  # m the hand rises after the grasp (the tip, 7 cm below the handle, clears the 7.5 cm stand)
 LIFT_STEPS = 40  # control steps of the lift (a slow lift: the tool swings less as it leaves the stand)
-# the seat check: in the lift the handle is pushed to one side of the hand's axis. Where it ends pinched between the
-# index fingertip and the thumb (the screwdriver's axis on the TCP's -y side), the tool pivots freely about that
-# pinch and fell in the carry (seeds 114, 123, 146 of 100-149: -1.6 to -4.2 cm after the lift); where it ends
-# between the middle and ring fingers and the thumb (+2.4 to +3.4 cm on the successes) it is held at 3-4 points
-SEAT_CHECK_STEP = 10  # lift step of the check (3.5 cm up: the blade, 7 cm below the handle, is still in the stand)
-INDEX_SIDE = 0.0  # m: a seat below this along the TCP's y is on the index side: set the tool back and grasp again
-GRASPS = 3  # grasps at most
-REGRASP_SHIFT = 0.005  # m each regrasp aims the hand further (the handle further towards the middle finger)
-SET_BACK_STEPS = 40  # control steps at most of the moves back down into the stand and up again
 HOVER = 0.03  # m above the head's top where the tip goes before it is aligned and lowered
 INSERT_DEPTH = 0.005  # m below the head's top the tip is pressed to (the slot is 8 mm deep, the rule asks 3 mm)
 TIP_TOL = 0.0015  # m: the tip is where it should be within this (the blade has 1.5 mm of play across the slot)
@@ -62,9 +53,6 @@ TURN_STEPS = 200  # control steps one turn may take (pi at ~0.035 rad a step: ~9
 # the turn stops once the tip has risen this far out of the slot (the blade slipped out: seed 108 at ~105 degrees);
 # the solver then takes the tip back up, aligns and inserts it again, at most `ENGAGES` times in all
 SLIPPED = 0.002
-# rad of joint 7 the turn should have before its stop: the screw lags the wrist (seed 101 of 100-149, with the end
-# cap: the wrist turned 3.33 rad, 191 degrees, to the stop and the screw 174; the re-engagement then lost the tool)
-TURN_RANGE = 3.8
 ENGAGES = 3
 
 
@@ -95,47 +83,23 @@ def move_tip(s: DrivenSolver, task, goal, yaw=None, max_steps: int = MOVE_STEPS,
         s.step({ARM: tip_target(s, task, g, tcp_yaw(s, ARM) if yaw is None else yaw())})
 
 
-def seat_side(s: DrivenSolver, task) -> torch.Tensor:
-    """(n,) where the handle sits across the hand: the screwdriver's origin (on its axis) along the TCP's y axis."""
-    tcp = s.tcp(ARM)
-    return quaternion_apply(quaternion_invert(tcp.q), task.screwdriver.pose.p - tcp.p)[:, 1]
-
-
 def pick(s: DrivenSolver, task):
-    """Grasp the handle and lift the screwdriver out of its stand. Early in the lift, while the blade is still in
-    the stand's hole, the seat is checked: a handle pinched on the index side is set back and grasped again, the
-    hand aimed `REGRASP_SHIFT` further towards the middle finger."""
-    q = top_down_quat(GRASP_YAW, task.num_envs, task.device)
-    for attempt in range(GRASPS):
-        top = task.screwdriver.pose.p + torch.tensor([0.0, 0.0, HANDLE_LENGTH], device=task.device)
-        top = top - quaternion_apply(q, torch.tensor([0.0, attempt * REGRASP_SHIFT, 0.0], device=task.device)
-                                     .expand_as(top))
-        s.release(HAND, steps=1)
-        s.move({ARM: (s.above(top, APPROACH), q)}, max_steps=80)
-        s.set_ee(HAND, "preshape", steps=5)
-        s.move({ARM: (s.above(top, -GRASP_DEPTH), q)}, max_steps=50, pos_tol=0.003)
-        s.close_hand(HAND, "power")
-        start = s.tcp(ARM).p.clone()
-        for k in range(1, LIFT_STEPS + 1):
-            s.step({ARM: (s.above(start, LIFT * k / LIFT_STEPS), q)})
-            if k == SEAT_CHECK_STEP and attempt < GRASPS - 1 and bool((seat_side(s, task) < INDEX_SIDE).all()):
-                break
-        else:
-            return
-        # back down into the stand, let go, up to the approach height: the screwdriver stands in the stand again
-        s.move({ARM: (start, q)}, max_steps=SET_BACK_STEPS)
-        s.release(HAND, steps=SETTLE_STEPS)
-        s.move({ARM: (s.above(start, APPROACH), q)}, max_steps=SET_BACK_STEPS)
+    top = task.screwdriver.pose.p + torch.tensor([0.0, 0.0, HANDLE_LENGTH], device=task.device)
+    q = top_down_quat(GRASP_YAW, top.shape[0], top.device)
+    s.release(HAND, steps=1)
+    s.move({ARM: (s.above(top, APPROACH), q)}, max_steps=80)
+    s.set_ee(HAND, "preshape", steps=5)
+    s.move({ARM: (s.above(top, -GRASP_DEPTH), q)}, max_steps=50, pos_tol=0.003)
+    s.close_hand(HAND, "power")
+    start = s.tcp(ARM).p.clone()
+    for k in range(1, LIFT_STEPS + 1):
+        s.step({ARM: (s.above(start, LIFT * k / LIFT_STEPS), q)})
 
 
 def align(s: DrivenSolver, task):
-    """Turn the blade into line with a slot arm, at most a quarter turn clockwise (a further quarter where that
-    leaves joint 7 less than `TURN_RANGE` for the turn), the tip kept `HOVER` above."""
+    """Turn the blade into line with a slot arm, at most a quarter turn clockwise, the tip kept `HOVER` above."""
     slot = matrix_yaw(task.screw.pose.to_transformation_matrix()[:, :3, :3])
-    clockwise = torch.remainder(blade_yaw(task) - slot, SLOT_PERIOD)
-    wrist = wrist_angle(s, ARM) + clockwise  # joint 7 turns up as the hand turns clockwise
-    more = (wrist < -J7_LIMIT + J7_MARGIN + TURN_RANGE) & (wrist + SLOT_PERIOD <= J7_LIMIT - J7_MARGIN)
-    target = blade_yaw(task) - torch.where(more, clockwise + SLOT_PERIOD, clockwise)
+    target = blade_yaw(task) - torch.remainder(blade_yaw(task) - slot, SLOT_PERIOD)
     hover = lambda: s.above(task.head_top(), HOVER)  # noqa: E731
     for _ in range(MOVE_STEPS):
         err = wrap_angle(target - blade_yaw(task))

@@ -41,11 +41,6 @@ HANDLE_HALF = 0.018  # m: an octagonal handle 3.6 cm across its flats (two squar
 HANDLE_LENGTH = 0.09
 HANDLE_DENSITY = 600.0  # hard plastic / wood: ~0.1 kg with the shaft
 HANDLE_FRICTION = 1.2  # a rubber grip
-# a flared end cap on the handle's top (a disc 4.6 cm across, 8 mm thick; the handle's corners reach 1.95 cm from
-# its axis): the held handle slides down through the fingers as the hand turns (seed 114 of 100-149: 3.7 cm in the
-# blade's alignment and the turn, until it fell out); the cap stops it on the fingertips
-CAP_RADIUS = 0.023
-CAP_THICKNESS = 0.008
 SHAFT_RADIUS = 0.0035
 SHAFT_LENGTH = 0.06
 SHAFT_DENSITY = 7800.0
@@ -118,11 +113,6 @@ def build_screwdriver(scene, name: str):
         pose = sapien.Pose(p=[0, 0, HANDLE_LENGTH / 2], q=[np.cos(turn / 2), 0, 0, np.sin(turn / 2)])
         builder.add_box_collision(pose, half_size=handle_half, material=grip, density=HANDLE_DENSITY)
         builder.add_box_visual(pose, half_size=handle_half, material=_mat((0.85, 0.2, 0.1, 1)))
-    cap = sapien.Pose(p=[0, 0, HANDLE_LENGTH + CAP_THICKNESS / 2]) * X_TO_Z
-    builder.add_cylinder_collision(cap, radius=CAP_RADIUS, half_length=CAP_THICKNESS / 2, material=grip,
-                                   density=HANDLE_DENSITY)
-    builder.add_cylinder_visual(cap, radius=CAP_RADIUS, half_length=CAP_THICKNESS / 2,
-                                material=_mat((0.85, 0.2, 0.1, 1)))
     shaft = sapien.Pose(p=[0, 0, -SHAFT_LENGTH / 2]) * X_TO_Z
     builder.add_cylinder_collision(shaft, radius=SHAFT_RADIUS, half_length=SHAFT_LENGTH / 2, density=SHAFT_DENSITY)
     builder.add_cylinder_visual(shaft, radius=SHAFT_RADIUS, half_length=SHAFT_LENGTH / 2, material=_mat(METAL))
@@ -149,9 +139,9 @@ def build_stand(scene, name: str):
 
 @register_task("UseScrewdriverHand")
 class UseScrewdriverHandEnv(ManiLadderEnv):
-    """**Task:** a screwdriver (an octagonal handle 3.6 cm across with a flared end cap 4.6 cm across, a 6 cm
-    shaft, a flat blade) stands upright in a stand, its shaft in the stand's hole and its handle resting on top;
-    a screw's square head (2.3 cm, a cross slot 5 mm wide and 8 mm deep) sits flush with the top of a fixed block, in a pocket too narrow for a fingertip, its turn resisted by friction. Pick the screwdriver up
+    """**Task:** a screwdriver stands upright in a stand, its shaft in the stand's hole and its handle resting
+    on top; a screw's square head (2.3 cm, a cross slot 5 mm wide and 8 mm deep) sits flush with the top of a
+    fixed block, in a pocket too narrow for a fingertip, its turn resisted by friction. Pick the screwdriver up
     by its handle with the LEAP hand, set its flat blade into the slot and turn the screw half a turn by turning
     the wrist (either way), the hand holding the screwdriver and never touching the screw.
 
@@ -173,8 +163,7 @@ class UseScrewdriverHandEnv(ManiLadderEnv):
     tool: 5 stages (grasp the handle, lift the screwdriver out of its 7.5 cm stand, carry it and turn the
     blade into line with the slot, set the tip into the slot, turn), the blade 2 mm thick in a 5 mm slot
     (1.5 mm of play across it, within ~14 degrees of its line), its tip guided 10 cm below the hand through a
-    grasp that gives, and kept in the slot through the turn while the hand holds the tool by friction
-    (the end cap stops it sliding out of the fingers, nothing stops it tilting).
+    grasp that gives, and kept in the slot through the turn while the hand holds the tool by friction only.
     """
 
     SUPPORTED_ROBOTS = ["ml_panda_leap"]
