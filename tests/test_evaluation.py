@@ -126,6 +126,20 @@ def test_solver_policy_succeeds_on_pickplacepen(tmp_path):
     assert (tmp_path / "solver" / "summary.json").exists()
 
 
+def test_episode_records_show_how_far_each_measure_got(tmp_path):
+    """Beside the flags reached, each record holds the least, greatest and last value of the task's continuous
+    measures (LiftWideBox: the box's height and tilt): the solver lifts the box past the rule's height, random
+    actions do not."""
+    task = "LiftWideBox"
+    lift = maniladder_ms.default_catalog().get(task).params["lift_height"]
+    evaluate("solver", tmp_path / "solver", tasks=[task], episodes=1, progress=False)
+    evaluate("random", tmp_path / "random", tasks=[task], episodes=1, progress=False)
+    (solved,), (random,) = read_episodes(tmp_path / "solver"), read_episodes(tmp_path / "random")
+    assert solved["success"] and solved["measures"]["height"]["max"] >= lift > solved["measures"]["height"]["min"]
+    assert {"min", "max", "last"} == set(solved["measures"]["tilt"]) and solved["measures"]["tilt"]["last"] < 0.26
+    assert not random["success"] and random["measures"]["height"]["max"] < lift
+
+
 def test_random_policy_gets_nothing(tmp_path):
     s = evaluate("random", tmp_path / "random", tasks=[PEN], episodes=3, progress=False)
     t = s["tasks"][PEN]

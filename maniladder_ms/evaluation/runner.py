@@ -114,6 +114,18 @@ def reached_flags(info: dict) -> set[str]:
     return out
 
 
+def scalar_measures(info: dict) -> dict[str, float]:
+    """A task's continuous measures in `info` (`evaluate`'s float entries with one value: a lift's height, a tilt, a
+    wheel's turn, a fill count as float): with `reached_flags`, how far a failing policy got."""
+    out = {}
+    for key, value in info.items():
+        if hasattr(value, "dtype") and "float" in str(value.dtype):
+            value = np.asarray(_to_numpy(value))
+            if value.size == 1:
+                out[key] = float(value.reshape(-1)[0])
+    return out
+
+
 class EpisodeMonitor(gym.Wrapper):
     """Checks every action and measures the episode since the last reset: steps, success within the
     horizon. Env-driving policies get the env through it, so the protocol holds for them too."""
@@ -131,6 +143,7 @@ class EpisodeMonitor(gym.Wrapper):
         self.steps = 0
         self.success_step: Optional[int] = None
         self.reached: set[str] = set()
+        self.measures: dict[str, dict[str, float]] = {}
 
     def reset(self, *, seed=None, options=None):
         self.resets += 1
@@ -138,6 +151,7 @@ class EpisodeMonitor(gym.Wrapper):
         self.steps = 0
         self.success_step = None
         self.reached = set()
+        self.measures = {}
         return self.env.reset(seed=seed, options=options)
 
     def step(self, action):
@@ -151,6 +165,9 @@ class EpisodeMonitor(gym.Wrapper):
             self.success_step = self.steps
         if self.steps <= self.horizon:
             self.reached |= reached_flags(info)
+            for key, v in scalar_measures(info).items():
+                m = self.measures.setdefault(key, {"min": v, "max": v})
+                m.update(min=min(m["min"], v), max=max(m["max"], v), last=v)
         return obs, reward, terminated, truncated, info
 
 
@@ -265,6 +282,8 @@ class EpisodeRunner:
             "wall_s": round(wall, 4), "policy_s": round(policy_s, 4), "level": spec.level, "suite": spec.suite,
             "obs_mode": env_kwargs["obs_mode"], "control_mode": base.control_mode,
             "reached": sorted(env.reached),  # intermediate flags that held at some step (`reached_flags`)
+            # each continuous measure's (`scalar_measures`) least, greatest and last value within the horizon
+            "measures": {k: {q: float(f"{x:.5g}") for q, x in m.items()} for k, m in sorted(env.measures.items())},
             "state_digest": state_digest(base),
             "instruction": ctx.instruction,
             "time": time.strftime("%Y-%m-%dT%H:%M:%S"),
