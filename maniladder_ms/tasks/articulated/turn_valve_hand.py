@@ -22,9 +22,9 @@ class TurnValveHandEnv(ManiLadderEnv):
     the vertical) by a quarter turn in the direction a curved yellow arrow on the table shows.
 
     **Randomisation:** the valve's centre uniform in x in `valve_x_range`, y in `valve_y_range`; its yaw (where
-    the spokes point) uniform in `valve_yaw_range`; the direction (clockwise / counter-clockwise seen from
-    above) uniform, and the arrow's place on its arc (`ARROW_RADIUS` round the valve) uniform in
-    `arrow_yaw_range`. The wheel starts at joint angle 0.
+    the spokes point) uniform in `valve_yaw_range`; the direction clockwise (seen from above) with probability
+    `clockwise_probability`, else counter-clockwise, and the arrow's place on its arc (`ARROW_RADIUS` round the
+    valve) uniform in `arrow_yaw_range`. The wheel starts at joint angle 0.
 
     **Success:** the hand has turned the wheel by at least `turn_angle` in the arrow's direction: the
     episode memory sums the wheel's turn (in the arrow's direction, turning back counts against it) over
@@ -37,12 +37,14 @@ class TurnValveHandEnv(ManiLadderEnv):
     max_dense_reward = 5
     TASK_REGION = (-0.36, 0.06, -0.26, 0.26)  # valve region plus the arrow around it (16 cm)
     PARAMS = ("turn_angle",  # degrees
-              "valve_x_range", "valve_y_range", "valve_yaw_range", "arrow_yaw_range")
+              "valve_x_range", "valve_y_range", "valve_yaw_range", "arrow_yaw_range", "clockwise_probability")
     valve_shape = ValveShape()
     ARROW_RADIUS = 0.13  # m: the arrow lies on the table on an arc around the valve, outside the wheel
     ARROW_LIFT = 0.001  # m above the table top (drawn over it)
 
     def _load_scene(self, options: dict):
+        if not 0 <= self.clockwise_probability <= 1:
+            raise ValueError(f"clockwise_probability must be in [0, 1], got {self.clockwise_probability}")
         super()._load_scene(options)
         self.valve = build_wheel_valve(self.scene, "valve", self.valve_shape, stand_color=(0.45, 0.45, 0.48, 1),
                                        wheel_color=(0.75, 0.1, 0.1, 1), marker_color=(0.95, 0.95, 0.95, 1))
@@ -61,7 +63,7 @@ class TurnValveHandEnv(ManiLadderEnv):
             self.valve.set_qpos(torch.zeros(b, 1))
             self.valve.set_qvel(torch.zeros(b, 1))
             # the arrow points counter-clockwise face up; upside down (pi about its x axis) clockwise
-            clockwise = torch.rand(b) < 0.5
+            clockwise = torch.rand(b) < self.clockwise_probability
             flip = torch.where(clockwise[:, None], torch.tensor([0.0, 1.0, 0.0, 0.0]), torch.tensor([1.0, 0.0, 0.0, 0.0]))
             place = Pose.create_from_pq(xyz + torch.tensor([0, 0, self.ARROW_LIFT]),
                                         yaw_quat(uniform_deg(b, self.arrow_yaw_range)))
