@@ -27,8 +27,8 @@ class OpenBagAndInsertEnv(ManiLadderEnv):
     right. The left gripper takes the bag's front rim and lifts it, holding the mouth open; the right gripper
     picks up the cube and puts it into the bag through the mouth, and lets go of it.
 
-    **Randomisation:** the bag (`bag.pouch(6, 8)`: two panels of 6 x 8 particles 2.5 cm apart, radius 8 mm,
-    sewn along both sides and the bottom, 12.5 cm deep and 17.5 cm wide, 96 particles; closed as it lies, the
+    **Randomisation:** the bag (`bag.pouch(5, 10)`: two panels of 5 x 10 particles 2.5 cm apart, radius 8 mm,
+    sewn along both sides and the bottom, 10 cm deep and 22.5 cm wide, 100 particles; closed as it lies, the
     front panel resting on the back one) is centred at x uniform in `bag_x_range`, y uniform in `bag_y_range`,
     its mouth towards the robot (-x) turned by a yaw uniform in +-`bag_max_yaw`; the cube (half size
     `cube_half`) at x uniform in `cube_x_range`, y uniform in `cube_y_range`, its yaw uniform in
