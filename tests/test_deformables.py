@@ -1066,3 +1066,52 @@ def test_cord_links_bend_with_the_cord_drive_and_sheet_links_with_the_sheet_driv
     assert kinds == {True, False}
     env.close()
     assert cloth.ClothConfig().cord_bend_stiffness == 0.0  # the default: cords bend like the sheet
+
+
+# ---- bag --------------------------------------------------------------------------------------------
+def test_bag_pouch_and_inside():
+    from maniladder_ms.deformables import bag
+
+    spacing, radius, half = 0.025, 0.008, 0.015  # a 3 cm cube in a 6 x 8 bag of 8 mm particles
+    layout = bag.pouch(6, 8, spacing, radius)
+    assert len(layout.positions) == 2 * 48 and not layout.cords
+    seams = [(i, j) for i, j in layout.links if j == i + 48]
+    assert len(seams) == 6 + 6 + 6  # both side columns and the bottom row between them; the mouth row is open
+    rim = set(layout.named["back_rim"]) | set(layout.named["front_rim"])
+    assert not [(i, j) for i, j in seams if i in rim and i not in (layout.named["back_rim"][0], layout.named["back_rim"][-1])]
+    rest = torch.as_tensor(layout.positions, dtype=torch.float32) + torch.tensor([0.0, 0.0, radius])
+    front = torch.tensor(layout.named["front"])
+    mouth_x, bottom_x = float(rest[layout.named["back_rim"][0], 0]), float(rest[layout.named["back_bottom"][0], 0])
+    kw = dict(spacing=spacing, min_depth=0.03, max_height=0.045)
+    # the bag closed, the front panel lifted over a cube by construction (a tent 5 cm up), the mouth held open
+    # (its two last rows of the front panel 10 cm up), and as it lies flat
+    tent = rest.clone()
+    tent[front, 2] += 0.05
+    opened = rest.clone()
+    opened[torch.tensor(layout.named["front"][-16:]), 2] += 0.1
+    cases = [  # (particles, cube centre, inside?)
+        (tent, (0.0, 0.0, 2 * radius + half), True),  # on the back panel under the front: inside
+        (tent, (bottom_x + 0.01, 0.03, 2 * radius + half), True),
+        (opened, (mouth_x - 0.035, 0.0, 2 * radius + half), True),  # under the held-open mouth, past it by 3.5 cm
+        (rest, (0.0, 0.0, 4.2 * radius + half), False),  # resting on top of the closed bag
+        (tent, (0.0, 0.0, 0.05 + 4.2 * radius + half), False),  # on top of the tent
+        (rest, (0.0, 0.13, half), False),  # on the table beside the bag
+        (rest, (bottom_x - 0.03, 0.0, half), False),  # beyond its bottom
+        (tent, (0.0, 0.0, -0.005), False),  # under the back panel
+        (opened, (mouth_x - 0.01, 0.0, 2 * radius + half), False),  # at the lip, less than min_depth in
+        (opened, (mouth_x - 0.035, 0.0, 0.07), False),  # held above the open mouth
+    ]
+    points = torch.stack([c[0] for c in cases])
+    cube = torch.tensor([c[1] for c in cases])
+    expected = [c[2] for c in cases]
+    assert bag.inside(points, layout, cube, **kw).tolist() == expected
+    # on top of the front panel is not inside however high the pocket may reach (the front-panel rule decides)
+    assert not bag.inside(points[3:5], layout, cube[3:5], spacing, 0.03, 1.0).any()
+    # the same bag turned half round (its mouth towards -x, as the task lays it) and moved: the same answers
+    turn = torch.tensor([[-1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, 1.0]])
+    shift = torch.tensor([-0.05, 0.02, 0.0])
+    assert bag.inside(points @ turn.T + shift, layout, cube @ turn.T + shift, **kw).tolist() == expected
+    frame = bag.bag_frame(points @ turn.T + shift, layout)
+    assert frame["u"][0].tolist() == pytest.approx([-1.0, 0.0, 0.0], abs=1e-6)
+    assert frame["w"][0].tolist() == pytest.approx([0.0, 0.0, 1.0], abs=1e-6)
+    assert frame["half_width"][0] == pytest.approx(3.5 * spacing, abs=1e-6)
