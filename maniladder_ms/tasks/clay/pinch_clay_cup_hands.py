@@ -26,7 +26,7 @@ class PinchClayCupHandsEnv(ClayTask, ManiLadderEnv):
     into a small cup: a cavity walled on all sides, standing on its own once the hands let go.
 
     **Randomisation:** the ball (particles of the clay library's 1.2 cm lattice within `ball_radius` of its middle:
-    81 particles, 6 cm across) is scaled by a factor uniform in `clay_scale_range` (`Clay.reset`), turned by a yaw
+    179 particles, 8.4 cm across) is scaled by a factor uniform in `clay_scale_range` (`Clay.reset`), turned by a yaw
     uniform in `clay_yaw_range` (its lattice's), its bottom centre uniform in x in `clay_x_range`, y in
     `clay_y_range`.
 
@@ -38,11 +38,11 @@ class PinchClayCupHandsEnv(ClayTask, ManiLadderEnv):
 
     **Level 3:** against Level 1's PokeClayHand (one fingertip dent 1 cm deep, one hand, ~37 steps) and Level 2's
     clay tasks (PressClayFlat, StampClay: one press, IoU 0.5), and beside Level 3's MoldClayHand (one hand, a
-    mould's walls shape the clay): the hands are the mould. A fingertip pressed 4.5 cm into the free 5.7 cm ball
-    squashes it aside (the ball spreads, its walls fall to the floor's height on one side: cup depth 0.05 cm with
-    a kinematic 1.8 cm probe), while the same press with the ball's sides held between two plates 6.6 cm apart
-    leaves a cavity 2.1-2.2 cm deep: the cup needs two hands at once, one holding the sides, the other's finger
-    pressed to ~1.2 cm above the table in the middle, and the press's margin over the rule is ~2 mm.
+    mould's walls shape the clay): the hands are the mould. A fingertip-sized punch (2.1 x 3.5 cm) pressed to 1.2 cm
+    over the table into the free 7 cm high ball pushes it aside (no cup), while the same press with one side held by
+    a plate leaves a cavity 3.3 cm deep (kinematic probes): the cup needs two hands at once, one holding a side, the
+    other's finger pressed ~5.8 cm down the middle, slowly (at 3 mm a control step the finger plowed a crater 1.1-1.6
+    cm deep; at 1.5 mm, 2.1-2.3 cm on seeds 100-104), a margin of 1-3 mm over the rule.
     """
 
     SUPPORTED_ROBOTS = ["ml_dual_panda_leap"]
