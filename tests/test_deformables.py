@@ -696,6 +696,47 @@ def test_star_outline_and_imprint_iou():
     assert (clay.imprint_iou(start, flat, target, 0.005, spacing) < 0.5).all()
 
 
+def test_cup_depth_on_constructed_clay():
+    """A cup's depth (`clay.cup_depth`): a cup built by construction (a ring of walls three layers high round a floor
+    one layer thick) is as deep as its walls stand over its floor, wherever it stands and however it is turned; the
+    untouched ball, the cup with one side's wall taken away (a "C"), a dent open on a side, a flattened disk and a ring
+    without a floor are no cup."""
+    spacing, r = 0.012, 0.0058
+    floor_within, wall_within, arc = 0.007, 0.04, np.radians(60)
+    block = torch.as_tensor(clay.clay_block((0.024, 0.024, 0.024), spacing), dtype=torch.float32)  # 5 x 5 x 5
+    ij = torch.round(block / spacing)
+
+    def depth(points: torch.Tensor) -> float:
+        return float(clay.cup_depth(points[None], r, floor_within, wall_within, arc)[0])
+
+    middle = (ij[:, 0].abs() <= 0) & (ij[:, 1].abs() <= 0)  # the cavity: the middle column above the floor layer
+    cup = block[~(middle & (ij[:, 2] >= 1)) & (ij[:, 2] <= 3)]  # walls 4 layers, floor 1
+    assert depth(cup) == pytest.approx(3 * spacing, abs=1e-5)
+    turned = cup @ torch.tensor([[0.8, 0.6, 0.0], [-0.6, 0.8, 0.0], [0.0, 0.0, 1.0]]) + torch.tensor([0.3, -0.2, 0.0])
+    assert depth(turned) == pytest.approx(3 * spacing, abs=1e-5)  # anywhere, at any yaw
+    big = torch.as_tensor(clay.clay_block((0.036, 0.036, 0.024), spacing), dtype=torch.float32)  # a 3 x 3 cavity, 7 x 7
+    bij = torch.round(big / spacing)
+    wide = (bij[:, 0].abs() <= 1) & (bij[:, 1].abs() <= 1)
+    assert depth(big[~(wide & (bij[:, 2] >= 1)) & (bij[:, 2] <= 2)]) == pytest.approx(2 * spacing, abs=1e-5)
+    ball = torch.as_tensor(clay.clay_ball(0.03, spacing), dtype=torch.float32)
+    assert depth(ball) <= 0  # the untouched ball: its flat top (3 x 3 particles) is its highest point
+    open_side = ~(middle & (ij[:, 2] >= 1)) & (ij[:, 2] <= 3) & ~((ij[:, 0] < 0) & (ij[:, 2] >= 1))
+    assert depth(block[open_side]) < 0.005  # a "C": the walls taken away on one side (-x) down to the floor
+    # a dent open on a side: a channel three particles wide dug from the middle out through the -x wall
+    channel = (ij[:, 1].abs() <= 1) & (ij[:, 0] <= 0) & (ij[:, 2] >= 1)
+    assert depth(block[~channel & (ij[:, 2] <= 3)]) < 0.005
+    turned_channel = block[~channel & (ij[:, 2] <= 3)] @ torch.tensor([[0.8, 0.6, 0.0], [-0.6, 0.8, 0.0], [0.0, 0.0, 1.0]])
+    assert depth(turned_channel) < 0.005  # open towards any side
+    # the resolution: a slit one particle wide (1.2 cm) has particles beside it in every 60 degree sector
+    slit = (ij[:, 1] == 0) & (ij[:, 0] <= 0) & (ij[:, 2] >= 1)
+    assert depth(block[~slit & (ij[:, 2] <= 3)]) == pytest.approx(3 * spacing, abs=1e-5)
+    disk = torch.as_tensor(clay.clay_block((0.048, 0.048, 0.0), spacing), dtype=torch.float32)  # flattened: one layer
+    assert abs(depth(disk)) < 1e-5
+    ring = block[~(middle) & (ij[:, 2] <= 3)]  # walls without a floor under the cavity: nothing to try there
+    assert depth(ring) <= 0.005
+    assert depth(cup) >= 0.02 > depth(block[open_side])  # the rule's 2 cm tells the cup from the C
+
+
 def test_mould_fill_on_constructed_clay():
     """A square mould's occupancy (`clay.mould_fill`): clay placed filling its floor by construction fills every
     column; a lump in the middle fills only the middle ones; clay on the rim, outside the walls or stacked above

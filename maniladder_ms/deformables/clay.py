@@ -24,6 +24,7 @@ Metrics on particle positions [B, N, 3] (`Clay.positions()`), lengths in metres:
   under its footprint (a stamp's imprint; footprint shapes such as `metrics.inside_star`);
 - `cells_occupied`: which columns of a square grid on the table hold clay low enough (the one rasteriser of
   the grid metrics); `occupancy_iou`: their IoU with a target footprint on that grid (`l_footprint`: an L);
+- `cup_depth`: how deep a cavity the clay holds with walls on all sides of it (a pinched cup);
 - `mould_cells_filled`, `mould_fill`: which cells of a square mould's floor grid hold clay below its rim, and
   their share (`Mould`: the mould itself, an open square frame of walls fixed on the table).
 """
@@ -365,3 +366,26 @@ class Mould:
     def fill(self, points: torch.Tensor) -> torch.Tensor:
         """Share of the floor's cells holding clay, [B] (`mould_fill`)."""
         return mould_fill(points, self.actor.pose.p, self.yaw(), self.inner_half, self.depth, self.cells)
+
+
+def cup_depth(points: torch.Tensor, radius: float, floor_within: float, wall_within: float, arc: float,
+              directions: int = 24) -> torch.Tensor:
+    """How deep a cup the clay makes, [B]: the deepest cavity walled on all sides, in m (<= 0: none).
+
+    Every particle's table point is tried as a cavity centre. There the floor is the clay's top within
+    `floor_within` of the centre (`surface_height_at`); the walls: in each of `directions` directions evenly round
+    the centre, the sector `arc` (rad) wide about it, from `floor_within` to `wall_within` out, holds a wall, the top
+    of the clay in it (0 where it holds no particle). The cavity's depth is its lowest wall minus its floor: a gap
+    in the walls as wide as a sector (plus a step between directions) anywhere round the centre makes it shallow (a
+    dent open on a side, a "C"), as a flattened disk (walls as high as its floor) or the untouched ball (a floor at
+    its top) do. A ring with nothing in its middle has no particle there to try: it is no cup (no floor)."""
+    xy, top = points[..., :2], points[..., 2] + radius
+    offset = xy[:, None, :, :] - xy[:, :, None, :]  # [B, centre, particle, 2]
+    dist = torch.linalg.norm(offset, dim=-1)
+    floor = torch.where(dist <= floor_within, top[:, None, :], torch.zeros_like(dist)).amax(dim=-1)  # [B, centre]
+    angle = torch.atan2(offset[..., 1], offset[..., 0])
+    heading = torch.arange(directions, device=points.device) * (2 * np.pi / directions)
+    off_heading = torch.remainder(angle[..., None] - heading + np.pi, 2 * np.pi) - np.pi  # [B, centre, particle, dir]
+    in_sector = (off_heading.abs() <= arc / 2) & ((dist > floor_within) & (dist <= wall_within))[..., None]
+    walls = torch.where(in_sector, top[:, None, :, None], torch.zeros_like(off_heading)).amax(dim=2)  # [B, centre, dir]
+    return (walls.amin(dim=-1) - floor).amax(dim=1)
