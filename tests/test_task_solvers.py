@@ -30,8 +30,12 @@ BELOW_BAR_SWEEP = {
                               "(docs/tasks/WrapRopeAroundBoxHands.md)",
     "UseScrewdriverHand": "solver below the bar: 42/50 over seeds 100-149, the tool pivots in the grasp "
                           "(docs/tasks/UseScrewdriverHand.md)",
+    "RouteCableClipsHand": "solver below the bar: 5/22 on seeds 100-121 (sweep cut short), the cable carried to "
+                           "the next clip pulls capsules out of the last one (docs/tasks/RouteCableClipsHand.md)",
 }
-BELOW_BAR_SHORT: dict[str, str] = {}
+BELOW_BAR_SHORT: dict[str, str] = {
+    "RouteCableClipsHand": "solver below the bar: 0/3 on seeds 100-102 (docs/tasks/RouteCableClipsHand.md)",
+}
 
 
 @pytest.mark.parametrize("task_id", expected_to_fail(sampled_tasks(TASKS), BELOW_BAR_SHORT))

@@ -56,10 +56,10 @@ class RouteCableClipsHandEnv(RopeTask, ManiLadderEnv):
 
     **Level 3:** (against Level 2's CableIntoClipHand on the same cable, clip and hand: one clip, 5 stages, ~190
     steps) three clips in a fixed order, 15 stages (pinch, carry, lower and let go, press home, withdraw: once a
-    clip) in ~630 steps; each clip's slot leaves the 16 mm cable 1.5 mm to spare on each side and must
-    hold the whole of its 6 cm length, as Level 2's one, and a cable already pressed into an earlier clip must not
-    be pulled out of it while the next is done (3 capsules must stay in each of three clips at once, against 3 in
-    one); a clip filled before its turn fails the episode.
+    clip) in 600-800 steps (the solver's successes); each clip's slot leaves the 16 mm cable 1.5 mm to spare on
+    each side and must hold the whole of its 6 cm length, as Level 2's one, and a cable already pressed into an
+    earlier clip must not be pulled out of it while the next is done (3 capsules must stay in each of three clips
+    at once, against 3 in one); a clip filled before its turn fails the episode.
     """
 
     SUPPORTED_ROBOTS = ["ml_panda_leap"]
