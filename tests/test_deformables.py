@@ -1156,3 +1156,44 @@ def test_bag_pouch_and_inside():
     assert frame["u"][0].tolist() == pytest.approx([-1.0, 0.0, 0.0], abs=1e-6)
     assert frame["w"][0].tolist() == pytest.approx([0.0, 0.0, 1.0], abs=1e-6)
     assert frame["half_width"][0] == pytest.approx(3.5 * spacing, abs=1e-6)
+
+
+def test_clip_row_and_order_of_entry():
+    """A row of three clips 10 cm apart along a turned line: the centres lie where constructed, and a cable laid
+    through all three slots is inside each (3 capsules of 2 cm in each 6 cm clip), one lying across the slots'
+    tops (the walls' top, above it) in none. The order record: clips entered one at a time while pressed, never
+    ahead of their turn; a clip seated before the one ahead of it was entered breaks the order."""
+    from maniladder_ms.deformables import clip_route
+
+    yaw = torch.tensor([0.4, -2.5])
+    middle = torch.tensor([[-0.1, -0.08], [0.02, 0.05]])
+    centres = clip_route.row_centres(middle, yaw, 0.1, 3)
+    along = torch.stack([torch.cos(yaw), torch.sin(yaw)], dim=1)
+    assert torch.allclose(centres[:, 1], middle, atol=1e-6)
+    assert torch.allclose(centres[:, 0], middle - 0.1 * along, atol=1e-6)
+    assert torch.allclose(centres[:, 2], middle + 0.1 * along, atol=1e-6)
+    # a straight 20-capsule cable (2 cm capsules) along the row through every slot, low in it; the same cable 1.6 cm
+    # higher, its centres above the walls' top (16 mm)
+    s = (torch.arange(20) - 10) * 0.02  # capsule 10 at the row's middle, 3 capsule centres within each clip
+    xy = middle[:, None] + s[None, :, None] * along[:, None]
+    low = torch.cat([xy, torch.full((2, 20, 1), 0.012)], dim=2)
+    high = torch.cat([xy, torch.full((2, 20, 1), 0.024)], dim=2)
+    for points, expected in ((low, 3.0), (high, 0.0)):
+        for i in range(3):
+            count = metrics.inside_channel_fraction(points, centres[:, i], yaw, 0.0095, 0.03, 0.016) * 20
+            assert count.tolist() == pytest.approx([expected, expected])
+    # order: clip 0 pressed -> entered; clip 2 seated while clip 1 is not entered -> broken
+    entered = torch.zeros(3, 3, dtype=torch.bool)
+    broken = torch.zeros(3, dtype=torch.bool)
+    seated = torch.tensor([[True, False, False], [True, True, True], [False, False, False]])
+    pressing = torch.tensor([True, True, True])
+    entered, broken = clip_route.enter_in_order(entered, broken, seated, pressing)
+    assert entered.tolist() == [[True, False, False], [True, False, False], [False, False, False]]
+    assert broken.tolist() == [False, True, False]
+    # env 0: clip 1 seated but not pressed -> not entered; then pressed -> entered; then clip 2 pressed
+    for seat, press in (([True, True, False], False), ([True, True, False], True), ([True, True, True], True)):
+        entered, broken = clip_route.enter_in_order(entered, broken, torch.tensor([seat] * 3),
+                                                    torch.tensor([press] * 3))
+    assert entered[0].tolist() == [True, True, True] and not broken[0]
+    # env 2 never had clip 0 entered before the others were seated: broken
+    assert broken[2]

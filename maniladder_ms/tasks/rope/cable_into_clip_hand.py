@@ -13,12 +13,8 @@ from maniladder_ms.deformables import rope
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.geometry import yaw_quat
 from maniladder_ms.layout import uniform, uniform_deg
-from maniladder_ms.objects.tabletop import Channel
+from maniladder_ms.objects.clip import build_clip
 from maniladder_ms.tasks.rope.base import RopeTask
-
-CLIP_WALL = 0.008  # thickness of each of the clip's two walls
-CLIP_FLOOR = 0.004  # the clip's base plate: the slot's floor lies this high above the table
-CLIP_COLOR, CLIP_FLOOR_COLOR = (0.15, 0.35, 0.75, 1), (0.1, 0.2, 0.45, 1)
 
 
 @register_task("CableIntoClipHand")
@@ -66,8 +62,7 @@ class CableIntoClipHandEnv(RopeTask, ManiLadderEnv):
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)  # the cable (RopeTask)
-        self.clip = Channel(self.scene, "clip", self.slot_width, self.clip_depth, self.clip_length, CLIP_WALL,
-                            CLIP_FLOOR, CLIP_COLOR, CLIP_FLOOR_COLOR)
+        self.clip = build_clip(self.scene, "clip", self.slot_width, self.clip_depth, self.clip_length)
         self.memory.flag("pressed")  # the hand touched the cable while it lay in the slot
 
     def _initialize_episode(self, env_idx: torch.Tensor, options: dict):
