@@ -8,7 +8,7 @@ import numpy as np
 import torch
 
 from maniladder_ms.deformables import rope
-from maniladder_ms.layout import uniform
+from maniladder_ms.layout import uniform, uniform_deg
 
 
 class RopeTask:
@@ -26,6 +26,16 @@ class RopeTask:
     def _load_scene(self, options: dict):
         super()._load_scene(options)
         self.rope = rope.build_rope(self.scene, "rope", self.rope_config, fix_first_end=self.rope_anchored)
+
+    def lay_wavy(self, b: int) -> torch.Tensor:
+        """Lay the rope flat in a gentle S (`rope.wavy_turns`, amplitude up to `rope_max_amp` deg), its first capsule
+        heading uniform in `rope_yaw_range` (deg), the mean of its capsule centres uniform in `rope_x_range` x
+        `rope_y_range` (the single-arm rope tasks' catalog params), drawn in that order on the current device;
+        returns the capsule centres [b, segments, 3]."""
+        turns = rope.wavy_turns(b, self.rope_config.segments, np.deg2rad(self.rope_max_amp))
+        heading = uniform_deg(b, self.rope_yaw_range)
+        middle = torch.stack([uniform(b, self.rope_x_range), uniform(b, self.rope_y_range)], dim=1)
+        return self.rope.lay_flat(middle, heading, turns)
 
 
 class RopeBetweenArmsTask(RopeTask):

@@ -9,10 +9,9 @@ import torch
 
 from mani_skill.utils.structs.pose import Pose
 
-from maniladder_ms.deformables import rope
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.geometry import yaw_quat
-from maniladder_ms.layout import uniform, uniform_deg
+from maniladder_ms.layout import uniform
 from maniladder_ms.objects.clip import build_clip
 from maniladder_ms.tasks.rope.base import RopeTask
 
@@ -69,10 +68,7 @@ class CableIntoClipHandEnv(RopeTask, ManiLadderEnv):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            turns = rope.wavy_turns(b, self.rope_config.segments, np.deg2rad(self.rope_max_amp))
-            heading = uniform_deg(b, self.rope_yaw_range)
-            middle = torch.stack([uniform(b, self.rope_x_range), uniform(b, self.rope_y_range)], dim=1)
-            centres = self.rope.lay_flat(middle, heading, turns)
+            centres = self.lay_wavy(b)
             k = self.grasp_segment
             along = centres[:, k + 1, :2] - centres[:, k - 1, :2]
             yaw = torch.atan2(along[:, 1], along[:, 0])

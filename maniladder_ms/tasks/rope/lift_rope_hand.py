@@ -4,12 +4,9 @@ from __future__ import annotations
 
 from typing import Any
 
-import numpy as np
 import torch
 
-from maniladder_ms.deformables import rope
 from maniladder_ms.envs import ManiLadderEnv, register_task
-from maniladder_ms.layout import uniform, uniform_deg
 from maniladder_ms.tasks.rope.base import RopeTask
 
 
@@ -40,10 +37,7 @@ class LiftRopeHandEnv(RopeTask, ManiLadderEnv):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            turns = rope.wavy_turns(b, self.rope_config.segments, np.deg2rad(self.rope_max_amp))
-            heading = uniform_deg(b, self.rope_yaw_range)
-            middle = torch.stack([uniform(b, self.rope_x_range), uniform(b, self.rope_y_range)], dim=1)
-            self.rope.lay_flat(middle, heading, turns)
+            self.lay_wavy(b)
 
     def _segments(self) -> torch.Tensor:
         """Capsule centres, [B, segments, 3]."""

@@ -5,16 +5,14 @@ from __future__ import annotations
 
 from typing import Any
 
-import numpy as np
 import torch
 
 from mani_skill.utils.structs.pose import Pose
 
-from maniladder_ms.deformables import rope
 from maniladder_ms.deformables.clip_route import enter_in_order, row_centres
 from maniladder_ms.envs import ManiLadderEnv, register_task
 from maniladder_ms.geometry import yaw_quat
-from maniladder_ms.layout import symmetric_deg, uniform, uniform_deg
+from maniladder_ms.layout import symmetric_deg, uniform
 from maniladder_ms.objects.clip import build_clip
 from maniladder_ms.tasks.rope.base import RopeTask
 
@@ -82,10 +80,7 @@ class RouteCableClipsHandEnv(RopeTask, ManiLadderEnv):
         super()._initialize_episode(env_idx, options)
         with torch.device(self.device):
             b = len(env_idx)
-            turns = rope.wavy_turns(b, self.rope_config.segments, np.deg2rad(self.rope_max_amp))
-            heading = uniform_deg(b, self.rope_yaw_range)
-            middle = torch.stack([uniform(b, self.rope_x_range), uniform(b, self.rope_y_range)], dim=1)
-            centres = self.rope.lay_flat(middle, heading, turns)
+            centres = self.lay_wavy(b)
             k = self.grasp_segment
             along = centres[:, k + 1, :2] - centres[:, k - 1, :2]
             yaw = torch.atan2(along[:, 1], along[:, 0])
