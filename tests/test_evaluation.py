@@ -527,3 +527,35 @@ def test_replay_policy_reads_the_committed_samples():
     repo = Path(__file__).resolve().parents[1]
     pol = load_policy(f"replay:{repo / 'demos' / PEN}")
     assert pol.supports(maniladder_ms.default_catalog().get(PEN)) is True and pol.max_episodes(maniladder_ms.default_catalog().get(PEN)) >= 1
+
+
+def test_videos_film_the_first_episodes_and_change_no_outcome(tmp_path):
+    """`--videos 1`: episode 0 of the task is filmed (a frame per control step and one for the reset, named by its
+    outcome, the bar green at the end of a success), episode 1 is not; the episodes' end states are those of a run
+    without videos."""
+    import imageio_ffmpeg
+
+    task = "PressButtonHand"
+    evaluate("solver", tmp_path / "plain", tasks=[task], episodes=2, progress=False, bootstrap=0)
+    evaluate("solver", tmp_path / "filmed", tasks=[task], episodes=2, progress=False, bootstrap=0, videos=1)
+    evaluate("random", tmp_path / "random", tasks=[task], episodes=1, progress=False, bootstrap=0, videos=1)
+    plain, filmed = read_episodes(tmp_path / "plain"), read_episodes(tmp_path / "filmed")
+    assert [r["state_digest"] for r in plain] == [r["state_digest"] for r in filmed]
+    assert [r["success"] for r in filmed] == [True, True] and "video" not in filmed[1]
+    assert filmed[0]["video"] == f"videos/{task}/ep000_seed{eval_seed(0, 0)}_success.mp4"
+    assert sorted(p.name for p in (tmp_path / "filmed" / "videos" / task).iterdir()) == [Path(filmed[0]["video"]).name]
+    reader = imageio_ffmpeg.read_frames(str(tmp_path / "filmed" / filmed[0]["video"]))
+    meta = next(reader)
+    frames = [np.frombuffer(f, np.uint8).reshape(meta["size"][1], meta["size"][0], 3) for f in reader]
+    # a frame for the reset and one per control step (the solver holds a few steps past its first success); the bar
+    # under the frame turns green at the step the record gives as the first success
+    k = filmed[0]["steps"]
+    assert len(frames) > k and meta["size"][0] == 512
+    bar = lambda frame: frame[-4:, :100].reshape(-1, 3).mean(0)  # noqa: E731  (the bar's left end)
+    grey, green = bar(frames[k - 1]), bar(frames[k])
+    assert bar(frames[0]).max() < 60 and grey.min() > 150 and green[0] < 90 < 150 < green[1], (grey, green)
+    (rnd,) = read_episodes(tmp_path / "random")
+    assert not rnd["success"] and rnd["video"].endswith("_failure.mp4") and (tmp_path / "random" / rnd["video"]).is_file()
+    for bad, why in ((dict(videos=-1), "--videos must be >= 0"), (dict(videos=1, ray_address="local"), "without --ray")):
+        with pytest.raises(ValueError, match=why):
+            evaluate("random", tmp_path / "bad", tasks=[task], episodes=1, progress=False, **bad)

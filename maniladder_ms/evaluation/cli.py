@@ -63,7 +63,7 @@ def cmd_eval(args) -> int:
     out = args.out or Path("results") / policy_label(args.policy)
     summary = evaluate(args.policy, out, tasks=tasks, level=args.level, suite=args.suite, episodes=args.episodes,
                        seed=args.seed, obs_mode=args.obs_mode, workers=args.workers, progress=not args.quiet,
-                       instructions=args.instructions, cameras=args.cameras, ray_address=args.ray)
+                       instructions=args.instructions, cameras=args.cameras, ray_address=args.ray, videos=args.videos)
     print_summary(summary)
     if run_cameras(summary["manifest"]) != ALL_CAMERAS:
         print(f"\ncameras the policy could see (--cameras): {run_cameras(summary['manifest'])}")
@@ -109,6 +109,9 @@ def add_parsers(subparsers) -> None:
                          "(default), or per episode one of it and its paraphrases drawn from the episode seed")
     ev.add_argument("--cameras", help="the cameras the policy may see, comma-separated (e.g. front_camera, or "
                                       "front_camera,hand_camera); default all of each task's; recorded in the manifest")
+    ev.add_argument("--videos", type=int, default=0, metavar="K",
+                    help="film the first K episodes of each task: <out>/videos/<task>/ep<k>_seed<s>_<success|failure>.mp4 "
+                         "(the render camera over the images the policy saw; default 0)")
     ev.add_argument("--quiet", action="store_true", help="no progress bar")
     ev.set_defaults(func=_guarded(cmd_eval))
 

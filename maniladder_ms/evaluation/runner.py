@@ -135,6 +135,7 @@ class EpisodeMonitor(gym.Wrapper):
         self.task_spec_ = spec
         self.action_dim = action_dim
         self.horizon = spec.horizon
+        self.video = None  # an `EpisodeVideo` while the episode is filmed (`--videos`)
         self.begin()
 
     def begin(self):
@@ -152,7 +153,10 @@ class EpisodeMonitor(gym.Wrapper):
         self.success_step = None
         self.reached = set()
         self.measures = {}
-        return self.env.reset(seed=seed, options=options)
+        out = self.env.reset(seed=seed, options=options)
+        if self.video is not None:
+            self.video.add(self.env.unwrapped, out[0], 0, False)
+        return out
 
     def step(self, action):
         where = f"task {self.task_spec_.id}, step {self.steps + 1} (seed {self.seed})"
@@ -168,6 +172,8 @@ class EpisodeMonitor(gym.Wrapper):
             for key, v in scalar_measures(info).items():
                 m = self.measures.setdefault(key, {"min": v, "max": v})
                 m.update(min=min(m["min"], v), max=max(m["max"], v), last=v)
+            if self.video is not None:
+                self.video.add(self.env.unwrapped, obs, self.steps, self.success_step is not None)
         return obs, reward, terminated, truncated, info
 
 
@@ -222,9 +228,30 @@ class EpisodeRunner:
             self._key = key
         return self._env
 
-    def run(self, spec, episode: int, seed: int, env_kwargs: Optional[dict] = None) -> dict:
+    def run(self, spec, episode: int, seed: int, env_kwargs: Optional[dict] = None,
+            video_root: Optional[Path] = None) -> dict:
+        """One episode; with `video_root` (the results folder) it is filmed (`videos`) and its record names the
+        video."""
         env_kwargs = env_kwargs or policy_env_kwargs(self.policy, spec, self.obs_mode)
         env = self.env_for(spec, env_kwargs)
+        base = env.unwrapped
+        if video_root is None:
+            return self._run(env, spec, episode, seed, env_kwargs)
+        from .videos import EpisodeVideo, video_name
+
+        env.video = EpisodeVideo(Path(video_root) / "videos" / spec.id, spec.horizon, base.control_freq)
+        try:
+            rec = self._run(env, spec, episode, seed, env_kwargs)
+            rec["video"] = video_name(spec.id, episode, rec["seed"], rec["success"])
+            env.video.finish(Path(video_root) / rec["video"])
+        except BaseException:
+            env.video.discard()
+            raise
+        finally:
+            env.video = None
+        return rec
+
+    def _run(self, env, spec, episode: int, seed: int, env_kwargs: dict) -> dict:
         base = env.unwrapped
         ctx = EpisodeContext(spec=spec, seed=seed, episode=episode, action_space=base.single_action_space,
                              obs_mode=env_kwargs["obs_mode"], control_mode=base.control_mode, horizon=spec.horizon,
@@ -355,8 +382,9 @@ def _worker_init(policy_spec: str, obs_mode: str, instructions: str):
     _WORKER["runner"] = EpisodeRunner(load_policy(policy_spec), obs_mode, instructions)
 
 
-def _worker_run(task_id: str, episode: int, seed: int, env_kwargs: dict) -> dict:
-    return _WORKER["runner"].run(default_catalog().get(task_id), episode, seed, env_kwargs)
+def _worker_run(task_id: str, episode: int, seed: int, env_kwargs: dict, video_root: Optional[str] = None) -> dict:
+    return _WORKER["runner"].run(default_catalog().get(task_id), episode, seed, env_kwargs,
+                                 None if video_root is None else Path(video_root))
 
 
 def run_episode_in_worker(policy_spec: str, obs_mode: str, instructions: str, task_id: str, episode: int, seed: int,
@@ -387,12 +415,15 @@ def evaluate(
     instructions: str = "canonical",
     cameras=None,
     ray_address: Optional[str] = None,
+    videos: int = 0,
 ) -> dict:
     """Evaluate `policy` (a `--policy` string, or a policy object with workers=1) into folder `out`;
     resumes what is there. `instructions`: "canonical" or "paraphrase" (see the module doc). `cameras`: the
     camera subset the policy may see (`camera_subset`; default every camera), part of the run's identity.
     `ray_address` ("local", "auto", "ray://host:10001"): episodes run on a Ray cluster instead
-    (`maniladder_ms.distributed`). Returns the summary (also written to `out/summary.json`)."""
+    (`maniladder_ms.distributed`). `videos`: the first that many episodes of each task are filmed into
+    `out/videos/` (`videos`; not part of the run's identity: filming changes no outcome). Returns the summary (also
+    written to `out/summary.json`)."""
     import maniladder_ms  # noqa: F401
     from tqdm import tqdm
 
@@ -407,6 +438,9 @@ def evaluate(
 
         check_ray_option(workers)
     check_instruction_mode(instructions)
+    from .videos import check_videos_option
+
+    videos = check_videos_option(videos, ray_address)
     cameras = camera_subset(cameras)
     if isinstance(policy, str):
         policy_spec, policy_obj = policy, load_policy(policy)
@@ -478,13 +512,14 @@ def evaluate(
             evaluate_episodes(jobs, policy_spec, obs_mode, instructions, task_env, ray_address, record)
         elif workers == 1 or len(jobs) <= 1:
             for spec, k, s in jobs:
-                record(runner.run(spec, k, s, task_env[spec.id]))
+                record(runner.run(spec, k, s, task_env[spec.id], out if k < videos else None))
         else:
             runner.close()
             ctx = mp.get_context("spawn")
             with cf.ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_worker_init,
                                         initargs=(policy_spec, obs_mode, instructions)) as pool:
-                futures = [pool.submit(_worker_run, spec.id, k, s, task_env[spec.id]) for spec, k, s in jobs]
+                futures = [pool.submit(_worker_run, spec.id, k, s, task_env[spec.id], str(out) if k < videos else None)
+                           for spec, k, s in jobs]
                 try:
                     for fut in cf.as_completed(futures):
                         record(fut.result())
