@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from maniladder_ms.evaluation import eval_seed
 from maniladder_ms.policy.calibrate import (CalibrationProtocol, ResultExistsError, TaskCalibration, calibrate,
                                             measured_level, verdict)
 from maniladder_ms.policy.flow import LadderFlowConfig
@@ -117,8 +118,12 @@ def test_calibrate_resumes_after_a_kill(tmp_path, monkeypatch):
     timings_before = json.loads((task_dir / "timings.json").read_text())
 
     summary = calibrate(["PickPlacePen"], work, out, demos_dir=REPO / "demos", config=TINY, protocol=TINY_PROTOCOL,
-                        progress=False)
+                        progress=False, videos=1)
 
+    # each training seed's evaluation filmed its first episode (`--videos 1`); the selection stage films nothing
+    films = sorted(p.relative_to(task_dir).as_posix() for p in task_dir.rglob("*.mp4"))
+    assert [f.split("/videos/")[0] for f in films] == ["seed_0/final", "seed_1/final"], films
+    assert all(f.split("/")[-1].startswith(f"ep000_seed{eval_seed(2, 0)}_") for f in films), films
     assert {k: v for k, v in kept_files().items() if k in kept} == kept
     assert set(kept_files()) == set(kept) | {"seed_1/checkpoint_3.pt", "seed_1/checkpoint_6.pt"}
     timings = json.loads((task_dir / "timings.json").read_text())

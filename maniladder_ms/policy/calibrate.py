@@ -159,7 +159,8 @@ class TaskCalibration:
 
     def __init__(self, task_id: str, work: Path, out: Path, demos_dir: Optional[Path] = None,
                  config: LadderFlowConfig = LadderFlowConfig(), protocol: CalibrationProtocol = CalibrationProtocol(),
-                 device: str = "cpu", renderer: str = "cpu", replace: bool = False, progress: bool = True, log=print):
+                 device: str = "cpu", renderer: str = "cpu", replace: bool = False, progress: bool = True, log=print,
+                 videos: int = 0):
         from maniladder_ms.provenance import task_hash
 
         self.spec = default_catalog().get(task_id)
@@ -169,6 +170,7 @@ class TaskCalibration:
             raise maniladder_ms.TaskNotImplementedError(f"task {task_id} is not implemented yet; it cannot be calibrated")
         self.config, self.protocol, self.device, self.progress, self.log = config, protocol, device, progress, log
         self.renderer, self.replace = renderer, replace
+        self.videos = videos  # the evaluation's first episodes filmed (`maniladder eval --videos`); changes no outcome
         self.task_hash = task_hash(task_id)
         self.dir = Path(work) / task_id / self.task_hash
         self.out = Path(out)
@@ -305,14 +307,14 @@ class TaskCalibration:
                          meta=dict(meta, final_loss=float(sum(losses[-100:]) / max(len(losses[-100:]), 1))))
         resume.unlink(missing_ok=True)
 
-    def _evaluate(self, step: int, seed: int, folder: str, episodes: int, seed_set: int) -> dict:
+    def _evaluate(self, step: int, seed: int, folder: str, episodes: int, seed_set: int, videos: int = 0) -> dict:
         from maniladder_ms.evaluation.runner import evaluate
 
         from .evaluate import LadderFlowEvalPolicy
 
         policy = LadderFlowEvalPolicy(self.checkpoint(step, seed))
         summary = evaluate(policy, self.seed_dir(seed) / folder, tasks=[self.spec.id], episodes=episodes,
-                           seed=seed_set, progress=self.progress, bootstrap=0)
+                           seed=seed_set, progress=self.progress, bootstrap=0, videos=videos)
         return summary["tasks"][self.spec.id]
 
     def stage_select(self, seed: int) -> dict:
@@ -332,7 +334,7 @@ class TaskCalibration:
 
     def stage_evaluate(self, seed: int, sel: dict) -> dict:
         return self._evaluate(sel["selected_step"], seed, self.protocol.purpose, self.protocol.episodes,
-                              self.protocol.seed_set)
+                              self.protocol.seed_set, videos=self.videos)
 
     # ---- all of it ---------------------------------------------------------------------------------
     def run(self) -> dict:
@@ -522,13 +524,15 @@ def _calibrate_on_ray(tasks: Sequence[str], kwargs: dict, address: str, progress
 def calibrate(tasks: Sequence[str], work: Path, out: Path, demos_dir: Optional[Path] = None, device: str = "cpu",
               workers: int = 1, progress: bool = True, config: LadderFlowConfig = LadderFlowConfig(),
               protocol: CalibrationProtocol = CalibrationProtocol(), renderer: str = "cpu", replace: bool = False,
-              log=print, ray_address: Optional[str] = None, on_result=None) -> dict:
+              log=print, ray_address: Optional[str] = None, on_result=None, videos: int = 0) -> dict:
     """Calibrate `tasks` (resuming what `work` holds), then rewrite the summary of every result in `out`.
     `on_result(result)` is called in this process as each task's result is written (a calibration record is
     appended then, not after the last task: a run over many tasks takes days and may be killed on the way).
     Each process runs one torch thread and renders with `renderer` (the env var the envs read, inherited by
     worker processes). `ray_address` ("local", "auto", "ray://host:10001"): tasks and training seeds run on a Ray
-    cluster's workers instead (`_calibrate_on_ray`), which must see `work` (and `demos_dir`) at the same path."""
+    cluster's workers instead (`_calibrate_on_ray`), which must see `work` (and `demos_dir`) at the same path.
+    `videos`: the first that many evaluation episodes of each training seed are filmed (`maniladder eval --videos`)
+    into its evaluation folder's `videos/`, where an evaluation runs now (a finished one is not re-run)."""
     import concurrent.futures as cf
     import multiprocessing as mp
     import os
@@ -536,7 +540,7 @@ def calibrate(tasks: Sequence[str], work: Path, out: Path, demos_dir: Optional[P
     import torch
 
     kwargs = dict(work=Path(work), out=Path(out), demos_dir=demos_dir, config=config, protocol=protocol, device=device,
-                  renderer=renderer, replace=replace)
+                  renderer=renderer, replace=replace, videos=videos)
     for t in tasks:  # bad names and unbuilt tasks fail before any work starts
         TaskCalibration(t, **kwargs)
     if ray_address is not None:
@@ -739,6 +743,9 @@ def add_parser(sub) -> None:
                          "bit-identical to those it was trained on: the result's demos_digest, or for an older result "
                          "the demos in --work), and if they match mark it as standing for the current version (and "
                          "in --record's record)")
+    cp.add_argument("--videos", type=int, default=0, metavar="K",
+                    help="film the first K evaluation episodes of each training seed (as `maniladder eval --videos`: "
+                         "<work>/<task>/<version>/seed_<n>/<purpose>/videos/); only evaluations run now; default 0")
     cp.add_argument("--quiet", action="store_true", help="no progress bars")
     cp.set_defaults(func=cmd_calibrate)
 
@@ -778,7 +785,7 @@ def cmd_calibrate(args) -> int:
         summary = calibrate(tasks, args.work, args.out, demos_dir=args.demos, device=args.device,
                             workers=args.workers, progress=not args.quiet,
                             protocol=CalibrationProtocol(purpose=args.purpose), renderer=args.renderer,
-                            replace=args.replace, ray_address=args.ray, on_result=record_one)
+                            replace=args.replace, ray_address=args.ray, on_result=record_one, videos=args.videos)
     finally:  # each task is recorded as it finishes; this records those of an earlier, killed run (adds nothing twice)
         if args.record:
             _record_results(specs, args)
