@@ -2,8 +2,8 @@
 screwdriver out of its stand in a top-down power grasp, sets its blade into the screw's cross slot and turns the
 screw counter-clockwise by turning the wrist.
 
-The screwdriver does not hang straight in the grasp: out of the stand it swings to a tilt of up to ~30 degrees
-about the fingers' contacts (measured on seeds 100-103), so every phase after the lift is closed on the tool's
+The screwdriver does not hang straight in the grasp: out of the stand it tilts about the fingers' contacts (the
+flat handle 6-16 degrees after the alignment, seeds 100 101 102 105 114 123), so every phase after the lift is closed on the tool's
 measured tip and blade, never on where the hand is: the hand stays top-down, and its targets are chosen so that the
 measured tip goes where it should (its offset in the TCP frame read afresh every control step).
 
@@ -123,6 +123,7 @@ def pick(s: DrivenSolver, task):
 def align(s: DrivenSolver, task):
     """Turn the blade into line with a slot arm, the tip kept `HOVER` above: of the arms reached turning clockwise
     by -1/4 to 3/4 of a turn, the one with the largest turn that keeps joint 7 `J7_MARGIN` below its upper stop
+    (where none does, the one half a turn to a quarter counter-clockwise)
     (a clockwise turn of the hand raises joint 7, and the screw's counter-clockwise turn then has the most of its
     range: the hand's grasp yaw follows the handle's, +-45 degrees)."""
     slot = matrix_yaw(task.screw.pose.to_transformation_matrix()[:, :3, :3])
