@@ -37,10 +37,20 @@ HEAD_GAP = 0.001  # m between the head's underside and the pocket's floor (the h
 SCREW_DAMPING = 50.0  # N m s / rad: the friction drive saturates at `screw_torque` as soon as the head turns
 
 # ---- the screwdriver (frame: origin on its axis at the handle's bottom face, +z along the handle) ------------
-HANDLE_HALF = 0.018  # m: an octagonal handle 3.6 cm across its flats (two square boxes, one turned 45 degrees)
+# a flat handle, 2.5 cm thick along the screwdriver's x (the blade's width) and 8 cm wide along its y, with an end
+# cap over its top: the LEAP hand's finger row (knuckles 4.6 cm apart) closes on one broad face and the thumb on
+# the other. An octagonal handle 3.6 cm across was narrower than the finger row: in the lift it went to the middle/
+# ring side or, on ~1 seed in 8, pinched between the index tip and the thumb only, about which it then pivoted out.
+# The flat handle went to the middle/ring side on 6/6 seeds (100 101 102 114 123 146), but without the cap it slid
+# 2.3-3.9 cm down through the fingertips in the lift and hung from its top edge 15-18 degrees tilted; the cap,
+# 8 mm past the faces, stops the slide at 0.6-1.4 cm and leaves 6-8 degrees of tilt after the alignment (one seed
+# 16; 100 101 102 105 114 123)
+HANDLE_HALF = (0.0125, 0.04)  # m: half its thickness (x) and half its width (y)
 HANDLE_LENGTH = 0.09
-HANDLE_DENSITY = 600.0  # hard plastic / wood: ~0.1 kg with the shaft
-HANDLE_FRICTION = 1.2  # a rubber grip
+CAP_OVERHANG = 0.008  # m the end cap reaches past the handle's faces
+CAP_THICKNESS = 0.008
+HANDLE_DENSITY = 600.0  # hard plastic / wood: ~0.15 kg with the cap and the shaft
+HANDLE_FRICTION = 2.0  # a rubber grip (the LEAP fingertip pads' value)
 SHAFT_RADIUS = 0.0035
 SHAFT_LENGTH = 0.06
 SHAFT_DENSITY = 7800.0
@@ -108,11 +118,15 @@ def build_screwdriver(scene, name: str):
     """The screwdriver (dynamic; frame: see the constants above)."""
     builder = scene.create_actor_builder()
     grip = physx.PhysxMaterial(HANDLE_FRICTION, HANDLE_FRICTION, 0.0)
-    handle_half = [HANDLE_HALF, HANDLE_HALF, HANDLE_LENGTH / 2]
-    for turn in (0.0, np.pi / 4):
-        pose = sapien.Pose(p=[0, 0, HANDLE_LENGTH / 2], q=[np.cos(turn / 2), 0, 0, np.sin(turn / 2)])
-        builder.add_box_collision(pose, half_size=handle_half, material=grip, density=HANDLE_DENSITY)
-        builder.add_box_visual(pose, half_size=handle_half, material=_mat((0.85, 0.2, 0.1, 1)))
+    red = _mat((0.85, 0.2, 0.1, 1))
+    handle = sapien.Pose(p=[0, 0, HANDLE_LENGTH / 2], q=[1.0, 0.0, 0.0, 0.0])
+    handle_half = [HANDLE_HALF[0], HANDLE_HALF[1], HANDLE_LENGTH / 2]
+    builder.add_box_collision(handle, half_size=handle_half, material=grip, density=HANDLE_DENSITY)
+    builder.add_box_visual(handle, half_size=handle_half, material=red)
+    cap = sapien.Pose(p=[0, 0, HANDLE_LENGTH + CAP_THICKNESS / 2])
+    cap_half = [HANDLE_HALF[0] + CAP_OVERHANG, HANDLE_HALF[1] + CAP_OVERHANG, CAP_THICKNESS / 2]
+    builder.add_box_collision(cap, half_size=cap_half, material=grip, density=HANDLE_DENSITY)
+    builder.add_box_visual(cap, half_size=cap_half, material=red)
     shaft = sapien.Pose(p=[0, 0, -SHAFT_LENGTH / 2]) * X_TO_Z
     builder.add_cylinder_collision(shaft, radius=SHAFT_RADIUS, half_length=SHAFT_LENGTH / 2, density=SHAFT_DENSITY)
     builder.add_cylinder_visual(shaft, radius=SHAFT_RADIUS, half_length=SHAFT_LENGTH / 2, material=_mat(METAL))
@@ -139,8 +153,8 @@ def build_stand(scene, name: str):
 
 @register_task("UseScrewdriverHand")
 class UseScrewdriverHandEnv(ManiLadderEnv):
-    """**Task:** a screwdriver stands upright in a stand, its shaft in the stand's hole and its handle resting
-    on top; a screw's square head (2.3 cm, a cross slot 5 mm wide and 8 mm deep) sits flush with the top of a
+    """**Task:** a screwdriver (a flat handle 8 x 2.5 x 9 cm with an end cap, a 6 cm shaft, a flat blade) stands
+    upright in a stand, its shaft in the stand's hole and its handle resting on top; a screw's square head (2.3 cm, a cross slot 5 mm wide and 8 mm deep) sits flush with the top of a
     fixed block, in a pocket too narrow for a fingertip, its turn resisted by friction. Pick the screwdriver up
     by its handle with the LEAP hand, set its flat blade into the slot and turn the screw half a turn by turning
     the wrist (either way), the hand holding the screwdriver and never touching the screw.
