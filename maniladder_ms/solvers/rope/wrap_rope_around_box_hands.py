@@ -6,14 +6,9 @@ lays it down; both hands let go. Each carry keeps the pinch `PATH_OFFSET` off th
 rectangle about it, at `CARRY_Z`) and turns the hand with the path, fingers along it: part of a turn each (one
 hand could not turn its wrist the whole way).
 
-0. The rope's U is drawn in first (`draw_in_u`): laid as it is, its tied part runs 31-42 cm out and doubles
-   back, and a carry that pulls only the free end leaves the fold ~20 cm out with the rope taut at ~0.8 turns
-   (the end then slips out of the pinch at the handover, or springs back when let go). The right hand pinches
-   the rope just before the U's middle and carries it round the right and far faces until the tied part, run
-   round the faces, is nearly used up; lays it down and rises.
-1. Both hands open the scissor fingers; the right hand pinches the rope's last capsule (where a finger lands on
-   the rope beside it, capsule `RETRY_FROM_END`).
-2. It lifts the pinch to `CARRY_Z` and glides to the path at the free end's bearing (box frame), turning its
+1. Both hands open the scissor fingers; the right hand pinches the capsule `GRASP_FROM_END` from the free end
+   (where a finger lands on the rope beside it, capsule `RETRY_FROM_END`).
+2. It lifts the pinch to `CARRY_Z` and glides to the path at bearing `RIGHT_START` (box frame), turning its
    wrist at most `YAW_STEP` a control step; the left hand goes to wait (`WAIT_OUT`, `WAIT_Z`).
 3. The right hand carries the pinch along the path to bearing `RIGHT_END`, `ARC_STEP` a control step.
 4. It lays the end down `HANDOVER_OFFSET` off the box pointing away from it, opens, rises `RETREAT_HEIGHT` and
@@ -34,6 +29,7 @@ from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver, SCISSOR_RAMP_STEPS
 from maniladder_ms.tasks.rope.wrap_rope_around_box_hands import BOX_HALF, WrapRopeAroundBoxHandsEnv
 
+GRASP_FROM_END = 0  # the hands pinch this capsule counted from the free end (0: the last)
 PATH_OFFSET = 0.05  # the carried pinch stays this far off the box's faces: the pinching fingers reach ~4 cm either side
 HANDOVER_OFFSET = 0.09  # the right hand lays the free end down this far off the box, pointing away from it, so
 # the left hand's fingers, along it, close clear of the box's faces
@@ -46,23 +42,9 @@ LEFT_END = 5 * np.pi / 4  # the left hand carries on from RIGHT_END to here: pas
 RIGHT_YAW_SHIFT = 0.0  # hand yaw minus the path's tangent yaw for each hand (either way round pinches the rope)
 LEFT_YAW_SHIFT = -np.pi
 YAW_STEP = 0.05  # rad a control step the pinching hand turns while gliding (a fast wrist turn drops the rope)
-GRASP_FROM_END = 0  # the right hand pinches this capsule counted from the free end (0: the last)
-RETRY_FROM_END = 2  # a right-hand pinch that does not hold its capsule opens and tries this one (from the free end)
 DESCENT_STEPS = 25  # at most this many control steps for a pinch's last descent (it stops ~5 mm short on the rope)
+RETRY_FROM_END = 2  # a right-hand pinch that does not hold its capsule opens and tries this one (from the free end)
 RETRY_HEIGHT = 0.04  # a pinch that missed rises this far before the next try
-U_REACH_TOL = 0.02  # stage 0 is skipped where the right hand's approach above the U stops farther than this from it:
-# the U then lies where the top-down pinch does not converge (near the right arm's base: seed 100's TCP rose to z 0.39
-# and stuck), and a missed pinch there cost the time and disturbed the rope the carry as laid needs
-# the rope's U is drawn in first: the right hand pinches the capsule `U_BACK` before the one farthest off the box
-# (the U's middle) and carries it round the box on the path; the rope up to it then lies about `HUG_OFFSET` off the
-# faces, so the carry stops where that run round the faces from the tie is `U_SLACK` shorter than the rope up to the
-# pinch. Seed 131 (picked there): U_BACK 0 left the free end beside the tied part (2-4 cm), its pinch failed;
-# U_SLACK 6 cm laid the U's slack where the handover lays the end, the left pinch failed on it; 12 cm succeeded
-U_BACK = 2
-HOME_STEPS = 40  # at most this many control steps back to the start pose after an approach that stuck
-HUG_OFFSET = 0.02
-U_SLACK = 0.12
-CONTOUR_SAMPLES = 181  # points on the run round the box's faces where the stage-0 carry's stop is looked up
 SETTLE_STEPS = 3  # control steps held after each glide of the held rope
 OPEN_STEPS = 6  # control steps to open a hand's scissor fingers
 WAIT_OUT, WAIT_Z = 0.1, 0.2  # the left hand waits this much further out than the handover point, this high
@@ -102,23 +84,6 @@ def path_pinch(task: WrapRopeAroundBoxHandsEnv, bearing: torch.Tensor, z: float,
     yaw = torch.atan2(tangent[:, 1], tangent[:, 0]) + yaw_shift
     p = path_point(task, bearing, offset)
     return torch.cat([p, torch.full_like(p[:, :1], z)], dim=1), yaw
-
-
-def bearing_of(task: WrapRopeAroundBoxHandsEnv, xy: torch.Tensor) -> torch.Tensor:
-    """The bearing [B] (box frame) of points [B, 2]."""
-    centre, yaw = task.box_frame()
-    rel = xy - centre
-    return torch.atan2(rel[:, 1], rel[:, 0]) - yaw
-
-
-def contour_bearing(task: WrapRopeAroundBoxHandsEnv, start: torch.Tensor, length: torch.Tensor) -> torch.Tensor:
-    """The bearing [B] (from `start` [B] counter-clockwise, unwrapped) where a run round the box `HUG_OFFSET` off
-    its faces, starting at bearing `start`, reaches `length` [B]."""
-    steps = torch.linspace(0, 2 * np.pi, CONTOUR_SAMPLES, device=start.device)
-    pts = torch.stack([path_point(task, start + d, HUG_OFFSET) for d in steps], dim=1)
-    run = torch.cat([torch.zeros_like(pts[:, :1, 0]), (pts[:, 1:] - pts[:, :-1]).norm(dim=-1).cumsum(1)], dim=1)
-    idx = ((run < length[:, None]).sum(1) - 1).clamp(min=0)
-    return start + steps[idx]
 
 
 def pinch_pose(centre: torch.Tensor, yaw: torch.Tensor, side: str):
@@ -210,40 +175,6 @@ def lay_down(s: DrivenSolver, task: WrapRopeAroundBoxHandsEnv, side: str, at: tu
     return pinch_pose(*low, side)
 
 
-def draw_in_u(s: DrivenSolver, task: WrapRopeAroundBoxHandsEnv) -> float:
-    """Stage 0: the right hand pinches the rope `U_BACK` capsules before its U's middle, carries it along the path
-    from `RIGHT_START` round the right and far faces to where the rope up to it, run round the faces from the tie,
-    has `U_SLACK` to spare, lays it down and rises; the free end trails behind. Returns the bearing (box frame,
-    at most `RIGHT_END`) where the free end lies now (`RIGHT_START` where the pinch missed: nothing moved)."""
-    b, device = task.num_envs, task.device
-    centre, box_yaw = task.box_frame()
-    start = path_pinch(task, torch.full((b,), RIGHT_START, device=device), CARRY_Z, RIGHT_YAW_SHIFT)
-    capsules = torch.stack([link.pose.p[:, :2] for link in task.rope.links], dim=1)
-    u = int(box_distance(capsules, centre, box_yaw).sum(0).argmax()) - U_BACK
-    tie = torch.remainder(bearing_of(task, task.rope.points()[:, 0, :2]), 2 * np.pi)  # ~pi: off the near face
-    length = torch.full((b,), (u + 0.5) * task.rope_config.segment_length - U_SLACK, device=device)
-    u_end = float((contour_bearing(task, tie, length) - 2 * np.pi).max().clamp(min=RIGHT_START))
-    centre = task.rope.links[u].pose.p.clone()
-    centre[:, 2] = task.rope_config.radius
-    p, q = pinch_pose(centre, nearest_turn(rope.segment_yaw(task.rope.links[u].pose.q), start[1], np.pi), "right")
-    home = s.tcp("right_arm")
-    home = (home.p.clone(), home.q.clone())
-    s.move({"right_arm": (s.above(p, APPROACH_HEIGHT), q)}, max_steps=60, pos_tol=0.01)  # pinch's own approach
-    if float((s.tcp("right_arm").p - s.above(p, APPROACH_HEIGHT)).norm(dim=1).max()) > U_REACH_TOL:
-        s.move({"right_arm": home}, max_steps=HOME_STEPS, pos_tol=0.01)  # the arm out of its stuck posture first
-        return RIGHT_START  # out of reach: the end is carried as laid
-    at, link = pinch(s, task, "right", [task.rope.links[u], task.rope.links[u - 1]], start[1])
-    if not bool(task.ee.holds(link, "right").all()):  # missed (pinch opened and rose): the end is carried as laid
-        return RIGHT_START
-    at = lift(s, "right", at, CARRY_Z)
-    glide_pinch(s, "right", at, start)
-    at = carry(s, task, "right", RIGHT_START, u_end, RIGHT_YAW_SHIFT)
-    p, q = lay_down(s, task, "right", at, u_end, RIGHT_YAW_SHIFT)
-    s.move({"right_arm": (s.above(p, RETRY_HEIGHT), q)}, max_steps=15, pos_tol=0.01)
-    end = bearing_of(task, task.rope.links[-1].pose.p[:, :2])
-    return float((RIGHT_END - torch.remainder(RIGHT_END - end, 2 * np.pi)).min())
-
-
 @register_solver("WrapRopeAroundBoxHands", control_modes=TCP_DELTA_MODES)
 def solve_wrap_rope_around_box_hands(env, seed: int) -> dict:
     """Right hand: pinch near the free end, carry it round the right and far faces, lay it down; left hand:
@@ -252,12 +183,11 @@ def solve_wrap_rope_around_box_hands(env, seed: int) -> dict:
     with DrivenSolver.episode(env, seed) as s:
         task: WrapRopeAroundBoxHandsEnv = env.unwrapped
         device, b = task.device, task.num_envs
-        s.set_ee("right_hand", "scissor_open", steps=0)
-        s.set_ee("left_hand", "scissor_open", steps=0)
-        end_bearing = draw_in_u(s, task)
-        start = path_pinch(task, torch.full((b,), end_bearing, device=device), CARRY_Z, RIGHT_YAW_SHIFT)
         n = task.rope_config.segments
         links = [task.rope.links[n - 1 - GRASP_FROM_END], task.rope.links[n - 1 - RETRY_FROM_END]]
+        s.set_ee("right_hand", "scissor_open", steps=0)
+        s.set_ee("left_hand", "scissor_open", steps=0)
+        start = path_pinch(task, torch.full((b,), RIGHT_START, device=device), CARRY_Z, RIGHT_YAW_SHIFT)
         at, link = pinch(s, task, "right", links, start[1])
         at = lift(s, "right", at, CARRY_Z)
         glide_pinch(s, "right", at, start)
@@ -265,7 +195,7 @@ def solve_wrap_rope_around_box_hands(env, seed: int) -> dict:
         wait = torch.cat([handover, torch.full_like(handover[:, :1], WAIT_Z)], dim=1)
         _, box_yaw = task.box_frame()
         s.arm_targets["left_arm"] = pinch_pose(wait, box_yaw + RIGHT_END, "left")  # the left hand waits beyond it
-        at = carry(s, task, "right", end_bearing, RIGHT_END, RIGHT_YAW_SHIFT)
+        at = carry(s, task, "right", RIGHT_START, RIGHT_END, RIGHT_YAW_SHIFT)
         p, q = lay_down(s, task, "right", at, RIGHT_END, RIGHT_YAW_SHIFT, HANDOVER_OFFSET, outwards=True)
         s.move({"right_arm": (s.above(p, RETREAT_HEIGHT), q)}, max_steps=20, pos_tol=0.02)
         away = s.above(p, RETREAT_HEIGHT)
