@@ -7,10 +7,8 @@ rise.
 2. The right hand comes top down over the ball and takes `PRESS_POSTURE` (index pointing down, thumb turned down
    behind it), its index tip `PRESS_START_ABOVE` over the ball's middle.
 3. The index presses down (its target `PRESS_SPEED` a step towards `PRESS_AIM_Z`) until its tip is `PRESS_TIP_Z`
-   over the table, and holds there `PRESS_HOLD_STEPS`; all along, the tip's sideways miss of the ball's middle adds
-   up (`RECENTRE_GAIN` of it a step) into the hand's target, so the tip stays over the middle.
-4. The right hand rises `RISE`; if the cup is still shallow (the clay's state), phases 2-3 again, at most
-   `MAX_PRESSES` presses in all. The left hand backs off `BACK_OFF`, then rises.
+   over the table, and holds there `PRESS_HOLD_STEPS`.
+4. The right hand rises `RISE`; the left hand backs off `BACK_OFF`, then rises.
 5. Hold still until success.
 """
 
@@ -55,23 +53,8 @@ PRESS_TIP_Z = 0.012  # m: the index tip's end over the table at the bottom of th
 PRESS_AIM_Z = -0.02
 PRESS_SPEED = 0.0015  # m a control step
 MAX_PRESS_STEPS = 80
-# the squashed ball pushes the pressing hand sideways (towards the robots, +x): without a correction the tip ended
-# 2-2.5 cm off the middle (seeds 105, 109, 110), the crater at the rim, cups 1.1-1.9 cm. Each step the tip's miss
-# (ball middle - tip, in xy) times this gain adds up into the hand's target (an integral term). Picked on seeds
-# 100, 101, 104, 105, 109, 112, 113, 118: at 0.3, 6/8; at 0.6, 7/8 (the solver without it: 3/8)
-RECENTRE_GAIN = 0.6
-# the press stops as soon as the cavity is this deep (the clay's state): pressed on, the rest of the hand (its
-# curled fingers ~4 cm over the tip) came down on the walls and the tip slid sideways: seed 108's cup was 2.46 cm
-# deep with the tip 3.2 cm over the table and 1.66 cm at the end; stopped at 2.3 cm it ended 2.97 cm deep (the walls
-# spring back up once the hand has risen)
-PRESS_STOP_DEPTH = 0.023
 PRESS_HOLD_STEPS = 10
 RISE = 0.08  # m: each hand rises this far at the end
-# the left hand still holding, the right presses again down the (squashed) clay's middle if the cup it left is
-# shallower than the rule's depth plus this margin, at most MAX_PRESSES times in all. At a 2 mm margin seeds 100 and
-# 101 (cups 2.0-2.2 cm after one press, solved) were pressed again and failed (1.96, 1.83 cm): no margin
-MAX_PRESSES = 2
-RETRY_MARGIN = 0.0  # m
 
 
 def wall_left(s: DrivenSolver, task: PinchClayCupHandsEnv, middle: torch.Tensor, outer: torch.Tensor):
@@ -101,25 +84,13 @@ def press(s: DrivenSolver, task: PinchClayCupHandsEnv, middle: torch.Tensor, top
     start[:, 2] = top + PRESS_START_ABOVE
     s.move({"right_arm": (start - tip_offset, q)}, max_steps=40, pos_tol=0.003)
     at = start.clone()
-    recentre = torch.zeros_like(at)  # the tip's summed sideways miss, added to the target
-
-    def press_step():
-        tip = leap_fingertip(task.agent, "index", prefix="right_")
-        recentre[:, :2] += RECENTRE_GAIN * (middle[:, :2] - tip[:, :2])
-        s.step({"right_arm": (at - tip_offset + recentre, q)})
-
-    done = torch.zeros(task.num_envs, dtype=torch.bool, device=task.device)
     for _ in range(MAX_PRESS_STEPS):
-        at[:, 2] = torch.where(done, at[:, 2], (at[:, 2] - PRESS_SPEED).clamp_min(PRESS_AIM_Z))
-        press_step()
-        tip_z = leap_fingertip(task.agent, "index", prefix="right_")[:, 2]
-        deep = s.info["cup_depth"] >= PRESS_STOP_DEPTH  # the clay's cavity as the task measures it (its state)
-        at[:, 2] = torch.where(deep & ~done, tip_z, at[:, 2])  # stop there: hold the tip where it is
-        done |= deep | (tip_z <= PRESS_TIP_Z)
-        if bool(done.all()):
+        at[:, 2] = (at[:, 2] - PRESS_SPEED).clamp_min(PRESS_AIM_Z)
+        s.step({"right_arm": (at - tip_offset, q)})
+        if bool((leap_fingertip(task.agent, "index", prefix="right_")[:, 2] <= PRESS_TIP_Z).all()):
             break
     for _ in range(PRESS_HOLD_STEPS):  # at the last target
-        press_step()
+        s.step({"right_arm": (at - tip_offset, q)})
     return q
 
 
@@ -134,15 +105,8 @@ def solve_pinch_clay_cup_hands(env, seed: int) -> dict:
         outer = (points[..., :2] - middle[:, None, :2]).norm(dim=-1).amax(dim=1) + task.clay_config.radius
         top = points[..., 2].amax(dim=1) + task.clay_config.radius
         left_at, left_q = wall_left(s, task, middle, outer)
-        for attempt in range(MAX_PRESSES):
-            right_q = press(s, task, middle, top)
-            s.move({"right_arm": (s.above(s.tcp("right_arm").p.clone(), RISE), right_q)}, max_steps=30, pos_tol=0.01)
-            # pressed again only where every env's cup is shallow (one env: its own; a batch is not pressed twice)
-            if not bool((s.info["cup_depth"] < task.min_depth + RETRY_MARGIN).all()):
-                break
-            points = task.clay.positions()
-            middle = points.mean(dim=1)
-            top = points[..., 2].amax(dim=1) + task.clay_config.radius
+        right_q = press(s, task, middle, top)
+        s.move({"right_arm": (s.above(s.tcp("right_arm").p.clone(), RISE), right_q)}, max_steps=30, pos_tol=0.01)
         back = left_at.clone()
         back[:, 1] += BACK_OFF
         s.move({"left_arm": (back, left_q)}, max_steps=20, pos_tol=0.01)
