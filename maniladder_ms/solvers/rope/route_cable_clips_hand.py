@@ -15,8 +15,6 @@ phases, `solvers/rope/clip_phases.py`).
 
 from __future__ import annotations
 
-from types import SimpleNamespace
-
 import torch
 
 from maniladder_ms.deformables import metrics, rope
@@ -37,11 +35,6 @@ TIP_HALF_WIDTH = 0.015  # and this far along the cable
 TIP_CLEARANCE = 0.005  # kept from a clip's outline
 TIP_SAMPLES = 7  # points sampled across the fingertips' span
 REPRESS_ROUNDS = 2  # passes over the clips pressing again those not full
-SLOT_SHIFT = 0.015  # the last clip: the pinched capsule laid this far past the slot's middle, away from the clip
-# before (the cable between the clips is `CAPSULE_STEP` capsules long for `clip_spacing`: laid at the middle, its
-# slack bulged sideways and the cable crossed the wall near the slot's entry, propping the laid capsules on the
-# walls' top; the press then pushed them off the clip sideways, seed 106); at the middle clip too, the middle clip
-# ended empty more often (2/14 against 3/14 on seeds 100-114)
 
 
 def pinch_is_clear(task, k: int) -> bool:
@@ -88,16 +81,6 @@ def first_end_direction(task) -> int:
     return 1 if bool((near0 <= near1)[0]) else -1
 
 
-def slot_target(clip, before, shift: float):
-    """Where `lay_over_clip` and `press_home` take `clip`'s slot to be: its middle moved `shift` along its axis away
-    from the clip `before` (None: the middle), with the clip's `top` and `axis`."""
-    p = clip.pose.p.clone()
-    if before is not None:
-        away = p[:, :2] - before.pose.p[:, :2]
-        p[:, :2] += shift * away / torch.linalg.norm(away, dim=1, keepdim=True)
-    return SimpleNamespace(pose=SimpleNamespace(p=p), top=clip.top, axis=clip.axis)
-
-
 def press_again(s: DrivenSolver, task):
     """Press again each clip holding fewer than `min_segments` capsules (first to last, `REPRESS_ROUNDS` passes):
     `press_home` from the TCP pose that would have let a pinched capsule go over its slot."""
@@ -121,17 +104,13 @@ def solve_route_cable_clips_hand(env, seed: int) -> dict:
         task = env.unwrapped
         direction = first_end_direction(task)
         start = FIRST_CAPSULE if direction > 0 else task.rope_config.segments - 1 - FIRST_CAPSULE
-        previous, before = None, None
+        previous = None
         for clip in task.clips:
-            last = clip is task.clips[-1]
             nominal = start if previous is None else previous + direction * CAPSULE_STEP
             k = pick_capsule(task, nominal, previous, direction)
-            slot = slot_target(clip, before, SLOT_SHIFT if last else 0.0)
-            low, q = lay_over_clip(s, task, slot, k)
-            low = low.clone()
-            low[:, :2] += clip.pose.p[:, :2] - slot.pose.p[:, :2]  # pressed over the slot's middle
+            low, q = lay_over_clip(s, task, clip, k)
             press_home(s, task, clip, low, q)
-            previous, before = k, clip
+            previous = k
         press_again(s, task)
         s.hold_until_success()
         return s.info
