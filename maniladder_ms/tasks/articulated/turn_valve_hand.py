@@ -1,4 +1,5 @@
-"""TurnValveHand (L1 rigid SX): turn a wheel valve a quarter turn the way an arrow shows, with the LEAP hand."""
+"""TurnValveHand (L1 rigid SX): turn a wheel valve by `turn_angle` (70 degrees) the way an arrow shows, with the LEAP
+hand."""
 
 from __future__ import annotations
 
@@ -19,7 +20,7 @@ from maniladder_ms.objects.controls import ValveShape, build_turn_arrow, build_w
 @register_task("TurnValveHand")
 class TurnValveHandEnv(ManiLadderEnv):
     """**Task:** turn a hand-wheel valve (17 cm wheel, 4 spokes, on a 10 cm stem; the wheel turns about
-    the vertical) by a quarter turn in the direction a curved yellow arrow on the table shows.
+    the vertical) by `turn_angle` (70 degrees) in the direction a curved yellow arrow on the table shows.
 
     **Randomisation:** the valve's centre uniform in x in `valve_x_range`, y in `valve_y_range`; its yaw (where
     the spokes point) uniform in `valve_yaw_range`; the direction clockwise (seen from above) with probability

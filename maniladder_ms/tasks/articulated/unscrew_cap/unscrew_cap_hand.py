@@ -26,8 +26,8 @@ class UnscrewCapHandEnv(UnscrewCapTask):
     (`ee.holds`: a finger pressing against the thumb or palm); a cap pushed round by a touching finger
     does not count. The thread resists with `thread_torque` of dry friction.
 
-    **Level 2:** (against Level 1's TurnValveHand: one finger pushes a wheel a quarter turn, 90 degrees,
-    touching is enough, one motion, 300-step horizon) the cap needs a full turn, 360 degrees, held in a
+    **Level 2:** (against Level 1's TurnValveHand: one finger pushes a wheel 70 degrees,
+    touching is enough, one motion, 150-step horizon) the cap needs a full turn, 360 degrees, held in a
     grasp all along; the cap takes only ~0.8 of the wrist's turn (the fingers slip on it) and the wrist
     turns at most ~0.04 rad a control step, within Panda joint 7's 332-degree range, so it takes two
     strokes with a regrasp between them: 6 stages (wind the wrist up and reach the cap, grip, twist, let
