@@ -237,9 +237,9 @@ class EpisodeRunner:
         base = env.unwrapped
         if video_root is None:
             return self._run(env, spec, episode, seed, env_kwargs)
-        from .videos import EpisodeVideo, video_name
+        from .videos import VIDEO_DIR, EpisodeVideo, video_name
 
-        env.video = EpisodeVideo(Path(video_root) / "videos" / spec.id, spec.horizon, base.control_freq)
+        env.video = EpisodeVideo(Path(video_root) / VIDEO_DIR / spec.id, spec.horizon, base.control_freq)
         try:
             rec = self._run(env, spec, episode, seed, env_kwargs)
             rec["video"] = video_name(spec.id, episode, rec["seed"], rec["success"])
