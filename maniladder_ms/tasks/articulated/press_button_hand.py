@@ -1,7 +1,8 @@
-"""PressButtonHand (L1 rigid SX): press a large push button down with the LEAP hand's index finger."""
+"""PressButtonHand (L1 rigid SX): press a push button down with the LEAP hand's index finger."""
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any
 
 import torch
@@ -18,8 +19,8 @@ from maniladder_ms.objects.controls import ButtonShape, build_push_button, butto
 
 @register_task("PressButtonHand")
 class PressButtonHandEnv(ManiLadderEnv):
-    """**Task:** press a large push button (5 cm cap on a 9 cm housing, 1.2 cm travel, spring-returned)
-    all the way down with the LEAP hand's index finger.
+    """**Task:** press a push button (a round cap of radius `cap_radius` on a 9 cm housing, 1.2 cm travel,
+    spring-returned) all the way down with the LEAP hand's index finger.
 
     **Randomisation:** the button's centre uniform in x in `button_x_range`, y in `button_y_range`; its
     housing's yaw uniform in `button_yaw_range` (the square housing looks the same every quarter turn).
@@ -31,8 +32,7 @@ class PressButtonHandEnv(ManiLadderEnv):
 
     SUPPORTED_ROBOTS = ["ml_panda_leap"]
     max_dense_reward = 4
-    PARAMS = ("press_fraction", "button_x_range", "button_y_range", "button_yaw_range")
-    button_shape = ButtonShape()
+    PARAMS = ("press_fraction", "cap_radius", "button_x_range", "button_y_range", "button_yaw_range")
     TASK_REGION = (-0.27, 0.02, -0.22, 0.22)  # holds the button centres plus the housing's half diagonal, with room
     # the index finger's links: the catalog asks for the press to be made with the index finger (not the
     # palm, another finger or the arm); the vocabulary's `ee.touches` has no per-finger form yet
@@ -40,6 +40,7 @@ class PressButtonHandEnv(ManiLadderEnv):
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
+        self.button_shape = replace(ButtonShape(), cap_radius=self.cap_radius)
         self.button = build_push_button(self.scene, "button", self.button_shape, housing_color=(0.3, 0.3, 0.32, 1),
                                         cap_color=(0.85, 0.1, 0.1, 1))
         self.cap = self.button.links_map["button_cap"]
