@@ -4,9 +4,10 @@
 
 Runs the protocol's evaluation (`maniladder_ms.evaluation.runner.evaluate`: the same episodes and seeds as a
 development run with `--seed`) and logs after every control step: the task object's position (`--object`, an env
-attribute; default `item`, else `cube`), every TCP's position, whether each end effector holds and touches the object
-(`ee.holds`, `ee.touches`), the robot's joint positions, and the scalar entries of the step's info (the rule's flags
-and measures). Writes OUT/trace.jsonl (one row a step) beside the evaluation's own OUT/episodes.jsonl.
+attribute, default `item`, else `cube`; an articulation's root link), every TCP's position, whether each end
+effector holds and touches the object (`ee.holds`, `ee.touches`), the robot's joint positions, and the scalar
+entries of the step's info (the rule's flags and measures). Writes OUT/trace.jsonl (one row a step) beside the
+evaluation's own OUT/episodes.jsonl.
 The checkpoint is a calibration work folder's `<task>/<hash>/seed_<k>/checkpoint_<steps>.pt`; trace it on the task
 version it was trained on (its `task_hash`), or the episodes are not the ones the result counted.
 """
@@ -51,6 +52,8 @@ def main(argv=None) -> int:
         obj = next((getattr(base, n) for n in names if hasattr(base, n)), None)
         if obj is None:
             raise SystemExit(f"{args.task} has no attribute {' or '.join(names)}: pass --object")
+        if hasattr(obj, "root"):  # an articulation: its root link is what a hand holds and touches
+            obj = obj.root
         ee = base.ee
         row = dict(seed=monitor.seed, t=monitor.steps, obj=obj.pose.p[0].tolist(),
                    qpos=base.agent.robot.get_qpos()[0].tolist(),
