@@ -23,8 +23,8 @@ class HandoverCubeEnv(HandoverTask):
     in mid-air; the right arm puts it down in a square target zone on the right.
 
     **Randomisation:**
-    - the cube (side 2 x `cube_half`) lies with its yaw uniform in `cube_yaw_range` (a cube: every yaw), its
-      centre uniform in x in `cube_x_range`, y in `cube_y_range` (in front of the left arm);
+    - the cube (side 2 x `cube_half`) lies with its yaw uniform in `cube_yaw_range` (a cube's distinct yaws span 90
+      degrees), its centre uniform in x in `cube_x_range`, y in `cube_y_range` (in front of the left arm);
     - the target zone (visual-only square tile, side 2 x `zone_half`, axis-aligned) has its centre uniform in
       x in `zone_x_range`, y in `zone_y_range` (in front of the right arm).
 
