@@ -5,10 +5,12 @@ rise.
 1. The left hand opens, palm facing -y and fingers pointing down, and comes down beside the ball's +y side, its
    finger pads pressed `WALL_GAP` into the ball, its fingertips `FINGER_ABOVE_TABLE` over the table.
 2. The right hand comes top down over the ball and takes `PRESS_POSTURE` (index pointing down, thumb turned down
-   behind it), its index tip `PRESS_START_ABOVE` over the ball's middle.
-3. The index presses down (its target `PRESS_SPEED` a step towards `PRESS_AIM_Z`) until its tip is `PRESS_TIP_Z`
-   over the table, and holds there `PRESS_HOLD_STEPS`.
-4. The right hand rises `RISE`; the left hand backs off `BACK_OFF`, then rises.
+   behind it), its index tip `PRESS_START_ABOVE` over the ball's top.
+3. The index, over a point `PRESS_OFFSET_X` off the middle (against the way the clay pushes the hand), presses down
+   (its target `PRESS_SPEED` a step towards `PRESS_AIM_Z`) until its tip is `PRESS_TIP_Z` over the table, and holds
+   there `PRESS_HOLD_STEPS`.
+4. The right hand rises `RISE`; where the cup is still shallower than `min_depth` it presses again down the clay's
+   (new) middle, at most `MAX_PRESSES` presses. The left hand backs off `BACK_OFF`, then rises.
 5. Hold still until success.
 """
 
@@ -45,6 +47,11 @@ FINGER_ABOVE_TABLE = 0.008  # m: the fingertips' ends over the table
 WALL_GAP = -0.004  # m between the finger pads and the ball's side (pressing in a little: touching)
 BACK_OFF = 0.04  # m: the left hand backs off this far from the clay (+y) before it rises
 PRESS_START_ABOVE = 0.02  # m: the index tip over the ball's top before the press
+# the press starts this far along x from the clay's middle: once the squashed top gives way the clay pushes the hand
+# 2-2.8 cm towards +x (the robots) and the tip slides with it; started 1 cm towards -x it ends nearer the middle and
+# the walls round it stand. Picked on seeds 100-149 (one press): 1 cm 44/50, at the middle 34/50; on 100-124 0.5, 1,
+# 1.5 cm 21, 22, 21/25 (the middle 17/25), 2 cm 4/17 on 100-116
+PRESS_OFFSET_X = -0.01  # m
 PRESS_TIP_Z = 0.012  # m: the index tip's end over the table at the bottom of the press (one particle layer of floor)
 # the clay holds the finger back: its target goes down PRESS_SPEED a step towards PRESS_AIM_Z (below the table) until
 # the tip itself is at PRESS_TIP_Z (or MAX_PRESS_STEPS). Slowly: at 3 mm a step (target to 5 cm under the table) the
@@ -55,6 +62,10 @@ PRESS_SPEED = 0.0015  # m a control step
 MAX_PRESS_STEPS = 80
 PRESS_HOLD_STEPS = 10
 RISE = 0.08  # m: each hand rises this far at the end
+# the left hand still holding, the right presses again (down the squashed clay's middle, PRESS_OFFSET_X off it) where
+# the risen hand left a cup shallower than the rule's depth, at most MAX_PRESSES presses in all: on seeds 100-149 it
+# solved 2 (124, 139) of the 6 the first press left shallow and left the other 44 episodes unchanged (46/50)
+MAX_PRESSES = 2
 
 
 def wall_left(s: DrivenSolver, task: PinchClayCupHandsEnv, middle: torch.Tensor, outer: torch.Tensor):
@@ -72,7 +83,9 @@ def wall_left(s: DrivenSolver, task: PinchClayCupHandsEnv, middle: torch.Tensor,
 
 
 def press(s: DrivenSolver, task: PinchClayCupHandsEnv, middle: torch.Tensor, top: torch.Tensor):
-    """Phases 2-3: the right index tip down into the ball's middle."""
+    """Phases 2-3: the right index tip down into the ball's middle (`PRESS_OFFSET_X` off it)."""
+    middle = middle.clone()
+    middle[:, 0] += PRESS_OFFSET_X
     q = top_down_quat(RIGHT_YAW, task.num_envs, device=task.device)
     s.set_ee("right_hand", PRESS_POSTURE, steps=0)
     above = middle.clone()
@@ -105,8 +118,14 @@ def solve_pinch_clay_cup_hands(env, seed: int) -> dict:
         outer = (points[..., :2] - middle[:, None, :2]).norm(dim=-1).amax(dim=1) + task.clay_config.radius
         top = points[..., 2].amax(dim=1) + task.clay_config.radius
         left_at, left_q = wall_left(s, task, middle, outer)
-        right_q = press(s, task, middle, top)
-        s.move({"right_arm": (s.above(s.tcp("right_arm").p.clone(), RISE), right_q)}, max_steps=30, pos_tol=0.01)
+        for _ in range(MAX_PRESSES):
+            right_q = press(s, task, middle, top)
+            s.move({"right_arm": (s.above(s.tcp("right_arm").p.clone(), RISE), right_q)}, max_steps=30, pos_tol=0.01)
+            if bool((task.depth() >= task.min_depth).all()):
+                break
+            points = task.clay.positions()
+            middle = points.mean(dim=1)
+            top = points[..., 2].amax(dim=1) + task.clay_config.radius
         back = left_at.clone()
         back[:, 1] += BACK_OFF
         s.move({"left_arm": (back, left_q)}, max_steps=20, pos_tol=0.01)
