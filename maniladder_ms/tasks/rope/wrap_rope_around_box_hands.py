@@ -37,7 +37,8 @@ class WrapRopeAroundBoxHandsEnv(RopeTask, ManiLadderEnv):
     - the rope (70 cm, 28 capsules of 1.6 cm diameter) is anchored at its first tip, which lies a gap uniform
       in `tip_gap_range` off the middle of the box's near (robot-side) face, shifted along that face by up
       to +-`tip_max_shift` (uniform); from there it lies flat towards the right (-y), its first capsule
-      heading turned from the box's -y direction towards the robot by an angle uniform in `rope_yaw_range`,
+      heading turned from the box's -y direction towards the robot by an angle uniform in `rope_yaw_range`
+      (negative: away from it),
       in a gentle S (the in-plane turn between capsules k and k + 1 is amp * sin(2 pi (k + 1) / 28 + phase),
       amp uniform in [0, `rope_max_amp`], phase uniform), and from a fraction uniform in `u_at_range` of its
       joints on it turns back towards the box in a U (a half turn spread over `U_JOINTS` joints, ~10 cm
@@ -64,7 +65,8 @@ class WrapRopeAroundBoxHandsEnv(RopeTask, ManiLadderEnv):
 
     SUPPORTED_ROBOTS = ["ml_dual_panda_leap"]
     max_dense_reward = 7
-    TASK_REGION = (-0.45, 0.0, -0.6, 0.1)  # the rope: up to ~45 cm right of the box, ~35 cm nearer the robot
+    # the rope at reset (seeds 0-199): x -0.30 to 0.09, y -0.49 to 0.04 (up to ~45 cm right of the box)
+    TASK_REGION = (-0.32, 0.1, -0.6, 0.1)
     PARAMS = ("min_turns", "end_capsules", "lift_height", "box_x_range", "box_y_range", "box_max_yaw",
               "tip_gap_range", "tip_max_shift", "rope_yaw_range", "u_at_range", "rope_max_amp")
     rope_anchored = True
