@@ -6,9 +6,10 @@ lays it down; both hands let go. Each carry keeps the pinch `PATH_OFFSET` off th
 rectangle about it, at `CARRY_Z`) and turns the hand with the path, fingers along it: part of a turn each (one
 hand could not turn its wrist the whole way).
 
-1. Both hands open the scissor fingers; the right hand pinches one of the free end's last `END_CHOICE` capsules,
-   the one farthest from the rest of the rope, from the side with room for its index finger (where a finger lands
-   on the rope beside it, it tries the last capsule, or capsule `RETRY_FROM_END`).
+1. Both hands open the scissor fingers; the right hand pinches the rope's last capsule from the side with room
+   for its index finger (where that capsule lies within `END_ROOM` of the rest of the rope, the roomiest of the
+   last `END_CHOICE` first; where a finger lands on the rope beside it, it tries the last capsule, or capsule
+   `RETRY_FROM_END`).
 2. It lifts the pinch to `CARRY_Z` and glides to the path at bearing `RIGHT_START` (box frame), turning its
    wrist at most `YAW_STEP` a control step; the left hand goes to wait (`WAIT_OUT`, `WAIT_Z`).
 3. The right hand carries the pinch along the path to bearing `RIGHT_END`, `ARC_STEP` a control step.
@@ -46,11 +47,14 @@ DESCENT_STEPS = 25  # at most this many control steps for a pinch's last descent
 RETRY_FROM_END = 2  # a right-hand pinch that does not hold its capsule opens and tries this one (from the free end)
 RETRY_HEIGHT = 0.04  # a pinch that missed rises this far before the next try
 # where the free end lies 3-6 cm from the rope's tied leg a spread fingertip comes down on that leg (seeds 103, 109,
-# 121: index or middle tip on capsules 5-11, nothing held, on both tries). The right hand's end pinch first tries the
-# capsule of the last `END_CHOICE` with the most room (its distance to the nearest capsule more than `NEAR_LINKS`
-# along the rope from it), fingers along it on the side whose index finger has the most room (the same distance
-# from a point `INDEX_REACH` off it on that side); chosen on seeds 103, 109, 112, 121, 134, 137 (4 of 6 then held)
+# 121: index or middle tip on capsules 5-11, nothing held, on both tries). The right hand's end pinch comes down on
+# the side whose index finger has the most room (the distance from a point `INDEX_REACH` off the capsule on that
+# side to the nearest capsule more than `NEAR_LINKS` along the rope from it: seed 103 then held the last capsule);
+# where the last capsule itself lies within `END_ROOM` of that rope, it first tries the one of the last
+# `END_CHOICE` with the most room (seed 137 then held; always the roomiest, seeds 102, 103 and 106 then failed at
+# the handover: the end trails the pinch)
 END_CHOICE = 3
+END_ROOM = 0.05
 INDEX_REACH = 0.04
 NEAR_LINKS = 5
 SETTLE_STEPS = 3  # control steps held after each glide of the held rope
@@ -143,11 +147,14 @@ def room(task: WrapRopeAroundBoxHandsEnv, link, xy: torch.Tensor) -> torch.Tenso
 
 
 def end_pinch_links(task: WrapRopeAroundBoxHandsEnv) -> list:
-    """The capsules the right hand's end pinch tries: of the last `END_CHOICE`, the one with the most room (one
-    env: the solver drives num_envs 1), then the last one or, where that was first, `RETRY_FROM_END`."""
+    """The capsules the right hand's end pinch tries: the last one, then `RETRY_FROM_END`; where the last lies within
+    `END_ROOM` of the rest of the rope, first the one of the last `END_CHOICE` with the most room (one env: the
+    solver drives num_envs 1), then the last one."""
     n = task.rope_config.segments
     ends = [task.rope.links[n - 1 - k] for k in range(END_CHOICE)]
-    first = max(ends, key=lambda link: float(room(task, link, link.pose.p[:, :2]).min()))
+    first = ends[0]
+    if float(room(task, first, first.pose.p[:, :2]).min()) < END_ROOM:
+        first = max(ends, key=lambda link: float(room(task, link, link.pose.p[:, :2]).min()))
     return [first, task.rope.links[n - 1 - RETRY_FROM_END] if first is ends[0] else ends[0]]
 
 
