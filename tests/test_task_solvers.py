@@ -26,7 +26,8 @@ def failed_seeds(rows):
 
 # built tasks whose solver is still below the 90 % bar (issues 39 / 40 track them; `expected_to_fail`)
 BELOW_BAR_SWEEP = {
-    "WrapRopeAroundBoxHands": "solver below the bar: 19/50 over seeds 100-149 "
+    "WrapRopeAroundBoxHands": "solver below the bar: 43/50 over seeds 100-149, the right hand's end "
+                              "pinch misses where the free end lies within ~6 cm of the tied leg "
                               "(docs/tasks/WrapRopeAroundBoxHands.md)",
     "PinchClayCupHands": "solver below the bar: 34/50 over seeds 100-149, the index finger leaves cups "
                          "0.95-2.0 cm deep on the failures (docs/tasks/PinchClayCupHands.md)",

@@ -42,7 +42,7 @@ class WrapRopeAroundBoxHandsEnv(RopeTask, ManiLadderEnv):
       in a gentle S (the in-plane turn between capsules k and k + 1 is amp * sin(2 pi (k + 1) / 28 + phase),
       amp uniform in [0, `rope_max_amp`], phase uniform), and from a fraction uniform in `u_at_range` of its
       joints on it turns back towards the box in a U (a half turn spread over `U_JOINTS` joints, ~10 cm
-      across), so its free end lies 10-25 cm right of the box.
+      across), so its free end lies ~2-25 cm right of the box.
 
     **Success:** the rope is wrapped around the box: its polyline (tied tip, capsule centres, free tip) winds at
     least `min_turns` times about the vertical axis through the box's centre (either sense,
@@ -60,7 +60,7 @@ class WrapRopeAroundBoxHandsEnv(RopeTask, ManiLadderEnv):
     pass, more than Panda joint 7's 332-degree range, so the pass is hand over hand: 8 stages over both arms
     (the right hand pinches the rope's end between two fingers, carries it round the right and far faces and
     lays it down pointing away from the box; the left hand pinches it there, carries it on round the near
-    face, over the tied-down part, lays it down; both let go and rise), ~450-520 control steps against ~170.
+    face, over the tied-down part, lays it down; both let go and rise), ~400-500 control steps against ~170.
     """
 
     SUPPORTED_ROBOTS = ["ml_dual_panda_leap"]
