@@ -6,8 +6,10 @@ lays it down; both hands let go. Each carry keeps the pinch `PATH_OFFSET` off th
 rectangle about it, at `CARRY_Z`) and turns the hand with the path, fingers along it: part of a turn each (one
 hand could not turn its wrist the whole way).
 
-1. Both hands open the scissor fingers; the right hand pinches the capsule `GRASP_FROM_END` from the free end
-   (where a finger lands on the rope beside it, capsule `RETRY_FROM_END`).
+1. Both hands open the scissor fingers; the right hand pinches the rope's last capsule from the side with room
+   for its index finger (where that capsule lies within `END_ROOM` of the rest of the rope, the roomiest of the
+   last `END_CHOICE` first; where a finger lands on the rope beside it, it tries the last capsule, or capsule
+   `RETRY_FROM_END`).
 2. It lifts the pinch to `CARRY_Z` and glides to the path at bearing `RIGHT_START` (box frame), turning its
    wrist at most `YAW_STEP` a control step; the left hand goes to wait (`WAIT_OUT`, `WAIT_Z`).
 3. The right hand carries the pinch along the path to bearing `RIGHT_END`, `ARC_STEP` a control step.
@@ -29,7 +31,6 @@ from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver, SCISSOR_RAMP_STEPS
 from maniladder_ms.tasks.rope.wrap_rope_around_box_hands import BOX_HALF, WrapRopeAroundBoxHandsEnv
 
-GRASP_FROM_END = 0  # the hands pinch this capsule counted from the free end (0: the last)
 PATH_OFFSET = 0.05  # the carried pinch stays this far off the box's faces: the pinching fingers reach ~4 cm either side
 HANDOVER_OFFSET = 0.09  # the right hand lays the free end down this far off the box, pointing away from it, so
 # the left hand's fingers, along it, close clear of the box's faces
@@ -45,6 +46,17 @@ YAW_STEP = 0.05  # rad a control step the pinching hand turns while gliding (a f
 DESCENT_STEPS = 25  # at most this many control steps for a pinch's last descent (it stops ~5 mm short on the rope)
 RETRY_FROM_END = 2  # a right-hand pinch that does not hold its capsule opens and tries this one (from the free end)
 RETRY_HEIGHT = 0.04  # a pinch that missed rises this far before the next try
+# where the free end lies 3-6 cm from the rope's tied leg a spread fingertip comes down on that leg (seeds 103, 109,
+# 121: index or middle tip on capsules 5-11, nothing held, on both tries). The right hand's end pinch comes down on
+# the side whose index finger has the most room (the distance from a point `INDEX_REACH` off the capsule on that
+# side to the nearest capsule more than `NEAR_LINKS` along the rope from it: seed 103 then held the last capsule);
+# where the last capsule itself lies within `END_ROOM` of that rope, it first tries the one of the last
+# `END_CHOICE` with the most room (seed 137 then held; always the roomiest, seeds 102, 103 and 106 then failed at
+# the handover: the end trails the pinch)
+END_CHOICE = 3
+END_ROOM = 0.05
+INDEX_REACH = 0.04
+NEAR_LINKS = 5
 SETTLE_STEPS = 3  # control steps held after each glide of the held rope
 OPEN_STEPS = 6  # control steps to open a hand's scissor fingers
 WAIT_OUT, WAIT_Z = 0.1, 0.2  # the left hand waits this much further out than the handover point, this high
@@ -123,16 +135,55 @@ def carry(s: DrivenSolver, task: WrapRopeAroundBoxHandsEnv, side: str, start: fl
     return at
 
 
-def pinch(s: DrivenSolver, task: WrapRopeAroundBoxHandsEnv, side: str, links: list, yaw_near: torch.Tensor):
+def far_rope(task: WrapRopeAroundBoxHandsEnv, link) -> torch.Tensor:
+    """Top-down centres [B, N, 2] of the capsules more than `NEAR_LINKS` along the rope from capsule `link`."""
+    k = task.rope.links.index(link)
+    return torch.stack([l.pose.p[:, :2] for i, l in enumerate(task.rope.links) if abs(i - k) > NEAR_LINKS], dim=1)
+
+
+def room(task: WrapRopeAroundBoxHandsEnv, link, xy: torch.Tensor) -> torch.Tensor:
+    """Distance [B] from points `xy` [B, 2] to the nearest capsule more than `NEAR_LINKS` along from `link`."""
+    return (far_rope(task, link) - xy[:, None]).norm(dim=-1).amin(dim=1)
+
+
+def end_pinch_links(task: WrapRopeAroundBoxHandsEnv) -> list:
+    """The capsules the right hand's end pinch tries: the last one, then `RETRY_FROM_END`; where the last lies within
+    `END_ROOM` of the rest of the rope, first the one of the last `END_CHOICE` with the most room (one env: the
+    solver drives num_envs 1), then the last one."""
+    n = task.rope_config.segments
+    ends = [task.rope.links[n - 1 - k] for k in range(END_CHOICE)]
+    first = ends[0]
+    if float(room(task, first, first.pose.p[:, :2]).min()) < END_ROOM:
+        first = max(ends, key=lambda link: float(room(task, link, link.pose.p[:, :2]).min()))
+    return [first, task.rope.links[n - 1 - RETRY_FROM_END] if first is ends[0] else ends[0]]
+
+
+def roomy_yaw(task: WrapRopeAroundBoxHandsEnv, side: str, link, centre: torch.Tensor, yaw: torch.Tensor):
+    """Of `yaw` and `yaw` + pi (a scissor pinch of capsule `link` at `centre`), the one whose index finger's side
+    has the most room off the rest of the rope (`INDEX_REACH`, `NEAR_LINKS`)."""
+    rooms = []
+    for y in (yaw, yaw + np.pi):
+        tcp, _ = pinch_pose(centre, y, side)
+        along = torch.stack([torch.cos(y), torch.sin(y)], dim=1)
+        off = tcp[:, :2] - centre[:, :2]
+        across = torch.nn.functional.normalize(off - (off * along).sum(1, keepdim=True) * along, dim=1)
+        rooms.append(room(task, link, centre[:, :2] + INDEX_REACH * across))
+    return torch.where(rooms[1] > rooms[0], yaw + np.pi, yaw)
+
+
+def pinch(s: DrivenSolver, task: WrapRopeAroundBoxHandsEnv, side: str, links: list, yaw_near: torch.Tensor,
+          roomy: bool = False):
     """Come down over the first of capsules `links` where it lies and close the scissor pinch on it, fingers along
-    it (of the two yaws, the one nearest `yaw_near`); where that does not hold it (a finger landed on the rope
-    beside it), open, rise `RETRY_HEIGHT` and try the next. Returns the pinch (centre, yaw) and the capsule."""
+    it (of the two yaws, the one nearest `yaw_near`; `roomy`: the one with room for the index finger,
+    `roomy_yaw`); where that does not hold it (a finger landed on the rope beside it), open, rise `RETRY_HEIGHT`
+    and try the next. Returns the pinch (centre, yaw) and the capsule."""
     arm, hand = f"{side}_arm", f"{side}_hand"
 
     def target(link):
         centre = link.pose.p.clone()
         centre[:, 2] = task.rope_config.radius
-        return centre, nearest_turn(rope.segment_yaw(link.pose.q), yaw_near, np.pi)
+        yaw = nearest_turn(rope.segment_yaw(link.pose.q), yaw_near, np.pi)
+        return centre, roomy_yaw(task, side, link, centre, yaw) if roomy else yaw
 
     p, q = pinch_pose(*target(links[0]), side)
     s.move({arm: (s.above(p, APPROACH_HEIGHT), q)}, max_steps=60, pos_tol=0.01)
@@ -183,12 +234,11 @@ def solve_wrap_rope_around_box_hands(env, seed: int) -> dict:
     with DrivenSolver.episode(env, seed) as s:
         task: WrapRopeAroundBoxHandsEnv = env.unwrapped
         device, b = task.device, task.num_envs
-        n = task.rope_config.segments
-        links = [task.rope.links[n - 1 - GRASP_FROM_END], task.rope.links[n - 1 - RETRY_FROM_END]]
+        links = end_pinch_links(task)
         s.set_ee("right_hand", "scissor_open", steps=0)
         s.set_ee("left_hand", "scissor_open", steps=0)
         start = path_pinch(task, torch.full((b,), RIGHT_START, device=device), CARRY_Z, RIGHT_YAW_SHIFT)
-        at, link = pinch(s, task, "right", links, start[1])
+        at, link = pinch(s, task, "right", links, start[1], roomy=True)
         at = lift(s, "right", at, CARRY_Z)
         glide_pinch(s, "right", at, start)
         handover = path_point(task, torch.full((b,), RIGHT_END, device=device), HANDOVER_OFFSET + WAIT_OUT)
