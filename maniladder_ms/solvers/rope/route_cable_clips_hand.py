@@ -6,8 +6,12 @@ phases, `solvers/rope/clip_phases.py`).
 1. `pick_capsule`: the capsule to pinch for the next clip: counted from the cable's end beside the first clip,
    `FIRST_CAPSULE` for the first clip and `CAPSULE_STEP` more for each next one; of it and its neighbours
    (`PICK_SHIFTS`) the first whose spread fingertips land clear of every clip (`pinch_is_clear`).
-2. For each clip in order: `lay_over_clip` (pinch, lift over the walls, carry onto the slot, servo, lower, let go),
-   then `press_home` (close the fingers, press the cable home, tap its neighbours, withdraw).
+2. The first clip: `lay_over_clip` (pinch, lift 3 cm over the walls, carry onto the slot, servo, lower, let go).
+   Each next clip: `lay_low_over_clip` (pinch, carry the capsule low over the table to beside the slot, rise just
+   over the walls onto the slot, servo, lower; `pull_slack` along the slot away from the clip before; let go): the
+   cable leaves the clip before level instead of rising from its slot to the carried capsule.
+   Then `press_home` (close the fingers, press the cable home, tap its neighbours, withdraw) and `seat`: the clip
+   pressed again while it holds fewer than the rule's capsules.
 3. `press_again`: each clip left holding fewer than the rule's capsules (the cable carried to the next clip pulls
    some of the last one's up onto its walls) is pressed again, up to `REPRESS_ROUNDS` times.
 4. Hold still until success.
@@ -15,18 +19,22 @@ phases, `solvers/rope/clip_phases.py`).
 
 from __future__ import annotations
 
+import numpy as np
 import torch
 
 from maniladder_ms.deformables import metrics, rope
 from maniladder_ms.objects.clip import CLIP_WALL
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
-from maniladder_ms.solvers.driven import DrivenSolver
-from maniladder_ms.solvers.rope.clip_phases import RELEASE_ABOVE_TOP, lay_over_clip, press_home
+from maniladder_ms.solvers.driven import APPROACH_HEIGHT, SCISSOR_RAMP_STEPS, DrivenSolver
+from maniladder_ms.solvers.rope.clip_phases import (CARRY_SERVO_STEPS, LOWER_SERVO_STEPS, RELEASE_ABOVE_TOP,
+                                                    RELEASE_HOLD_STEPS, RELEASE_STEPS, lay_over_clip, press_home,
+                                                    servo_capsule)
 
 FIRST_CAPSULE = 2  # the capsule pressed into the first clip, counted from the cable's end beside that clip
-CAPSULE_STEP = 7  # capsules between those pressed into consecutive clips: 14 cm of cable for the clips' 10 cm
-# spacing (with 12 cm, seeds 100-102, the cable dragged along by one clip's carry ended within 5 cm of the next
-# clip's axis, where the spread fingertips landed on that clip's wall)
+CAPSULE_STEP = 6  # capsules between those pressed into consecutive clips: 12 cm of cable for the clips' 10 cm
+# spacing (with the low carry and `pull_slack`, seeds 100-107: 5/8 against 4/8 at 7, whose 4 cm of slack crossed the
+# near wall at the slot's entry; `pick_capsule` still shifts the pinch onwards where the fingertips would land on a
+# clip)
 MIN_STEP = 6  # never fewer capsules between consecutive clips' capsules: 12 cm of cable for 10 cm
 PICK_SHIFTS = (0, 1, -1, 2)  # capsules tried after the nominal one, in this order
 TIP_REACH = 0.06  # the spread fingertips reach this far sideways of the pinched capsule's centre (seeds 100-103: the
@@ -35,6 +43,16 @@ TIP_HALF_WIDTH = 0.015  # and this far along the cable
 TIP_CLEARANCE = 0.005  # kept from a clip's outline
 TIP_SAMPLES = 7  # points sampled across the fingertips' span
 REPRESS_ROUNDS = 2  # passes over the clips pressing again those not full
+SEAT_ROUNDS = 2  # presses again of a clip left short by its own press, before the next clip
+LOW_LIFT = 0.005  # the pinched capsule's bottom this far above the table while it is carried beside the clip
+STAGE_OFFSET = 0.07  # where the low carry ends: this far beside the slot's axis, on the capsule's side (the pinch's
+# fingertips reach `TIP_REACH` across the slot: they stay clear of the near wall)
+OVER_WALL = 0.008  # then the capsule's bottom rises this far above the walls' top and moves over the slot
+LOW_STEPS = 10  # control steps of each rise
+PULL_STEP = 0.002  # before letting go, the pinched capsule is pulled along the slot away from the clip before by
+# this much a control step
+PULL_MAX = 0.024  # and at most this far (the slot's half length is 3 cm: the pinched capsule stays inside)
+PULL_NEIGHBOURS = 2  # until this many of its neighbours towards the clip before lie between the walls
 
 
 def pinch_is_clear(task, k: int) -> bool:
@@ -81,20 +99,95 @@ def first_end_direction(task) -> int:
     return 1 if bool((near0 <= near1)[0]) else -1
 
 
+def lay_low_over_clip(s: DrivenSolver, task, clip, segment: int, previous_clip, direction: int):
+    """Scissor-pinch capsule `segment`, carry it `LOW_LIFT` over the table to `STAGE_OFFSET` beside the clip's
+    slot, turned onto the slot's axis, rise until its bottom is `OVER_WALL` above the walls, move over the slot's
+    centre, servo, lower it until its bottom is `RELEASE_ABOVE_TOP` above the walls, `pull_slack` and open the
+    fingers: the cable behind it leaves `previous_clip`'s slot level (carried 3 cm over the walls, as
+    `lay_over_clip` does, it rose 4 cm from that slot's exit to the carried capsule and pulled that clip's capsules
+    up out of it). The pinch is `lay_over_clip`'s. Returns the TCP target (p, q) where it let go, for the press."""
+    radius = task.rope_config.radius
+    link = task.rope.links[segment]
+    centre = link.pose.p.clone()
+    centre[:, 2] = radius
+    yaw = rope.segment_yaw(link.pose.q)
+    tcp, q = DrivenSolver.scissor_pose(centre, yaw)
+    s.set_ee("hand", "scissor_open", steps=1)
+    s.move({"arm": (s.above(tcp, APPROACH_HEIGHT), q)}, max_steps=60)
+    s.move({"arm": (tcp, q)}, max_steps=40, pos_tol=0.003)
+    s.close_hand("hand", "scissor", ramp_steps=SCISSOR_RAMP_STEPS)
+    for k in range(1, LOW_STEPS + 1):
+        s.step({"arm": (s.above(tcp, LOW_LIFT * k / LOW_STEPS), q)})
+    axis = clip.axis()
+    hand_yaw = DrivenSolver.neutral_yaw(yaw, np.pi)  # scissor_pose's (around 0)
+    along = hand_yaw + DrivenSolver.neutral_yaw(axis - hand_yaw, np.pi)
+    across = torch.stack([-torch.sin(axis), torch.cos(axis), torch.zeros_like(axis)], dim=1)
+    side = torch.sign(((centre - clip.pose.p) * across).sum(dim=1, keepdim=True))
+    stage = clip.pose.p + side * STAGE_OFFSET * across
+    stage[:, 2] = radius + LOW_LIFT
+    s.move({"arm": DrivenSolver.scissor_pose(stage, along, around=along)}, max_steps=60, pos_tol=0.004, rot_tol=0.03)
+    over = clip.top + OVER_WALL + radius
+    for k in range(1, LOW_STEPS + 1):
+        stage[:, 2] = radius + LOW_LIFT + (over - radius - LOW_LIFT) * k / LOW_STEPS
+        s.step({"arm": DrivenSolver.scissor_pose(stage, along, around=along)})
+    slot = clip.pose.p.clone()
+    slot[:, 2] = over
+    s.move({"arm": DrivenSolver.scissor_pose(slot, along, around=along)}, max_steps=40, pos_tol=0.004, rot_tol=0.03)
+    servo_capsule(s, link, slot, along, CARRY_SERVO_STEPS)
+    slot[:, 2] = clip.top + RELEASE_ABOVE_TOP + radius
+    low, q_low = servo_capsule(s, link, slot, along, LOWER_SERVO_STEPS, descend=True)
+    low = pull_slack(s, task, clip, segment, previous_clip, direction, low, q_low)
+    s.close_hand("hand", "scissor_open", ramp_steps=RELEASE_STEPS, hold_steps=RELEASE_HOLD_STEPS)
+    return low, q_low
+
+
+def pull_slack(s: DrivenSolver, task, clip, segment: int, previous_clip, direction: int, tcp, q):
+    """Pull the pinched capsule `segment` along `clip`'s slot away from `previous_clip`, `PULL_STEP` a control
+    step up to `PULL_MAX`, until its `PULL_NEIGHBOURS` neighbours towards that clip (capsules segment - direction,
+    ...) lie between the walls: the cable's slack between the clips otherwise crosses the near wall at the slot's
+    entry and its capsules rest on the wall's top. Returns the TCP target reached."""
+    axis = clip.axis()
+    unit = torch.stack([torch.cos(axis), torch.sin(axis), torch.zeros_like(axis)], dim=1)
+    away = torch.sign(((clip.pose.p - previous_clip.pose.p) * unit).sum(dim=1, keepdim=True))
+    neighbours = [segment - direction * i for i in range(1, PULL_NEIGHBOURS + 1)]
+    target = tcp.clone()
+    for _ in range(round(PULL_MAX / PULL_STEP)):
+        centres = torch.stack([task.rope.links[k].pose.p[:, :2] for k in neighbours], dim=1)
+        _, across = metrics.channel_coords(centres, clip.pose.p, axis)
+        if bool((across.abs() < clip.half_width).all()):
+            break
+        target = target + away * unit * PULL_STEP
+        s.step({"arm": (target, q)})
+    return target
+
+
+def press_clip(s: DrivenSolver, task, clip):
+    """`press_home` on `clip` from the TCP pose that would have let a pinched capsule go over its slot's middle."""
+    slot = clip.pose.p.clone()
+    slot[:, 2] = clip.top + RELEASE_ABOVE_TOP + task.rope_config.radius
+    along = DrivenSolver.neutral_yaw(clip.axis(), torch.pi)
+    low, q = DrivenSolver.scissor_pose(slot, along, around=along)
+    press_home(s, task, clip, low, q)
+
+
+def seat(s: DrivenSolver, task, i: int):
+    """Press clip `i` again, up to `SEAT_ROUNDS` times, while it holds fewer than `min_segments` capsules: the next
+    clip filled before this one is entered breaks the order for good (the end's `press_again` comes too late)."""
+    for _ in range(SEAT_ROUNDS):
+        if float(task.inside_counts()[0, i]) >= task.min_segments:
+            return
+        press_clip(s, task, task.clips[i])
+
+
 def press_again(s: DrivenSolver, task):
-    """Press again each clip holding fewer than `min_segments` capsules (first to last, `REPRESS_ROUNDS` passes):
-    `press_home` from the TCP pose that would have let a pinched capsule go over its slot."""
+    """Press again each clip holding fewer than `min_segments` capsules (first to last, `REPRESS_ROUNDS` passes)."""
     for _ in range(REPRESS_ROUNDS):
         counts = task.inside_counts()[0]
         short = [clip for clip, n in zip(task.clips, counts.tolist()) if n < task.min_segments]
         if not short:
             return
         for clip in short:
-            slot = clip.pose.p.clone()
-            slot[:, 2] = clip.top + RELEASE_ABOVE_TOP + task.rope_config.radius
-            along = DrivenSolver.neutral_yaw(clip.axis(), torch.pi)
-            low, q = DrivenSolver.scissor_pose(slot, along, around=along)
-            press_home(s, task, clip, low, q)
+            press_clip(s, task, clip)
 
 
 @register_solver("RouteCableClipsHand", control_modes=TCP_DELTA_MODES)
@@ -105,11 +198,15 @@ def solve_route_cable_clips_hand(env, seed: int) -> dict:
         direction = first_end_direction(task)
         start = FIRST_CAPSULE if direction > 0 else task.rope_config.segments - 1 - FIRST_CAPSULE
         previous = None
-        for clip in task.clips:
+        for i, clip in enumerate(task.clips):
             nominal = start if previous is None else previous + direction * CAPSULE_STEP
             k = pick_capsule(task, nominal, previous, direction)
-            low, q = lay_over_clip(s, task, clip, k)
+            if i == 0:  # no clip before it; carried low, the cable's free end caught the near wall (seed 104)
+                low, q = lay_over_clip(s, task, clip, k)
+            else:
+                low, q = lay_low_over_clip(s, task, clip, k, task.clips[i - 1], direction)
             press_home(s, task, clip, low, q)
+            seat(s, task, i)
             previous = k
         press_again(s, task)
         s.hold_until_success()
