@@ -36,20 +36,28 @@ SERVO_GAIN = 0.3
 SERVO_MAX_TURN = 0.3  # rad: the yaw correction's bound
 
 
-def lay_over_clip(s: DrivenSolver, task, clip: Channel, segment: int):
-    """Scissor-pinch capsule `segment` (fingers along the cable), lift it `CARRY_LIFT` over the clip's walls,
-    carry it over the slot's centre while turning it onto the slot's axis, lower it until its bottom is
-    `RELEASE_ABOVE_TOP` above the walls and open the fingers."""
-    radius = task.rope_config.radius
+def scissor_pinch(s: DrivenSolver, task, segment: int):
+    """Scissor-pinch capsule `segment` where it lies (fingers along the cable): open, come down over it, close.
+    Returns the capsule's centre at table height, its yaw and the TCP target (p, q) the fingers closed at."""
     link = task.rope.links[segment]
     centre = link.pose.p.clone()
-    centre[:, 2] = radius
+    centre[:, 2] = task.rope_config.radius
     yaw = rope.segment_yaw(link.pose.q)
     tcp, q = DrivenSolver.scissor_pose(centre, yaw)
     s.set_ee("hand", "scissor_open", steps=1)
     s.move({"arm": (s.above(tcp, APPROACH_HEIGHT), q)}, max_steps=60)
     s.move({"arm": (tcp, q)}, max_steps=40, pos_tol=0.003)
     s.close_hand("hand", "scissor", ramp_steps=SCISSOR_RAMP_STEPS)
+    return centre, yaw, tcp, q
+
+
+def lay_over_clip(s: DrivenSolver, task, clip: Channel, segment: int):
+    """Scissor-pinch capsule `segment` (`scissor_pinch`), lift it `CARRY_LIFT` over the clip's walls,
+    carry it over the slot's centre while turning it onto the slot's axis, lower it until its bottom is
+    `RELEASE_ABOVE_TOP` above the walls and open the fingers."""
+    radius = task.rope_config.radius
+    link = task.rope.links[segment]
+    _, yaw, tcp, q = scissor_pinch(s, task, segment)
     top = clip.top
     carry = top + CARRY_LIFT + radius  # the pinched capsule's centre height while carried
     for k in range(1, LIFT_STEPS + 1):

@@ -25,10 +25,10 @@ import torch
 from maniladder_ms.deformables import metrics, rope
 from maniladder_ms.objects.clip import CLIP_WALL
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
-from maniladder_ms.solvers.driven import APPROACH_HEIGHT, SCISSOR_RAMP_STEPS, DrivenSolver
+from maniladder_ms.solvers.driven import DrivenSolver
 from maniladder_ms.solvers.rope.clip_phases import (CARRY_SERVO_STEPS, LOWER_SERVO_STEPS, RELEASE_ABOVE_TOP,
                                                     RELEASE_HOLD_STEPS, RELEASE_STEPS, lay_over_clip, press_home,
-                                                    servo_capsule)
+                                                    scissor_pinch, servo_capsule)
 
 FIRST_CAPSULE = 2  # the capsule pressed into the first clip, counted from the cable's end beside that clip
 CAPSULE_STEP = 6  # capsules between those pressed into consecutive clips: 12 cm of cable for the clips' 10 cm
@@ -105,17 +105,11 @@ def lay_low_over_clip(s: DrivenSolver, task, clip, segment: int, previous_clip, 
     centre, servo, lower it until its bottom is `RELEASE_ABOVE_TOP` above the walls, `pull_slack` and open the
     fingers: the cable behind it leaves `previous_clip`'s slot level (carried 3 cm over the walls, as
     `lay_over_clip` does, it rose 4 cm from that slot's exit to the carried capsule and pulled that clip's capsules
-    up out of it). The pinch is `lay_over_clip`'s. Returns the TCP target (p, q) where it let go, for the press."""
+    up out of it). The pinch is `lay_over_clip`'s (`scissor_pinch`). Returns the TCP target (p, q) where it let go,
+    for the press."""
     radius = task.rope_config.radius
     link = task.rope.links[segment]
-    centre = link.pose.p.clone()
-    centre[:, 2] = radius
-    yaw = rope.segment_yaw(link.pose.q)
-    tcp, q = DrivenSolver.scissor_pose(centre, yaw)
-    s.set_ee("hand", "scissor_open", steps=1)
-    s.move({"arm": (s.above(tcp, APPROACH_HEIGHT), q)}, max_steps=60)
-    s.move({"arm": (tcp, q)}, max_steps=40, pos_tol=0.003)
-    s.close_hand("hand", "scissor", ramp_steps=SCISSOR_RAMP_STEPS)
+    centre, yaw, tcp, q = scissor_pinch(s, task, segment)
     for k in range(1, LOW_STEPS + 1):
         s.step({"arm": (s.above(tcp, LOW_LIFT * k / LOW_STEPS), q)})
     axis = clip.axis()
