@@ -34,6 +34,7 @@ CARRY_SERVO_STEPS = 20  # control steps servoing the pinched capsule over the sl
 LOWER_SERVO_STEPS = 25  # control steps lowering it onto the release height, still servoing
 SERVO_GAIN = 0.3
 SERVO_MAX_TURN = 0.3  # rad: the yaw correction's bound
+CARRY_MOVE_STEPS = 60  # control steps at most for the carry over the slot
 
 
 def scissor_pinch(s: DrivenSolver, task, segment: int):
@@ -54,26 +55,41 @@ def scissor_pinch(s: DrivenSolver, task, segment: int):
 def lay_over_clip(s: DrivenSolver, task, clip: Channel, segment: int):
     """Scissor-pinch capsule `segment` (`scissor_pinch`), lift it `CARRY_LIFT` over the clip's walls,
     carry it over the slot's centre while turning it onto the slot's axis, lower it until its bottom is
-    `RELEASE_ABOVE_TOP` above the walls and open the fingers."""
+    `RELEASE_ABOVE_TOP` above the walls and open the fingers (`lay_on_slot`)."""
     radius = task.rope_config.radius
-    link = task.rope.links[segment]
     _, yaw, tcp, q = scissor_pinch(s, task, segment)
-    top = clip.top
-    carry = top + CARRY_LIFT + radius  # the pinched capsule's centre height while carried
+    carry = clip.top + CARRY_LIFT + radius  # the pinched capsule's centre height while carried
     for k in range(1, LIFT_STEPS + 1):
         s.step({"arm": (s.above(tcp, (carry - radius) * k / LIFT_STEPS), q)})
-    # over the slot: the fingers are symmetric, so of the two hand yaws along the axis take the one nearest
-    # the hand's own (turn the short way: at most a quarter turn; measured from the capsule's `yaw` instead of the
-    # hand's, the hand turned half way round on some seeds and the cable twisted off the axis in the pinch)
-    axis = clip.axis()
+    return lay_on_slot(s, task, clip, segment, along_slot(yaw, clip), carry, CARRY_MOVE_STEPS)
+
+
+def along_slot(yaw: torch.Tensor, clip: Channel) -> torch.Tensor:
+    """The hand yaw that lays a capsule pinched at `yaw` along `clip`'s slot: the fingers are symmetric, so of the
+    two hand yaws along the axis take the one nearest the hand's own (turn the short way: at most a quarter turn;
+    measured from the capsule's `yaw` instead of the hand's, the hand turned half way round on some seeds and the
+    cable twisted off the axis in the pinch)."""
     hand_yaw = DrivenSolver.neutral_yaw(yaw, np.pi)  # scissor_pose's (around 0)
-    along = hand_yaw + DrivenSolver.neutral_yaw(axis - hand_yaw, np.pi)
+    return hand_yaw + DrivenSolver.neutral_yaw(clip.axis() - hand_yaw, np.pi)
+
+
+def lay_on_slot(s: DrivenSolver, task, clip: Channel, segment: int, along: torch.Tensor, height, move_steps: int,
+                before_release=None):
+    """Move the pinched capsule `segment` over `clip`'s slot centre at centre height `height` with the hand yaw
+    `along` (`along_slot`), servo it there, lower it until its bottom is `RELEASE_ABOVE_TOP` above the walls,
+    run `before_release(low, q)` (returns the TCP target it reached) if given, and open the fingers. Returns the TCP
+    target (p, q) where it let go, for the press."""
+    radius = task.rope_config.radius
+    link = task.rope.links[segment]
     slot = clip.pose.p.clone()
-    slot[:, 2] = carry
-    s.move({"arm": DrivenSolver.scissor_pose(slot, along, around=along)}, max_steps=60, pos_tol=0.004, rot_tol=0.03)
+    slot[:, 2] = height
+    s.move({"arm": DrivenSolver.scissor_pose(slot, along, around=along)}, max_steps=move_steps, pos_tol=0.004,
+           rot_tol=0.03)
     servo_capsule(s, link, slot, along, CARRY_SERVO_STEPS)
-    slot[:, 2] = top + RELEASE_ABOVE_TOP + radius
+    slot[:, 2] = clip.top + RELEASE_ABOVE_TOP + radius
     low, q_low = servo_capsule(s, link, slot, along, LOWER_SERVO_STEPS, descend=True)
+    if before_release is not None:
+        low = before_release(low, q_low)
     s.close_hand("hand", "scissor_open", ramp_steps=RELEASE_STEPS, hold_steps=RELEASE_HOLD_STEPS)
     return low, q_low
 

@@ -19,16 +19,14 @@ phases, `solvers/rope/clip_phases.py`).
 
 from __future__ import annotations
 
-import numpy as np
 import torch
 
 from maniladder_ms.deformables import metrics, rope
 from maniladder_ms.objects.clip import CLIP_WALL
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.driven import DrivenSolver
-from maniladder_ms.solvers.rope.clip_phases import (CARRY_SERVO_STEPS, LOWER_SERVO_STEPS, RELEASE_ABOVE_TOP,
-                                                    RELEASE_HOLD_STEPS, RELEASE_STEPS, lay_over_clip, press_home,
-                                                    scissor_pinch, servo_capsule)
+from maniladder_ms.solvers.rope.clip_phases import (RELEASE_ABOVE_TOP, along_slot, lay_on_slot, lay_over_clip,
+                                                    press_home, scissor_pinch)
 
 FIRST_CAPSULE = 2  # the capsule pressed into the first clip, counted from the cable's end beside that clip
 CAPSULE_STEP = 6  # capsules between those pressed into consecutive clips: 12 cm of cable for the clips' 10 cm
@@ -49,6 +47,7 @@ STAGE_OFFSET = 0.07  # where the low carry ends: this far beside the slot's axis
 # fingertips reach `TIP_REACH` across the slot: they stay clear of the near wall)
 OVER_WALL = 0.008  # then the capsule's bottom rises this far above the walls' top and moves over the slot
 LOW_STEPS = 10  # control steps of each rise
+OVER_SLOT_STEPS = 40  # control steps at most for the move from beside the slot over its centre
 PULL_STEP = 0.002  # before letting go, the pinched capsule is pulled along the slot away from the clip before by
 # this much a control step
 PULL_MAX = 0.024  # and at most this far (the slot's half length is 3 cm: the pinched capsule stays inside)
@@ -105,16 +104,14 @@ def lay_low_over_clip(s: DrivenSolver, task, clip, segment: int, previous_clip, 
     centre, servo, lower it until its bottom is `RELEASE_ABOVE_TOP` above the walls, `pull_slack` and open the
     fingers: the cable behind it leaves `previous_clip`'s slot level (carried 3 cm over the walls, as
     `lay_over_clip` does, it rose 4 cm from that slot's exit to the carried capsule and pulled that clip's capsules
-    up out of it). The pinch is `lay_over_clip`'s (`scissor_pinch`). Returns the TCP target (p, q) where it let go,
+    up out of it). The pinch and the lay over the slot are `lay_over_clip`'s (`scissor_pinch`, `lay_on_slot`). Returns the TCP target (p, q) where it let go,
     for the press."""
     radius = task.rope_config.radius
-    link = task.rope.links[segment]
     centre, yaw, tcp, q = scissor_pinch(s, task, segment)
     for k in range(1, LOW_STEPS + 1):
         s.step({"arm": (s.above(tcp, LOW_LIFT * k / LOW_STEPS), q)})
     axis = clip.axis()
-    hand_yaw = DrivenSolver.neutral_yaw(yaw, np.pi)  # scissor_pose's (around 0)
-    along = hand_yaw + DrivenSolver.neutral_yaw(axis - hand_yaw, np.pi)
+    along = along_slot(yaw, clip)
     across = torch.stack([-torch.sin(axis), torch.cos(axis), torch.zeros_like(axis)], dim=1)
     side = torch.sign(((centre - clip.pose.p) * across).sum(dim=1, keepdim=True))
     stage = clip.pose.p + side * STAGE_OFFSET * across
@@ -124,15 +121,9 @@ def lay_low_over_clip(s: DrivenSolver, task, clip, segment: int, previous_clip, 
     for k in range(1, LOW_STEPS + 1):
         stage[:, 2] = radius + LOW_LIFT + (over - radius - LOW_LIFT) * k / LOW_STEPS
         s.step({"arm": DrivenSolver.scissor_pose(stage, along, around=along)})
-    slot = clip.pose.p.clone()
-    slot[:, 2] = over
-    s.move({"arm": DrivenSolver.scissor_pose(slot, along, around=along)}, max_steps=40, pos_tol=0.004, rot_tol=0.03)
-    servo_capsule(s, link, slot, along, CARRY_SERVO_STEPS)
-    slot[:, 2] = clip.top + RELEASE_ABOVE_TOP + radius
-    low, q_low = servo_capsule(s, link, slot, along, LOWER_SERVO_STEPS, descend=True)
-    low = pull_slack(s, task, clip, segment, previous_clip, direction, low, q_low)
-    s.close_hand("hand", "scissor_open", ramp_steps=RELEASE_STEPS, hold_steps=RELEASE_HOLD_STEPS)
-    return low, q_low
+    return lay_on_slot(s, task, clip, segment, along, over, OVER_SLOT_STEPS,
+                       before_release=lambda low, q_low: pull_slack(s, task, clip, segment, previous_clip, direction,
+                                                                    low, q_low))
 
 
 def pull_slack(s: DrivenSolver, task, clip, segment: int, previous_clip, direction: int, tcp, q):
