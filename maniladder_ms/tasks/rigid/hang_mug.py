@@ -32,6 +32,10 @@ class HangMugEnv(ManiLadderEnv):
     """
 
     max_dense_reward = 6
+    # PhysX contact caches are not env state: after seed 3's 50 random actions the left finger is striking the
+    # mug (0.6 m/s), and two restores of that state in the same env drifted apart by 2.8e-2 in the obs within 5
+    # steps; restored into fresh envs they agree (tests/test_envs.py's round trip)
+    RESTORES_NEED_FRESH_SCENE = True
 
     TASK_REGION = (-0.26, 0.16, -0.36, 0.28)
     PARAMS = ("peg_height", "peg_length", "peg_radius", "clearance",
