@@ -23,7 +23,7 @@ class OpenBoxRetrievalEnv(ManiLadderEnv):
 
     **Randomisation:**
     - the box (inner 16 x 16 cm, walls 6 cm high, 1.5 kg) has its centre uniform in x in `box_x_range`, y in
-      `box_y_range`; the lid is hinged on the side facing the robot and overhangs the far wall by a 3 cm lip,
+      `box_y_range`; the lid is hinged on the side facing the robot and overhangs the far wall by a `lid_lip` lip,
       the box turned by pi plus a yaw uniform in +-`box_max_yaw`;
     - the cube lies on the box floor, offset from the box centre by up to `cube_max_offset` along each box
       axis (uniform), turned from the box's axes by a yaw uniform in +-`cube_max_yaw` (room for the open
@@ -41,13 +41,13 @@ class OpenBoxRetrievalEnv(ManiLadderEnv):
     max_dense_reward = 7
 
     TASK_REGION = (-0.37, 0.25, -0.25, 0.25)
-    box_shape = LiddedBoxShape(inner_half_size=(0.08, 0.08))
     box_density = 2200.0  # ~1.5 kg: the box stays put while the lid is pulled open
     PARAMS = ("cube_half_size", "open_angle", "lift_clearance", "max_box_tilt",  # angles in degrees
-              "box_x_range", "box_y_range", "box_max_yaw", "cube_max_offset", "cube_max_yaw")
+              "box_x_range", "box_y_range", "box_max_yaw", "cube_max_offset", "cube_max_yaw", "lid_lip")
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
+        self.box_shape = LiddedBoxShape(inner_half_size=(0.08, 0.08), lip=self.lid_lip)
         self.box = build_lidded_box(self.scene, "box", self.box_shape, self.box_density,
                                     color=(0.55, 0.4, 0.25, 1), lid_color=(0.7, 0.5, 0.3, 1))
         self.cube = actors.build_cube(self.scene, half_size=self.cube_half_size, color=(0.85, 0.15, 0.15, 1),

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any
 
 import torch
@@ -16,8 +17,8 @@ from maniladder_ms.objects.mug import MUG_DENSITY, MugShape, build_mug, build_mu
 
 @register_task("HangMug")
 class HangMugEnv(ManiLadderEnv):
-    """**Task:** pick up a mug (7.4 cm wide, 9 cm tall, loop handle) and hang it by its handle on the
-    horizontal peg of a mug tree.
+    """**Task:** pick up a mug (7.4 cm wide, 9 cm tall, a loop handle whose opening is `handle_opening`: radial
+    width and height) and hang it by its handle on the horizontal peg of a mug tree.
 
     **Randomisation:** the mug stands upright at x in `mug_x_range`, y in `mug_y_range`, its yaw uniform in
     `mug_yaw_range`; the tree's post stands at x in `tree_x_range`, y in `tree_y_range`; its peg (2 x
@@ -31,14 +32,18 @@ class HangMugEnv(ManiLadderEnv):
     """
 
     max_dense_reward = 6
+    # PhysX contact caches are not env state: after seed 3's 50 random actions the left finger is striking the
+    # mug (0.6 m/s), and two restores of that state in the same env drifted apart by 2.8e-2 in the obs within 5
+    # steps; restored into fresh envs they agree (tests/test_envs.py's round trip)
+    RESTORES_NEED_FRESH_SCENE = True
 
     TASK_REGION = (-0.26, 0.16, -0.36, 0.28)
     PARAMS = ("peg_height", "peg_length", "peg_radius", "clearance",
-              "mug_x_range", "mug_y_range", "mug_yaw_range", "tree_x_range", "tree_y_range")
-    mug_shape = MugShape()
+              "mug_x_range", "mug_y_range", "mug_yaw_range", "tree_x_range", "tree_y_range", "handle_opening")
 
     def _load_scene(self, options: dict):
         super()._load_scene(options)
+        self.mug_shape = replace(MugShape(), opening=tuple(self.handle_opening))
         self.mug = build_mug(self.scene, "mug", self.mug_shape, color=(0.9, 0.85, 0.7, 1), friction=1.0,
                              density=MUG_DENSITY)
         self.tree = build_mug_tree(self.scene, "mug_tree", post_height=0.3, peg_height=self.peg_height,
