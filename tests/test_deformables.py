@@ -754,7 +754,7 @@ def _cup_depth_every_centre(points, radius, floor_within, wall_within, arc, dire
     return (walls.amin(dim=-1) - floor).amax(dim=1)
 
 
-def test_cup_depth_equals_every_centre_tried():
+def test_cup_depth_of_clay_equals_every_centre_tried():
     """`clay.cup_depth` tries all directions only round the centres that can be the deepest: its value is bit for bit
     that of every centre tried in every direction (`_cup_depth_every_centre`), on constructed clay (cups, a "C", a
     channel, the ball, a disk, a ring: moved, turned, jittered, several envs in one batch) and on the recorded states
