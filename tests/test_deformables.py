@@ -3,6 +3,8 @@ Panda actions; the metrics give the expected values on constructed shapes; clay 
 Panda can pick up a rope end and a towel corner (joint and end-effector control); container
 decompositions are cached."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 import torch
@@ -735,6 +737,74 @@ def test_cup_depth_on_constructed_clay():
     ring = block[~(middle) & (ij[:, 2] <= 3)]  # walls without a floor under the cavity: nothing to try there
     assert depth(ring) <= 0.005
     assert depth(cup) >= 0.02 > depth(block[open_side])  # the rule's 2 cm tells the cup from the C
+
+
+def _cup_depth_every_centre(points, radius, floor_within, wall_within, arc, directions=24):
+    """`clay.cup_depth` the direct way, every centre in every direction in one [B, centre, particle, direction]
+    tensor (the library's computation until it skipped the centres that cannot be the deepest): the reference."""
+    xy, top = points[..., :2], points[..., 2] + radius
+    offset = xy[:, None, :, :] - xy[:, :, None, :]
+    dist = torch.linalg.norm(offset, dim=-1)
+    floor = torch.where(dist <= floor_within, top[:, None, :], torch.zeros_like(dist)).amax(dim=-1)
+    angle = torch.atan2(offset[..., 1], offset[..., 0])
+    heading = torch.arange(directions, device=points.device) * (2 * np.pi / directions)
+    off_heading = torch.remainder(angle[..., None] - heading + np.pi, 2 * np.pi) - np.pi
+    in_sector = (off_heading.abs() <= arc / 2) & ((dist > floor_within) & (dist <= wall_within))[..., None]
+    walls = torch.where(in_sector, top[:, None, :, None], torch.zeros_like(off_heading)).amax(dim=2)
+    return (walls.amin(dim=-1) - floor).amax(dim=1)
+
+
+def test_cup_depth_of_clay_equals_every_centre_tried():
+    """`clay.cup_depth` tries all directions only round the centres that can be the deepest: its value is bit for bit
+    that of every centre tried in every direction (`_cup_depth_every_centre`), on constructed clay (cups, a "C", a
+    channel, the ball, a disk, a ring: moved, turned, jittered, several envs in one batch) and on the recorded states
+    of the one task that uses it, every second step of PinchClayCupHands' committed samples (the untouched ball to
+    the finished cup)."""
+    import glob
+    import h5py
+
+    spacing, r = 0.012, 0.0058
+    rule = (r, 0.007, 0.04, np.radians(60))
+    block = torch.as_tensor(clay.clay_block((0.024, 0.024, 0.024), spacing), dtype=torch.float32)
+    ij = torch.round(block / spacing)
+    middle = (ij[:, 0] == 0) & (ij[:, 1] == 0)
+    shapes = [
+        block[~(middle & (ij[:, 2] >= 1)) & (ij[:, 2] <= 3)],  # the cup
+        block[~(middle & (ij[:, 2] >= 1)) & (ij[:, 2] <= 3) & ~((ij[:, 0] < 0) & (ij[:, 2] >= 1))],  # a "C"
+        block[~((ij[:, 1].abs() <= 1) & (ij[:, 0] <= 0) & (ij[:, 2] >= 1)) & (ij[:, 2] <= 3)],  # a channel
+        block[~((ij[:, 1] == 0) & (ij[:, 0] <= 0) & (ij[:, 2] >= 1)) & (ij[:, 2] <= 3)],  # a slit
+        block[~middle & (ij[:, 2] <= 3)],  # a ring
+        torch.as_tensor(clay.clay_ball(0.042, spacing), dtype=torch.float32),
+        torch.as_tensor(clay.clay_block((0.048, 0.048, 0.0), spacing), dtype=torch.float32),
+    ]
+    gen = torch.Generator().manual_seed(0)
+    turn = torch.tensor([[0.8, 0.6, 0.0], [-0.6, 0.8, 0.0], [0.0, 0.0, 1.0]])
+    checked = 0
+    for shape in shapes:
+        variants = [shape, shape @ turn + torch.tensor([0.3, -0.2, 0.0])]
+        variants += [shape + 0.003 * torch.randn(shape.shape, generator=gen) for _ in range(3)]  # kneaded a little
+        batch = torch.stack(variants)
+        assert torch.equal(clay.cup_depth(batch, *rule), _cup_depth_every_centre(batch, *rule))
+        for one in variants:
+            assert torch.equal(clay.cup_depth(one[None], *rule), _cup_depth_every_centre(one[None], *rule))
+        checked += len(variants)
+    samples = sorted(glob.glob(str(Path(__file__).parent.parent / "demos" / "PinchClayCupHands" / "*.h5")))
+    assert samples, "PinchClayCupHands' committed samples"
+    depths = []
+    for sample in samples:
+        with h5py.File(sample, "r") as f:
+            for episode in f:
+                actors = f[episode]["env_states"]["actors"]
+                n = sum(name.startswith("clay_") for name in actors)
+                points = torch.as_tensor(np.stack([actors[f"clay_{i}"][::2, :3] for i in range(n)], axis=1))
+                for chunk in points.split(16):
+                    new, reference = clay.cup_depth(chunk, *rule), _cup_depth_every_centre(chunk, *rule)
+                    assert torch.equal(new, reference)
+                    depths.append(new)
+                checked += len(points)
+    depths = torch.cat(depths)
+    assert depths.max() >= 0.02 and depths.min() < 0  # the states span the ball (no cup) to the cup
+    assert checked > 150
 
 
 def test_mould_fill_on_constructed_clay():

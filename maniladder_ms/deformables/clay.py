@@ -368,6 +368,16 @@ class Mould:
         return mould_fill(points, self.actor.pose.p, self.yaw(), self.inner_half, self.depth, self.cells)
 
 
+# `cup_depth` bounds every centre's depth from above by its walls towards +x, +y, -x and -y (four of its directions
+# when their number is a multiple of 4), each found in the sector widened by `CUP_BOUND_MARGIN` with no angles (a
+# test on the particles' offsets, which holds every particle the exact sector holds and a few more), and tries every
+# direction (the exact depth) only at each env's `CUP_PROBE_CENTRES` centres of the highest bounds and then wherever
+# a bound beats the deepest of those. The 179-particle ball of 300 random-action steps: 0.84 ms a call (one core),
+# every centre in every direction 13.3 ms; 8 probes 1.0 ms; half planes (dx > 0, ...) for the widened sectors 2.5 ms
+CUP_BOUND_MARGIN = 1e-3  # rad: far over float32's error in the exact test's angles (~1e-6 rad)
+CUP_PROBE_CENTRES = 2
+
+
 def cup_depth(points: torch.Tensor, radius: float, floor_within: float, wall_within: float, arc: float,
               directions: int = 24) -> torch.Tensor:
     """How deep a cup the clay makes, [B]: the deepest cavity walled on all sides, in m (<= 0: none).
@@ -378,14 +388,40 @@ def cup_depth(points: torch.Tensor, radius: float, floor_within: float, wall_wit
     of the clay in it (0 where it holds no particle). The cavity's depth is its lowest wall minus its floor: a gap
     in the walls as wide as a sector (plus a step between directions) anywhere round the centre makes it shallow (a
     dent open on a side, a "C"), as a flattened disk (walls as high as its floor) or the untouched ball (a floor at
-    its top) do. A ring with nothing in its middle has no particle there to try: it is no cup (no floor)."""
+    its top) do. A ring with nothing in its middle has no particle there to try: it is no cup (no floor).
+
+    Computed exactly with less work than every direction round every centre: a cheap upper bound on each centre's
+    depth (its walls in four directions, `CUP_PROBE_CENTRES`) rules out the centres that cannot be the deepest; the others' depths are the same
+    floats as with every centre tried (the same element-wise operations on the same values; maxima, minima exact)."""
     xy, top = points[..., :2], points[..., 2] + radius
     offset = xy[:, None, :, :] - xy[:, :, None, :]  # [B, centre, particle, 2]
     dist = torch.linalg.norm(offset, dim=-1)
-    floor = torch.where(dist <= floor_within, top[:, None, :], torch.zeros_like(dist)).amax(dim=-1)  # [B, centre]
-    angle = torch.atan2(offset[..., 1], offset[..., 0])
+    floor = torch.where(dist <= floor_within, top[:, None, :], 0.0).amax(dim=-1)  # [B, centre]
+    ring_top = torch.where((dist > floor_within) & (dist <= wall_within), top[:, None, :], 0.0)  # [B, centre, particle]
     heading = torch.arange(directions, device=points.device) * (2 * np.pi / directions)
-    off_heading = torch.remainder(angle[..., None] - heading + np.pi, 2 * np.pi) - np.pi  # [B, centre, particle, dir]
-    in_sector = (off_heading.abs() <= arc / 2) & ((dist > floor_within) & (dist <= wall_within))[..., None]
-    walls = torch.where(in_sector, top[:, None, :, None], torch.zeros_like(off_heading)).amax(dim=2)  # [B, centre, dir]
-    return (walls.amin(dim=-1) - floor).amax(dim=1)
+
+    def depth_at(env: torch.Tensor, centre: torch.Tensor) -> torch.Tensor:
+        """The exact cavity depths at the centres (`env`, `centre`) [K], [K]."""
+        rel = offset[env, centre]  # [K, particle, 2]
+        angle = torch.atan2(rel[..., 1], rel[..., 0])
+        off_heading = torch.remainder(angle[..., None] - heading + np.pi, 2 * np.pi) - np.pi  # [K, particle, dir]
+        walls = torch.where(off_heading.abs() <= arc / 2, ring_top[env, centre][..., None], 0.0).amax(dim=1)  # [K, dir]
+        return walls.amin(dim=-1) - floor[env, centre]
+
+    bound = ring_top.amax(dim=-1) - floor  # [B, centre]: the ring's highest top (sectors of half a turn or more)
+    reach = arc / 2 + CUP_BOUND_MARGIN
+    if directions % 4 == 0 and reach < np.pi / 2:
+        dx, dy = xy[:, None, :, 0] - xy[:, :, None, 0], xy[:, None, :, 1] - xy[:, :, None, 1]  # offset's, contiguous
+        wide_x, wide_y = np.tan(reach) * dx, np.tan(reach) * dy
+        across_x, across_y = dy.abs(), dx.abs()
+        sectors = (across_x <= wide_x, across_y <= wide_y, across_x <= -wide_x, across_y <= -wide_y)  # +x, +y, -x, -y
+        walls = torch.stack([(ring_top * sector).amax(dim=-1) for sector in sectors])  # [4, B, centre]
+        bound = walls.amin(dim=0) - floor
+    b, n = floor.shape
+    probe = bound.topk(min(CUP_PROBE_CENTRES, n), dim=1).indices  # [B, k]
+    probe_env = torch.arange(b, device=points.device)[:, None].expand_as(probe).flatten()
+    best = depth_at(probe_env, probe.flatten()).reshape(probe.shape).amax(dim=1)
+    env, centre = torch.nonzero(bound > best[:, None], as_tuple=True)
+    if len(env):
+        best = best.scatter_reduce(0, env, depth_at(env, centre), reduce="amax")
+    return best
