@@ -8,7 +8,8 @@ hand could not turn its wrist the whole way).
 
 1. Both hands open the scissor fingers; the right hand pinches the rope's last capsule from the side with room
    for its index finger (where that capsule lies within `END_ROOM` of the rest of the rope, the roomiest of the
-   last `END_CHOICE` first; where a finger lands on the rope beside it, it tries the last capsule, or capsule
+   last `END_CHOICE` first; where it lies `END_ROOM` to `NARROW_ROOM` from it, the fingers spread only
+   `NARROW_SPREAD`; where a finger lands on the rope beside it, it tries the last capsule, or capsule
    `RETRY_FROM_END`).
 2. It lifts the pinch to `CARRY_Z` and glides to the path at bearing `RIGHT_START` (box frame), turning its
    wrist at most `YAW_STEP` a control step; the left hand goes to wait (`WAIT_OUT`, `WAIT_Z`).
