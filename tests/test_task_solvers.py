@@ -26,9 +26,6 @@ def failed_seeds(rows):
 
 # built tasks whose solver is still below the 90 % bar (issues 39 / 40 track them; `expected_to_fail`)
 BELOW_BAR_SWEEP = {
-    "WrapRopeAroundBoxHands": "solver below the bar: 43/50 over seeds 100-149, the right hand's end "
-                              "pinch misses where the free end lies within ~6 cm of the tied leg "
-                              "(docs/tasks/WrapRopeAroundBoxHands.md)",
     "RouteCableClipsHand": "solver below the bar: 28/50 over seeds 100-149, the middle clip left short or "
                            "emptied while the last is done (docs/tasks/RouteCableClipsHand.md)",
 }

@@ -8,7 +8,8 @@ hand could not turn its wrist the whole way).
 
 1. Both hands open the scissor fingers; the right hand pinches the rope's last capsule from the side with room
    for its index finger (where that capsule lies within `END_ROOM` of the rest of the rope, the roomiest of the
-   last `END_CHOICE` first; where a finger lands on the rope beside it, it tries the last capsule, or capsule
+   last `END_CHOICE` first; where it lies `END_ROOM` to `NARROW_ROOM` from it, the fingers spread only
+   `NARROW_SPREAD`; where a finger lands on the rope beside it, it tries the last capsule, or capsule
    `RETRY_FROM_END`).
 2. It lifts the pinch to `CARRY_Z` and glides to the path at bearing `RIGHT_START` (box frame), turning its
    wrist at most `YAW_STEP` a control step; the left hand goes to wait (`WAIT_OUT`, `WAIT_Z`).
@@ -29,6 +30,7 @@ import torch
 from maniladder_ms.deformables import rope
 from maniladder_ms.solvers import TCP_DELTA_MODES, register_solver
 from maniladder_ms.solvers.driven import APPROACH_HEIGHT, DrivenSolver, SCISSOR_RAMP_STEPS
+from maniladder_ms.solvers.postures import LEAP_SYNERGIES
 from maniladder_ms.tasks.rope.wrap_rope_around_box_hands import BOX_HALF, WrapRopeAroundBoxHandsEnv
 
 PATH_OFFSET = 0.05  # the carried pinch stays this far off the box's faces: the pinching fingers reach ~4 cm either side
@@ -57,6 +59,17 @@ END_CHOICE = 3
 END_ROOM = 0.05
 INDEX_REACH = 0.04
 NEAR_LINKS = 5
+# "scissor_open" spreads the two fingers 0.25 rad at their side joints: their tips' middles ~3.7 cm either side of
+# the rope, their outer faces ~4.7 cm (seed 109: the fingertip link frames at step 62), and where the capsule lies
+# within ~6 cm of the rest of the rope the outer finger comes down on that (109, 112, 114, 128: 5.3-6.1 cm; the
+# middle tip on capsule 7 of 109, the TCP stopped 9 mm high, and the closing fingers shot the end capsule 50 cm out
+# from under them). Where the last capsule lies `END_ROOM` to `NARROW_ROOM` from the rope `NEAR_LINKS` or more
+# away, the end pinch comes down spread `NARROW_SPREAD` instead (the tips' middles ~2.7 cm out, ~9 mm clear of the
+# rope): 109, 114 and 128 then held the end and succeeded, 103 still did. Not under `END_ROOM`, where the roomiest of
+# the last `END_CHOICE` is pinched: narrow there, 121 held, but 130 and 137 (successes spread wide) then failed at
+# the handover (left hand missed). Both constants chosen by looking at seeds 100-149's failures
+NARROW_ROOM = 0.062
+NARROW_SPREAD = 0.10
 SETTLE_STEPS = 3  # control steps held after each glide of the held rope
 OPEN_STEPS = 6  # control steps to open a hand's scissor fingers
 WAIT_OUT, WAIT_Z = 0.1, 0.2  # the left hand waits this much further out than the handover point, this high
@@ -171,12 +184,25 @@ def roomy_yaw(task: WrapRopeAroundBoxHandsEnv, side: str, link, centre: torch.Te
     return torch.where(rooms[1] > rooms[0], yaw + np.pi, yaw)
 
 
+def open_posture(task: WrapRopeAroundBoxHandsEnv, link, narrow: bool):
+    """The scissor's approach posture over capsule `link`: "scissor_open", or where `narrow`, `link` is the rope's
+    last capsule and it lies within `NARROW_ROOM` of the rest of the rope, its two fingers spread only
+    `NARROW_SPREAD` (one env)."""
+    posture = LEAP_SYNERGIES["scissor_open"].copy()
+    last = link is task.rope.links[task.rope_config.segments - 1]
+    if narrow and last and float(room(task, link, link.pose.p[:, :2]).min()) < NARROW_ROOM:
+        index_side, middle_side = 0, 4  # the index and middle fingers' side joints (LEAP order)
+        posture[index_side], posture[middle_side] = -NARROW_SPREAD, NARROW_SPREAD
+    return posture
+
+
 def pinch(s: DrivenSolver, task: WrapRopeAroundBoxHandsEnv, side: str, links: list, yaw_near: torch.Tensor,
           roomy: bool = False):
     """Come down over the first of capsules `links` where it lies and close the scissor pinch on it, fingers along
     it (of the two yaws, the one nearest `yaw_near`; `roomy`: the one with room for the index finger,
-    `roomy_yaw`); where that does not hold it (a finger landed on the rope beside it), open, rise `RETRY_HEIGHT`
-    and try the next. Returns the pinch (centre, yaw) and the capsule."""
+    `roomy_yaw`, and the fingers spread less where the rope lies near, `open_posture`); where that does not hold it
+    (a finger landed on the rope beside it), open, rise `RETRY_HEIGHT` and try the next. Returns the pinch
+    (centre, yaw) and the capsule."""
     arm, hand = f"{side}_arm", f"{side}_hand"
 
     def target(link):
@@ -186,6 +212,8 @@ def pinch(s: DrivenSolver, task: WrapRopeAroundBoxHandsEnv, side: str, links: li
         return centre, roomy_yaw(task, side, link, centre, yaw) if roomy else yaw
 
     p, q = pinch_pose(*target(links[0]), side)
+    posture = open_posture(task, links[0], roomy)  # the first capsule's room decides it for every try
+    s.set_ee(hand, posture, steps=0)
     s.move({arm: (s.above(p, APPROACH_HEIGHT), q)}, max_steps=60, pos_tol=0.01)
     for link in links:
         centre, yaw = target(link)  # where the capsule lies now
@@ -194,7 +222,7 @@ def pinch(s: DrivenSolver, task: WrapRopeAroundBoxHandsEnv, side: str, links: li
         s.close_hand(hand, "scissor", ramp_steps=SCISSOR_RAMP_STEPS)
         if bool(task.ee.holds(link, side).all()):
             break
-        s.set_ee(hand, "scissor_open", steps=OPEN_STEPS)
+        s.set_ee(hand, posture, steps=OPEN_STEPS)
         s.move({arm: (s.above(p, RETRY_HEIGHT), q)}, max_steps=15, pos_tol=0.01)
     return (centre, yaw), link
 
