@@ -391,8 +391,9 @@ def cup_depth(points: torch.Tensor, radius: float, floor_within: float, wall_wit
     its top) do. A ring with nothing in its middle has no particle there to try: it is no cup (no floor).
 
     Computed exactly with less work than every direction round every centre: a cheap upper bound on each centre's
-    depth (its walls in four directions, `CUP_PROBE_CENTRES`) rules out the centres that cannot be the deepest; the others' depths are the same
-    floats as with every centre tried (the same element-wise operations on the same values; maxima, minima exact)."""
+    depth (its walls in four directions; `CUP_BOUND_MARGIN`, `CUP_PROBE_CENTRES`) rules out the centres that cannot
+    be the deepest; the others' depths are the same floats as with every centre tried (the same element-wise
+    operations on the same values; maxima, minima exact)."""
     xy, top = points[..., :2], points[..., 2] + radius
     offset = xy[:, None, :, :] - xy[:, :, None, :]  # [B, centre, particle, 2]
     dist = torch.linalg.norm(offset, dim=-1)
