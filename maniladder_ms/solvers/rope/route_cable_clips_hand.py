@@ -104,8 +104,8 @@ def lay_low_over_clip(s: DrivenSolver, task, clip, segment: int, previous_clip, 
     centre, servo, lower it until its bottom is `RELEASE_ABOVE_TOP` above the walls, `pull_slack` and open the
     fingers: the cable behind it leaves `previous_clip`'s slot level (carried 3 cm over the walls, as
     `lay_over_clip` does, it rose 4 cm from that slot's exit to the carried capsule and pulled that clip's capsules
-    up out of it). The pinch and the lay over the slot are `lay_over_clip`'s (`scissor_pinch`, `lay_on_slot`). Returns the TCP target (p, q) where it let go,
-    for the press."""
+    up out of it). The pinch and the lay over the slot are `lay_over_clip`'s (`scissor_pinch`, `lay_on_slot`).
+    Returns the TCP target (p, q) where it let go, for the press."""
     radius = task.rope_config.radius
     centre, yaw, tcp, q = scissor_pinch(s, task, segment)
     for k in range(1, LOW_STEPS + 1):
@@ -177,7 +177,8 @@ def press_again(s: DrivenSolver, task):
 
 @register_solver("RouteCableClipsHand", control_modes=TCP_DELTA_MODES)
 def solve_route_cable_clips_hand(env, seed: int) -> dict:
-    """For each clip in order `pick_capsule`, `lay_over_clip`, `press_home`; then hold still until success."""
+    """For each clip in order `pick_capsule`, `lay_over_clip` (the first) or `lay_low_over_clip`, `press_home`,
+    `seat`; then `press_again` and hold still until success."""
     with DrivenSolver.episode(env, seed) as s:
         task = env.unwrapped
         direction = first_end_direction(task)
