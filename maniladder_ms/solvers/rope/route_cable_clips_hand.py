@@ -50,7 +50,9 @@ LOW_STEPS = 10  # control steps of each rise
 OVER_SLOT_STEPS = 40  # control steps at most for the move from beside the slot over its centre
 PULL_STEP = 0.002  # before letting go, the pinched capsule is pulled along the slot away from the clip before by
 # this much a control step
-PULL_MAX = 0.024  # and at most this far (the slot's half length is 3 cm: the pinched capsule stays inside)
+PULL_MAX = 0.04  # and at most this far: past the slot's end (its half length is 3 cm) by 1 cm, the three capsules
+# behind the pinched one inside (seeds 101, 107, 112, 119, failures at 2.4 cm, whose pull ran its whole length with
+# the entry-side neighbours left on the near wall's top: 3/4 at 4 cm)
 PULL_NEIGHBOURS = 2  # until this many of its neighbours towards the clip before lie between the walls
 
 
@@ -130,7 +132,11 @@ def pull_slack(s: DrivenSolver, task, clip, segment: int, previous_clip, directi
     """Pull the pinched capsule `segment` along `clip`'s slot away from `previous_clip`, `PULL_STEP` a control
     step up to `PULL_MAX`, until its `PULL_NEIGHBOURS` neighbours towards that clip (capsules segment - direction,
     ...) lie between the walls: the cable's slack between the clips otherwise crosses the near wall at the slot's
-    entry and its capsules rest on the wall's top. Returns the TCP target reached."""
+    entry and its capsules rest on the wall's top. The pull stops as soon as `previous_clip` holds fewer capsules
+    than the rule's and than when the pull began: pulled on, the cable slides lengthwise out of that clip.
+    Returns the TCP target reached."""
+    previous = next(i for i, c in enumerate(task.clips) if c is previous_clip)
+    keep = min(float(task.inside_counts()[0, previous]), task.min_segments)
     axis = clip.axis()
     unit = torch.stack([torch.cos(axis), torch.sin(axis), torch.zeros_like(axis)], dim=1)
     away = torch.sign(((clip.pose.p - previous_clip.pose.p) * unit).sum(dim=1, keepdim=True))
@@ -139,7 +145,7 @@ def pull_slack(s: DrivenSolver, task, clip, segment: int, previous_clip, directi
     for _ in range(round(PULL_MAX / PULL_STEP)):
         centres = torch.stack([task.rope.links[k].pose.p[:, :2] for k in neighbours], dim=1)
         _, across = metrics.channel_coords(centres, clip.pose.p, axis)
-        if bool((across.abs() < clip.half_width).all()):
+        if bool((across.abs() < clip.half_width).all()) or float(task.inside_counts()[0, previous]) < keep:
             break
         target = target + away * unit * PULL_STEP
         s.step({"arm": (target, q)})
