@@ -79,3 +79,35 @@ def bench(targets: list[BenchTarget | str], steps: int = 300, obs_mode: str = "s
         rows.append(dict(env_id=target.label, steps_per_s=rate, ratio=rate / beside, reference_steps_per_s=beside))
     mean = sum(references) / len(references)
     return [dict(env_id=REFERENCE_ENV, steps_per_s=mean, ratio=1.0, reference_steps_per_s=mean)] + rows
+
+
+def save_rows(path, rows: list[dict], steps: int, obs_mode: str, update: bool = False) -> dict:
+    """Record `bench` rows in the JSON table at `path`: {"rows": {label: {ratio, steps_per_s, reference_steps_per_s,
+    steps, obs_mode, measured (UTC date), commit}}}. The reference row is not kept
+    (every ratio already is to the PickCube-v1 runs beside it). An existing table is only changed with `update`:
+    the labels measured now are replaced, the others kept. Returns the table."""
+    import datetime
+    import json
+    from pathlib import Path
+
+    from maniladder_ms.provenance import git_commit
+
+    path = Path(path)
+    table = {"rows": {}}
+    if path.exists():
+        if not update:
+            raise FileExistsError(f"{path} exists: pass --update to replace the rows of the targets measured now "
+                                  f"(the others are kept)")
+        table = json.loads(path.read_text(encoding="utf-8"))
+    measured = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d")
+    commit = git_commit()
+    for r in rows:
+        if r["env_id"] == REFERENCE_ENV:
+            continue
+        table["rows"][r["env_id"]] = dict(ratio=round(r["ratio"], 3), steps_per_s=round(r["steps_per_s"], 1),
+                                          reference_steps_per_s=round(r["reference_steps_per_s"], 1), steps=steps,
+                                          obs_mode=obs_mode, measured=measured, commit=commit)
+    table["rows"] = dict(sorted(table["rows"].items()))
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(table, indent=1) + "\n", encoding="utf-8")
+    return table

@@ -192,7 +192,11 @@ def _expand(kind: str, values: list[str], choices) -> list[str]:
 
 
 def cmd_bench(args) -> int:
-    from maniladder_ms.bench import bench, env_target
+    from maniladder_ms.bench import bench, env_target, save_rows
+
+    if args.out and Path(args.out).exists() and not args.update:  # before minutes of measuring, not after
+        raise FileExistsError(f"{args.out} exists: pass --update to replace the rows of the targets measured now "
+                              f"(the others are kept)")
 
     cat = _catalog()
     targets = []
@@ -211,6 +215,9 @@ def cmd_bench(args) -> int:
     print_table(("env", "steps/s", "ratio to PickCube-v1", "PickCube-v1 beside it (steps/s)"),
                 [(r["env_id"], f"{r['steps_per_s']:.0f}", f"{r['ratio']:.2f}", f"{r['reference_steps_per_s']:.0f}")
                  for r in rows])
+    if args.out:
+        table = save_rows(args.out, rows, args.steps, args.obs_mode, update=args.update)
+        print(f"wrote {len(rows) - 1} rows to {args.out} ({len(table['rows'])} in all)")
     return 0
 
 
@@ -260,6 +267,10 @@ def build_parser() -> argparse.ArgumentParser:
                                       "(e.g. front_camera,left_camera,top_camera: the reference policy's view)")
     bn.add_argument("--render-every", type=int, default=1,
                     help="render the cameras on every k-th step only (an action chunk of k run open loop)")
+    bn.add_argument("--out", type=Path, help="also record the rows in this JSON table (the tests' CI sample reads "
+                                             "docs/bench/state.json: each task's speed prices its expensive checks)")
+    bn.add_argument("--update", action="store_true",
+                    help="with --out on an existing table: replace the rows measured now, keep the others")
     bn.set_defaults(func=cmd_bench)
 
     add_demos_parser(sub)

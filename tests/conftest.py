@@ -5,7 +5,8 @@ Cheap contract checks (make, reset, step, metadata, no success at reset) run on 
 Expensive ones (solver run, demo record + verify, rgb obs, state round trip, committed-sample replay) take
 their tasks from `sampled_tasks()`: the tasks the branch's changes sample (`changed_tasks`), plus `SAMPLE_SIZE`
 tasks that change with the commit (ranked by a hash of `git rev-parse HEAD` and the task id, picked so the first
-few cover every embodiment and object class, within a budget of demo steps); the rest are marked `slow`, so `pytest -m slow` sweeps them all.
+few cover every embodiment and object class, within a cost budget: demo steps priced by the task's measured speed);
+the rest are marked `slow`, so `pytest -m slow` sweeps them all.
 `MANILADDER_TEST_TASKS=all` (or a comma-separated list of task ids) overrides the sample.
 
 A change samples a task when it touches the task's own files (its task module, its solver module under
@@ -32,12 +33,15 @@ import maniladder_ms
 
 REPO = Path(__file__).resolve().parents[1]
 SAMPLE_SIZE = 8  # tasks a commit checks expensively, besides the ones it changes
-# the sample's cost budget, in demo steps per sampled task: a task's expensive checks run its episodes (3 solver
-# episodes, 3 demos recorded and replayed, its samples replayed), so they cost about its episode length. Median
-# 169 steps over the 74 tasks built; TwistOpenBottleHands 982, and a sample of 8 drawing three of the longest
-# (400-1000 steps) doubled its CI minutes. A task is sampled while the sample's summed `demo_steps` stays within
-# k x this (the first pick always: any task still comes first for some commit)
-SAMPLE_STEPS_PER_TASK = 300
+# the sample's cost budget per sampled task, in PickCube-v1 control steps (`check_cost`): a task's expensive checks
+# run its episodes (3 solver episodes, 3 demos recorded and replayed, its samples replayed), so they cost about its
+# episode length times its time per step, and both vary ~10x over the 84 tasks built (HandoverMugHands: 676 steps at
+# 0.22x PickCube-v1's speed, 3073; LiftWideBox: 47 at 0.45x, 104; median 411). A task is sampled while the sample's
+# summed cost stays within k x this (the first pick always: any task still comes first for some commit). Over 300
+# commits' orders at 84 tasks: mean 5505, worst 7200 (a budget of demo steps alone, 300 a task: 5746 and 9707; the
+# landing whose sample cost 8242 took 2423 s in CI, those at 5970-7456 1084-1222 s), 293 samples keep all 8 tasks
+SAMPLE_COST_PER_TASK = 900
+BENCH_TABLE = REPO / "docs" / "bench" / "state.json"  # `maniladder bench --out`: each task's speed ratio
 TASKS_ENV = "MANILADDER_TEST_TASKS"
 SHARED_CAP = 4  # tasks a change samples through shared modules it touches, at most (docs: "CI budget")
 
@@ -185,11 +189,29 @@ def demo_steps(task_id: str) -> float:
     return sum(lengths) / len(lengths) if lengths else float(maniladder_ms.default_catalog().get(task_id).horizon)
 
 
+@lru_cache(maxsize=1)
+def speed_ratios() -> dict[str, float]:
+    """{task id: control steps/s as a ratio to PickCube-v1's} from `BENCH_TABLE` (state, random actions)."""
+    import json
+
+    rows = json.loads(BENCH_TABLE.read_text(encoding="utf-8"))["rows"]
+    return {spec.id: rows[spec.env_id]["ratio"] for spec in maniladder_ms.default_catalog() if spec.env_id in rows}
+
+
+@lru_cache(maxsize=None)
+def check_cost(task_id: str) -> float:
+    """The price of a task's expensive checks in PickCube-v1 control steps: `demo_steps` over its speed ratio
+    (`speed_ratios`; a task not in the table is priced at the slowest task's speed, and tests/test_task_sample.py
+    asks for its row)."""
+    speeds = speed_ratios()
+    return demo_steps(task_id) / speeds.get(task_id, min(speeds.values()))
+
+
 def task_sample(tasks, k: int = SAMPLE_SIZE) -> list[str]:
     """Which of `tasks` the expensive checks run on in this session (see the module docstring): the changed
-    tasks, then up to `k` in the commit's order whose summed `demo_steps` stays within k x
-    `SAMPLE_STEPS_PER_TASK` (a task that would exceed it is passed over for this commit; over 300 commits' orders
-    295 samples keep all 8 slots, 5 end with 6-7 when long tasks spent the budget)."""
+    tasks, then up to `k` in the commit's order whose summed `check_cost` stays within k x `SAMPLE_COST_PER_TASK`
+    (a task that would exceed it is passed over for this commit; over 300 commits' orders 293 samples keep all 8
+    slots, 7 end with 7 when slow tasks spent the budget)."""
     tasks = list(tasks)
     chosen = os.environ.get(TASKS_ENV, "").strip()
     if chosen == "all":
@@ -203,10 +225,10 @@ def task_sample(tasks, k: int = SAMPLE_SIZE) -> list[str]:
         if slots == k:
             break
         if t not in picked:
-            if drawn and spent + demo_steps(t) > k * SAMPLE_STEPS_PER_TASK:
+            if drawn and spent + check_cost(t) > k * SAMPLE_COST_PER_TASK:
                 continue
             drawn.append(t)
-            spent += demo_steps(t)
+            spent += check_cost(t)
         slots += 1
     return picked + drawn
 

@@ -167,6 +167,29 @@ def test_bench_compares_each_target_with_the_reference_runs_beside_it(monkeypatc
     assert [r["ratio"] for r in rows[1:]] == pytest.approx([30 / 90, 30 / 60])
 
 
+def test_bench_records_rows_and_updates_a_table_only_when_asked(monkeypatch, tmp_path, capsys):
+    import json
+
+    import maniladder_ms.bench as bench_module
+
+    rates = iter([100.0, 50.0, 100.0, 25.0, 100.0])
+    monkeypatch.setattr(bench_module, "steps_per_second", lambda env_id, *a, **k: next(rates))
+    table = tmp_path / "bench.json"
+    assert main(["bench", "PickPlacePen", "HangMug", "--steps", "1", "--out", str(table)]) == 0
+    rows = json.loads(table.read_text())["rows"]
+    assert {k: v["ratio"] for k, v in rows.items()} == {"ManiLadder-PickPlacePen-v1": 0.5, "ManiLadder-HangMug-v1": 0.25}
+    assert rows["ManiLadder-HangMug-v1"]["steps"] == 1 and rows["ManiLadder-HangMug-v1"]["obs_mode"] == "state"
+    # an existing table is refused before anything is measured, and kept as it was
+    before = table.read_text()
+    assert main(["bench", "HangMug", "--steps", "1", "--out", str(table)]) == 2
+    assert "--update" in capsys.readouterr().err and table.read_text() == before
+    rates = iter([100.0, 80.0, 100.0])
+    monkeypatch.setattr(bench_module, "steps_per_second", lambda env_id, *a, **k: next(rates))
+    assert main(["bench", "HangMug", "--steps", "1", "--out", str(table), "--update"]) == 0
+    rows = json.loads(table.read_text())["rows"]
+    assert {k: v["ratio"] for k, v in rows.items()} == {"ManiLadder-HangMug-v1": 0.8, "ManiLadder-PickPlacePen-v1": 0.5}
+
+
 def test_bench_rgb_with_declared_cameras_and_chunks(capsys):
     assert main(["bench", "PickPlacePen", "--steps", "8", "--obs-mode", "rgb",
                  "--cameras", "front_camera,left_camera,top_camera", "--render-every", "4"]) == 0

@@ -79,23 +79,32 @@ def test_the_environment_overrides_the_sample(monkeypatch):
     assert task_sample(tasks, 1) == ["HandoverCube"] + [t for t in ranked if t != "HandoverCube"]
 
 
-def test_the_sample_keeps_within_its_step_budget_and_can_still_draw_any_task(monkeypatch):
-    """The commit's sample stops adding long tasks once its demo steps would pass k x SAMPLE_STEPS_PER_TASK, and
-    the longest task is still checked by a commit whose order puts it first."""
+def test_the_sample_keeps_within_its_cost_budget_and_can_still_draw_any_task(monkeypatch):
+    """The commit's sample stops adding slow tasks once its cost (`check_cost`: demo steps over the task's speed)
+    would pass k x SAMPLE_COST_PER_TASK, and the costliest task is still checked by a commit whose order puts it
+    first."""
     import hashlib
 
     tasks = sorted(task_files())
     monkeypatch.setattr(conftest, "changed_tasks", lambda: ())
-    budget = 8 * conftest.SAMPLE_STEPS_PER_TASK
+    budget = 8 * conftest.SAMPLE_COST_PER_TASK
     for i in range(40):
         monkeypatch.setattr(conftest, "commit", lambda i=i: f"key{i}")
         sample = task_sample(tasks, 8)
-        assert 6 <= len(sample) <= 8 and len(set(sample)) == len(sample)  # fewer when long tasks spent the budget
-        assert sum(map(conftest.demo_steps, sample)) <= budget
-        assert sample[0] == conftest._rank(tasks, f"key{i}")[0]  # the commit's first pick is never passed over
-    longest = max(tasks, key=conftest.demo_steps)
-    assert conftest.demo_steps(longest) > 3 * conftest.SAMPLE_STEPS_PER_TASK  # the budget has something to cap
+        assert 6 <= len(sample) <= 8 and len(set(sample)) == len(sample)  # fewer when slow tasks spent the budget
+        first = conftest._rank(tasks, f"key{i}")[0]
+        assert sample[0] == first  # the commit's first pick is never passed over
+        assert sum(map(conftest.check_cost, sample)) <= budget
+    costliest = max(tasks, key=conftest.check_cost)
+    assert conftest.check_cost(costliest) > 3 * conftest.SAMPLE_COST_PER_TASK  # the budget has something to cap
     first = next(f"k{i}" for i in range(100000)
-                 if min(tasks, key=lambda t, i=i: hashlib.sha256(f"k{i}:{t}".encode()).hexdigest()) == longest)
+                 if min(tasks, key=lambda t, i=i: hashlib.sha256(f"k{i}:{t}".encode()).hexdigest()) == costliest)
     monkeypatch.setattr(conftest, "commit", lambda: first)
-    assert task_sample(tasks, 8)[0] == longest
+    assert task_sample(tasks, 8)[0] == costliest
+
+
+def test_every_built_task_has_a_speed_row():
+    """The sample prices each task by its measured speed: a new task's bench row goes into the table
+    (`maniladder bench TASK --out docs/bench/state.json --update`)."""
+    missing = sorted(set(task_files()) - set(conftest.speed_ratios()))
+    assert not missing, f"no row in {conftest.BENCH_TABLE.relative_to(conftest.REPO)}: {missing}"
