@@ -39,6 +39,10 @@ class OpenBoxRetrievalEnv(ManiLadderEnv):
     """
 
     max_dense_reward = 7
+    # PhysX contact caches are not env state: with the box's layout of ladder round 4, two restores of seed 3's state
+    # after 50 random actions in the same env drifted apart by 0.15 in the obs within 5 steps; restored into fresh
+    # envs they agree exactly (tests/test_envs.py's round trip)
+    RESTORES_NEED_FRESH_SCENE = True
 
     TASK_REGION = (-0.37, 0.25, -0.25, 0.25)
     box_density = 2200.0  # ~1.5 kg: the box stays put while the lid is pulled open
