@@ -5,7 +5,8 @@ phases, `solvers/rope/clip_phases.py`).
 
 1. `pick_capsule`: the capsule to pinch for the next clip: counted from the cable's end beside the first clip,
    `FIRST_CAPSULE` for the first clip and `CAPSULE_STEP` more for each next one; of it and its neighbours
-   (`PICK_SHIFTS`) the first whose spread fingertips land clear of every clip (`pinch_is_clear`).
+   (`PICK_SHIFTS`) the first whose spread fingertips land clear of every clip (`pinch_is_clear`); if none does,
+   the first whose fingertips land clear with the fingers turned off the cable by one of `PINCH_TURNS`.
 2. The first clip: `lay_over_clip` (pinch, lift 3 cm over the walls, carry onto the slot, servo, lower, let go).
    Each next clip: `lay_low_over_clip` (pinch, carry the capsule low over the table to beside the slot, rise just
    over the walls onto the slot, servo, lower; `pull_slack` along the slot away from the clip before; let go): the
@@ -36,7 +37,9 @@ CAPSULE_STEP = 6  # capsules between those pressed into consecutive clips: 12 cm
 MIN_STEP = 6  # never fewer capsules between consecutive clips' capsules: 12 cm of cable for 10 cm
 PICK_SHIFTS = (0, 1, -1, 2)  # capsules tried after the nominal one, in this order
 PINCH_TURNS = (0.4, -0.4, 0.8, -0.8)  # rad: where no capsule's pinch along the cable is clear, the fingers turned
-# this far off the cable, in this order (their spread then points partly along the clip instead of onto it)
+# this far off the cable, in this order (their spread then points partly along the clip instead of onto it; seeds
+# 108 and 110, middle clip, every capsule 6-10 blocked: the middle tip stopped on the clip's wall 10 mm high and
+# the pinch held nothing; turned -0.8 and -0.4 the pinches of capsules 10 and 9 held)
 TIP_REACH = 0.06  # the spread fingertips reach this far sideways of the pinched capsule's centre (seeds 100-103: the
 # middle tip landed on a clip wall with the capsule 5.0-6.6 cm from that clip's axis, never at 8.6 cm or more)
 TIP_HALF_WIDTH = 0.015  # and this far along the cable
@@ -107,7 +110,9 @@ def lay_low_over_clip(s: DrivenSolver, task, clip, segment: int, previous_clip, 
     centre, servo, lower it until its bottom is `RELEASE_ABOVE_TOP` above the walls, `pull_slack` and open the
     fingers: the cable behind it leaves `previous_clip`'s slot level (carried 3 cm over the walls, as
     `lay_over_clip` does, it rose 4 cm from that slot's exit to the carried capsule and pulled that clip's capsules
-    up out of it). The pinch and the lay over the slot are `lay_over_clip`'s (`scissor_pinch`, `lay_on_slot`).
+    up out of it). The pinch and the lay over the slot are `lay_over_clip`'s (`scissor_pinch`, `lay_on_slot`); the
+    pinch takes the hand's other yaw where the wrist stalls at its joint limit above the capsule
+    (`flip_stalled_wrist`: seed 108, last clip, the hand 1.3 rad short, its index tip landed on the cable).
     Returns the TCP target (p, q) where it let go, for the press."""
     radius = task.rope_config.radius
     centre, yaw, tcp, q, around = scissor_pinch(s, task, segment, turn, flip_stalled_wrist=True)
