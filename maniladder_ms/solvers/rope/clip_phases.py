@@ -35,41 +35,56 @@ LOWER_SERVO_STEPS = 25  # control steps lowering it onto the release height, sti
 SERVO_GAIN = 0.3
 SERVO_MAX_TURN = 0.3  # rad: the yaw correction's bound
 CARRY_MOVE_STEPS = 60  # control steps at most for the carry over the slot
+WRIST_STALL = 0.5  # rad: the hand this far from its yaw over the capsule after the approach move stopped at the
+# wrist's joint limit (RouteCableClipsHand seed 108, last clip: 1.30 rad short, joint 7 at -2.90 of its -2.90)
 
 
-def scissor_pinch(s: DrivenSolver, task, segment: int):
-    """Scissor-pinch capsule `segment` where it lies (fingers along the cable): open, come down over it, close.
-    Returns the capsule's centre at table height, its yaw and the TCP target (p, q) the fingers closed at."""
+def scissor_pinch(s: DrivenSolver, task, segment: int, turn: float = 0.0, flip_stalled_wrist: bool = False):
+    """Scissor-pinch capsule `segment` where it lies (fingers along the cable, or turned `turn` rad off it): open,
+    come down over it, close. Of the two hand yaws along the fingers the one nearest 0 (`scissor_pose`) or, with
+    `flip_stalled_wrist`, the other one if the hand stopped `WRIST_STALL` short of the first above the capsule (the
+    wrist at its joint limit). Returns the capsule's centre at table height, the yaw the fingers lay along (the
+    capsule's, plus `turn`), the TCP target (p, q) the fingers closed at and the hand yaw's `around` (0 or pi)."""
     link = task.rope.links[segment]
     centre = link.pose.p.clone()
     centre[:, 2] = task.rope_config.radius
-    yaw = rope.segment_yaw(link.pose.q)
+    yaw = rope.segment_yaw(link.pose.q) + turn
+    around = 0.0
     tcp, q = DrivenSolver.scissor_pose(centre, yaw)
     s.set_ee("hand", "scissor_open", steps=1)
     s.move({"arm": (s.above(tcp, APPROACH_HEIGHT), q)}, max_steps=60)
+    if flip_stalled_wrist and float(quat_angle(s.tcp("arm").q, q).max()) > WRIST_STALL:
+        around = np.pi
+        tcp, q = DrivenSolver.scissor_pose(centre, yaw, around=around)
+        s.move({"arm": (s.above(tcp, APPROACH_HEIGHT), q)}, max_steps=60)
     s.move({"arm": (tcp, q)}, max_steps=40, pos_tol=0.003)
     s.close_hand("hand", "scissor", ramp_steps=SCISSOR_RAMP_STEPS)
-    return centre, yaw, tcp, q
+    return centre, yaw, tcp, q, around
 
 
-def lay_over_clip(s: DrivenSolver, task, clip: Channel, segment: int):
-    """Scissor-pinch capsule `segment` (`scissor_pinch`), lift it `CARRY_LIFT` over the clip's walls,
-    carry it over the slot's centre while turning it onto the slot's axis, lower it until its bottom is
-    `RELEASE_ABOVE_TOP` above the walls and open the fingers (`lay_on_slot`)."""
+def quat_angle(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
+    """The rotation angle between unit quaternions `a` and `b` (n, 4), radians."""
+    return 2 * torch.acos((a * b).sum(dim=1).abs().clamp(max=1.0))
+
+
+def lay_over_clip(s: DrivenSolver, task, clip: Channel, segment: int, turn: float = 0.0):
+    """Scissor-pinch capsule `segment` (`scissor_pinch`, the fingers turned `turn` off it), lift it `CARRY_LIFT`
+    over the clip's walls, carry it over the slot's centre while turning it onto the slot's axis, lower it until
+    its bottom is `RELEASE_ABOVE_TOP` above the walls and open the fingers (`lay_on_slot`)."""
     radius = task.rope_config.radius
-    _, yaw, tcp, q = scissor_pinch(s, task, segment)
+    _, yaw, tcp, q, _ = scissor_pinch(s, task, segment, turn)
     carry = clip.top + CARRY_LIFT + radius  # the pinched capsule's centre height while carried
     for k in range(1, LIFT_STEPS + 1):
         s.step({"arm": (s.above(tcp, (carry - radius) * k / LIFT_STEPS), q)})
     return lay_on_slot(s, task, clip, segment, along_slot(yaw, clip), carry, CARRY_MOVE_STEPS)
 
 
-def along_slot(yaw: torch.Tensor, clip: Channel) -> torch.Tensor:
+def along_slot(yaw: torch.Tensor, clip: Channel, around: float = 0.0) -> torch.Tensor:
     """The hand yaw that lays a capsule pinched at `yaw` along `clip`'s slot: the fingers are symmetric, so of the
     two hand yaws along the axis take the one nearest the hand's own (turn the short way: at most a quarter turn;
     measured from the capsule's `yaw` instead of the hand's, the hand turned half way round on some seeds and the
-    cable twisted off the axis in the pinch)."""
-    hand_yaw = DrivenSolver.neutral_yaw(yaw, np.pi)  # scissor_pose's (around 0)
+    cable twisted off the axis in the pinch). `around`: the one `scissor_pose` chose the hand's yaw near."""
+    hand_yaw = DrivenSolver.neutral_yaw(yaw - around, np.pi) + around  # scissor_pose's
     return hand_yaw + DrivenSolver.neutral_yaw(clip.axis() - hand_yaw, np.pi)
 
 

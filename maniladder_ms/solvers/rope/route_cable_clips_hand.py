@@ -5,7 +5,8 @@ phases, `solvers/rope/clip_phases.py`).
 
 1. `pick_capsule`: the capsule to pinch for the next clip: counted from the cable's end beside the first clip,
    `FIRST_CAPSULE` for the first clip and `CAPSULE_STEP` more for each next one; of it and its neighbours
-   (`PICK_SHIFTS`) the first whose spread fingertips land clear of every clip (`pinch_is_clear`).
+   (`PICK_SHIFTS`) the first whose spread fingertips land clear of every clip (`pinch_is_clear`); if none does,
+   the first whose fingertips land clear with the fingers turned off the cable by one of `PINCH_TURNS`.
 2. The first clip: `lay_over_clip` (pinch, lift 3 cm over the walls, carry onto the slot, servo, lower, let go).
    Each next clip: `lay_low_over_clip` (pinch, carry the capsule low over the table to beside the slot, rise just
    over the walls onto the slot, servo, lower; `pull_slack` along the slot away from the clip before; let go): the
@@ -35,6 +36,10 @@ CAPSULE_STEP = 6  # capsules between those pressed into consecutive clips: 12 cm
 # clip)
 MIN_STEP = 6  # never fewer capsules between consecutive clips' capsules: 12 cm of cable for 10 cm
 PICK_SHIFTS = (0, 1, -1, 2)  # capsules tried after the nominal one, in this order
+PINCH_TURNS = (0.4, -0.4, 0.8, -0.8)  # rad: where no capsule's pinch along the cable is clear, the fingers turned
+# this far off the cable, in this order (their spread then points partly along the clip instead of onto it; seeds
+# 108 and 110, middle clip, every capsule 6-10 blocked: the middle tip stopped on the clip's wall 10 mm high and
+# the pinch held nothing; turned -0.8 and -0.4 the pinches of capsules 10 and 9 held)
 TIP_REACH = 0.06  # the spread fingertips reach this far sideways of the pinched capsule's centre (seeds 100-103: the
 # middle tip landed on a clip wall with the capsule 5.0-6.6 cm from that clip's axis, never at 8.6 cm or more)
 TIP_HALF_WIDTH = 0.015  # and this far along the cable
@@ -56,12 +61,12 @@ PULL_MAX = 0.04  # and at most this far: past the slot's end (its half length is
 PULL_NEIGHBOURS = 2  # until this many of its neighbours towards the clip before lie between the walls
 
 
-def pinch_is_clear(task, k: int) -> bool:
-    """Whether the spread fingertips pinching capsule `k` land clear of every clip: sample points across the
-    tips' span (`TIP_REACH` each side of the capsule, `TIP_HALF_WIDTH` along it), none within `TIP_CLEARANCE` of
-    a clip's outline (its walls' outer faces and its ends), seen from above."""
+def pinch_is_clear(task, k: int, turn: float = 0.0) -> bool:
+    """Whether the spread fingertips pinching capsule `k` (the fingers turned `turn` off it) land clear of every
+    clip: sample points across the tips' span (`TIP_REACH` each side of the capsule, `TIP_HALF_WIDTH` along it),
+    none within `TIP_CLEARANCE` of a clip's outline (its walls' outer faces and its ends), seen from above."""
     link = task.rope.links[k]
-    p, yaw = link.pose.p[:, :2], rope.segment_yaw(link.pose.q)
+    p, yaw = link.pose.p[:, :2], rope.segment_yaw(link.pose.q) + turn
     along = torch.stack([torch.cos(yaw), torch.sin(yaw)], dim=1)
     side = torch.stack([-torch.sin(yaw), torch.cos(yaw)], dim=1)
     offsets = torch.linspace(-TIP_REACH, TIP_REACH, TIP_SAMPLES)
@@ -75,20 +80,19 @@ def pinch_is_clear(task, k: int) -> bool:
     return True
 
 
-def pick_capsule(task, nominal: int, previous: int | None, direction: int) -> int:
-    """The capsule to pinch for the next clip: `nominal` or, if its pinch is not clear, the first of its
-    neighbours (`PICK_SHIFTS`, along `direction`: +1 counting up from capsule 0, -1 down) that is, keeping at
-    least `MIN_STEP` capsules after `previous`; `nominal` if none is."""
+def pick_capsule(task, nominal: int, previous: int | None, direction: int) -> tuple[int, float]:
+    """The capsule to pinch for the next clip and the fingers' turn off it: `nominal` or, if its pinch is not
+    clear, the first of its neighbours (`PICK_SHIFTS`, along `direction`: +1 counting up from capsule 0, -1 down)
+    that is, keeping at least `MIN_STEP` capsules after `previous`; if none is, the first of them whose pinch
+    turned by one of `PINCH_TURNS` is; `nominal` unturned if none is."""
     last = task.rope_config.segments - 2  # the clip's 3 capsules must exist: the pick's neighbours too
-    for shift in PICK_SHIFTS:
-        k = nominal + direction * shift
-        if not 1 <= k <= last:
-            continue
-        if previous is not None and direction * (k - previous) < MIN_STEP:
-            continue
-        if pinch_is_clear(task, k):
-            return k
-    return nominal
+    ks = [nominal + direction * shift for shift in PICK_SHIFTS]
+    ks = [k for k in ks if 1 <= k <= last and (previous is None or direction * (k - previous) >= MIN_STEP)]
+    for turn in (0.0,) + PINCH_TURNS:
+        for k in ks:
+            if pinch_is_clear(task, k, turn):
+                return k, turn
+    return nominal, 0.0
 
 
 def first_end_direction(task) -> int:
@@ -100,20 +104,22 @@ def first_end_direction(task) -> int:
     return 1 if bool((near0 <= near1)[0]) else -1
 
 
-def lay_low_over_clip(s: DrivenSolver, task, clip, segment: int, previous_clip, direction: int):
+def lay_low_over_clip(s: DrivenSolver, task, clip, segment: int, previous_clip, direction: int, turn: float = 0.0):
     """Scissor-pinch capsule `segment`, carry it `LOW_LIFT` over the table to `STAGE_OFFSET` beside the clip's
     slot, turned onto the slot's axis, rise until its bottom is `OVER_WALL` above the walls, move over the slot's
     centre, servo, lower it until its bottom is `RELEASE_ABOVE_TOP` above the walls, `pull_slack` and open the
     fingers: the cable behind it leaves `previous_clip`'s slot level (carried 3 cm over the walls, as
     `lay_over_clip` does, it rose 4 cm from that slot's exit to the carried capsule and pulled that clip's capsules
-    up out of it). The pinch and the lay over the slot are `lay_over_clip`'s (`scissor_pinch`, `lay_on_slot`).
+    up out of it). The pinch and the lay over the slot are `lay_over_clip`'s (`scissor_pinch`, `lay_on_slot`); the
+    pinch takes the hand's other yaw where the wrist stalls at its joint limit above the capsule
+    (`flip_stalled_wrist`: seed 108, last clip, the hand 1.3 rad short, its index tip landed on the cable).
     Returns the TCP target (p, q) where it let go, for the press."""
     radius = task.rope_config.radius
-    centre, yaw, tcp, q = scissor_pinch(s, task, segment)
+    centre, yaw, tcp, q, around = scissor_pinch(s, task, segment, turn, flip_stalled_wrist=True)
     for k in range(1, LOW_STEPS + 1):
         s.step({"arm": (s.above(tcp, LOW_LIFT * k / LOW_STEPS), q)})
     axis = clip.axis()
-    along = along_slot(yaw, clip)
+    along = along_slot(yaw, clip, around)
     across = torch.stack([-torch.sin(axis), torch.cos(axis), torch.zeros_like(axis)], dim=1)
     side = torch.sign(((centre - clip.pose.p) * across).sum(dim=1, keepdim=True))
     stage = clip.pose.p + side * STAGE_OFFSET * across
@@ -192,11 +198,11 @@ def solve_route_cable_clips_hand(env, seed: int) -> dict:
         previous = None
         for i, clip in enumerate(task.clips):
             nominal = start if previous is None else previous + direction * CAPSULE_STEP
-            k = pick_capsule(task, nominal, previous, direction)
+            k, turn = pick_capsule(task, nominal, previous, direction)
             if i == 0:  # no clip before it; carried low, the cable's free end caught the near wall (seed 104)
-                low, q = lay_over_clip(s, task, clip, k)
+                low, q = lay_over_clip(s, task, clip, k, turn)
             else:
-                low, q = lay_low_over_clip(s, task, clip, k, task.clips[i - 1], direction)
+                low, q = lay_low_over_clip(s, task, clip, k, task.clips[i - 1], direction, turn)
             press_home(s, task, clip, low, q)
             seat(s, task, i)
             previous = k
