@@ -81,6 +81,15 @@ def bench(targets: list[BenchTarget | str], steps: int = 300, obs_mode: str = "s
     return [dict(env_id=REFERENCE_ENV, steps_per_s=mean, ratio=1.0, reference_steps_per_s=mean)] + rows
 
 
+def refuse_to_replace(path, update: bool):
+    """Raise `FileExistsError` if a bench table exists at `path` and `update` was not asked for."""
+    from pathlib import Path
+
+    if Path(path).exists() and not update:
+        raise FileExistsError(f"{path} exists: pass --update to replace the rows of the targets measured now "
+                              f"(the others are kept)")
+
+
 def save_rows(path, rows: list[dict], steps: int, obs_mode: str, update: bool = False) -> dict:
     """Record `bench` rows in the JSON table at `path`: {"rows": {label: {ratio, steps_per_s, reference_steps_per_s,
     steps, obs_mode, measured (UTC date), commit}}}. The reference row is not kept
@@ -93,12 +102,8 @@ def save_rows(path, rows: list[dict], steps: int, obs_mode: str, update: bool = 
     from maniladder_ms.provenance import git_commit
 
     path = Path(path)
-    table = {"rows": {}}
-    if path.exists():
-        if not update:
-            raise FileExistsError(f"{path} exists: pass --update to replace the rows of the targets measured now "
-                                  f"(the others are kept)")
-        table = json.loads(path.read_text(encoding="utf-8"))
+    refuse_to_replace(path, update)
+    table = json.loads(path.read_text(encoding="utf-8")) if path.exists() else {"rows": {}}
     measured = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d")
     commit = git_commit()
     for r in rows:

@@ -192,11 +192,10 @@ def _expand(kind: str, values: list[str], choices) -> list[str]:
 
 
 def cmd_bench(args) -> int:
-    from maniladder_ms.bench import bench, env_target, save_rows
+    from maniladder_ms.bench import bench, env_target, refuse_to_replace, save_rows
 
-    if args.out and Path(args.out).exists() and not args.update:  # before minutes of measuring, not after
-        raise FileExistsError(f"{args.out} exists: pass --update to replace the rows of the targets measured now "
-                              f"(the others are kept)")
+    if args.out:
+        refuse_to_replace(args.out, args.update)  # before minutes of measuring, not after
 
     cat = _catalog()
     targets = []

@@ -92,8 +92,7 @@ def test_the_sample_keeps_within_its_cost_budget_and_can_still_draw_any_task(mon
         monkeypatch.setattr(conftest, "commit", lambda i=i: f"key{i}")
         sample = task_sample(tasks, 8)
         assert 6 <= len(sample) <= 8 and len(set(sample)) == len(sample)  # fewer when slow tasks spent the budget
-        first = conftest._rank(tasks, f"key{i}")[0]
-        assert sample[0] == first  # the commit's first pick is never passed over
+        assert sample[0] == conftest._rank(tasks, f"key{i}")[0]  # the commit's first pick is never passed over
         assert sum(map(conftest.check_cost, sample)) <= budget
     costliest = max(tasks, key=conftest.check_cost)
     assert conftest.check_cost(costliest) > 3 * conftest.SAMPLE_COST_PER_TASK  # the budget has something to cap
