@@ -39,6 +39,15 @@ def demo_root(tmp_path_factory):
     return tmp_path_factory.mktemp("demos")
 
 
+# pytest-xdist gives each worker its own module-scoped fixtures: the tests that share `recorded` (or
+# `convex_lookups`) run in one group, on one worker, so that each sample task is recorded once (split across the two
+# workers, the whole test command at a5913f9 recorded them twice: test_stats_table_and_plot's call alone took 345 s,
+# the same 8 tasks' recordings as test_generated_demos_verify's 677 s on the other worker), and every registered
+# task's env built once for its decompositions (both tests' setups took 231 s and 179 s)
+SHARES_RECORDED = pytest.mark.xdist_group("recorded_demos")
+SHARES_CONVEX_LOOKUPS = pytest.mark.xdist_group("convex_lookups")
+
+
 @pytest.fixture(scope="module")
 def recorded(demo_root):
     """Records 3 demos of a task into `demo_root` on first use; returns the demo file."""
@@ -53,6 +62,7 @@ def recorded(demo_root):
     return record
 
 
+@SHARES_RECORDED
 @pytest.mark.parametrize("task_id", sampled_tasks(TASKS))
 def test_generated_demos_verify(recorded, task_id):
     path = recorded(task_id)
@@ -81,6 +91,7 @@ def _replay(path: Path, *args) -> str:
 RGBD_REPLAY_FAILS: dict[str, str] = {}
 
 
+@SHARES_RECORDED
 @pytest.mark.parametrize("task_id", expected_to_fail(sampled_tasks(TASKS, RGBD_SAMPLE), RGBD_REPLAY_FAILS))
 def test_replay_trajectory_converts_to_rgbd_keeping_success(recorded, task_id):
     path = recorded(task_id)
@@ -96,6 +107,7 @@ def test_replay_trajectory_converts_to_rgbd_keeping_success(recorded, task_id):
         assert wrist and all("depth" in traj[f"obs/sensor_data/{name}"] for name in wrist)
 
 
+@SHARES_RECORDED
 @pytest.mark.parametrize("target", ["pd_ee_delta_pose", "pd_joint_delta_pos"])
 def test_replay_trajectory_control_mode_conversion(recorded, target):
     out = _replay(recorded("PickPlacePen"), "-c", target, "--save-traj")
@@ -127,6 +139,7 @@ def test_demo_episodes_record_their_instruction(tmp_path):
     assert {ep["instruction"] for ep in load_demo_json(old)["episodes"]} == {pen.instruction}
 
 
+@SHARES_RECORDED
 def test_existing_dataset_is_not_overwritten(recorded, demo_root):
     recorded("PickPlacePen")
     with pytest.raises(FileExistsError, match="--overwrite"):
@@ -159,6 +172,7 @@ def test_parallel_workers(tmp_path):
     assert report.kept == 6 and len(report.attempts) == 10
 
 
+@SHARES_RECORDED
 def test_stats_table_and_plot(recorded, demo_root, tmp_path):
     for task_id in DEMO_SAMPLE:
         recorded(task_id)
@@ -174,6 +188,7 @@ def test_stats_table_and_plot(recorded, demo_root, tmp_path):
     assert png.stat().st_size > 10_000
 
 
+@SHARES_RECORDED
 def test_broken_demo_files_are_clear_errors(recorded, tmp_path):
     good = recorded("PickPlacePen")
     truncated = tmp_path / "truncated.h5"
@@ -202,6 +217,7 @@ def test_broken_demo_files_are_clear_errors(recorded, tmp_path):
         generate("PickPlacePen", 1, tmp_path, seed=999_990, progress=False)
 
 
+@SHARES_RECORDED
 def test_cli_demos_commands(recorded, demo_root, capsys, fixture_catalog):
     from maniladder_ms.cli import main
 
@@ -307,6 +323,7 @@ def convex_lookups(tmp_path_factory):
     return found
 
 
+@SHARES_CONVEX_LOOKUPS
 def test_task_decompositions_are_shipped(convex_lookups):
     """Every CoACD decomposition a task uses is package data (maniladder_ms/data/convex), so a wheel install
     simulates the collision shapes its committed demos were recorded with."""
@@ -318,6 +335,7 @@ def test_task_decompositions_are_shipped(convex_lookups):
     assert any(convex_lookups.values())  # the lookup is observed at all
 
 
+@SHARES_CONVEX_LOOKUPS
 def test_wheel_install_replays_coacd_samples(convex_lookups, tmp_path):
     """A wheel built from this tree, installed into a bare folder and run outside the repo with an empty
     cache, holds every shipped decomposition and agent file, and replays to success the committed samples of the
