@@ -113,13 +113,13 @@ def first_end_direction(task) -> int:
 
 
 def lay_low_over_clip(s: DrivenSolver, task, clip, segment: int, previous_clip, direction: int, turn: float = 0.0):
-    """Scissor-pinch capsule `segment`, carry it `LOW_LIFT` over the table to `STAGE_OFFSET` beside the clip's
-    slot and `STAGE_BACK` back along it towards `previous_clip`, turned onto the slot's axis, rise until its bottom is `OVER_WALL` above the walls, move over the slot's
-    centre, servo, lower it until its bottom is `RELEASE_ABOVE_TOP` above the walls, `pull_slack` and open the
-    fingers: the cable behind it leaves `previous_clip`'s slot level (carried 3 cm over the walls, as
-    `lay_over_clip` does, it rose 4 cm from that slot's exit to the carried capsule and pulled that clip's capsules
-    up out of it). The pinch and the lay over the slot are `lay_over_clip`'s (`scissor_pinch`, `lay_on_slot`); the
-    pinch takes the hand's other yaw where the wrist stalls at its joint limit above the capsule
+    """Scissor-pinch capsule `segment`, carry it `LOW_LIFT` over the table to `STAGE_OFFSET` beside the clip's slot and
+    `STAGE_BACK` back along it towards `previous_clip`, turned onto the slot's axis, rise until its bottom is
+    `OVER_WALL` above the walls, move over the slot's centre, servo, lower it until its bottom is `RELEASE_ABOVE_TOP`
+    above the walls, `pull_slack` and open the fingers: the cable behind it leaves `previous_clip`'s slot level (carried
+    3 cm over the walls, as `lay_over_clip` does, it rose 4 cm from that slot's exit to the carried capsule and pulled
+    that clip's capsules up out of it). The pinch and the lay over the slot are `lay_over_clip`'s (`scissor_pinch`,
+    `lay_on_slot`); the pinch takes the hand's other yaw where the wrist stalls at its joint limit above the capsule
     (`flip_stalled_wrist`: seed 108, last clip, the hand 1.3 rad short, its index tip landed on the cable).
     Returns the TCP target (p, q) where it let go, for the press."""
     radius = task.rope_config.radius
