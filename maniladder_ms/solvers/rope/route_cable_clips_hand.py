@@ -29,10 +29,8 @@ from maniladder_ms.solvers.driven import DrivenSolver
 from maniladder_ms.solvers.rope.clip_phases import (RELEASE_ABOVE_TOP, along_slot, lay_on_slot, lay_over_clip,
                                                     press_home, scissor_pinch)
 
-FIRST_CAPSULE = 3  # the capsule pressed into the first clip, counted from the cable's end beside that clip: with
-# 2, only capsules 0-1 lay behind the clip's middle and a lengthwise pull of 3 cm towards the next clips took the
-# clip below the rule's 3 (seeds 134, 141: the first clip 3 -> 1 and 0 in the later clips' presses; at 3 both
-# succeed; chosen on failing seeds 121, 134, 141)
+FIRST_CAPSULE = 2  # the capsule pressed into the first clip, counted from the cable's end beside that clip (at 3
+# the first clip's own lay left it empty on 10 of seeds 100-149, against 0-1 at 2)
 CAPSULE_STEP = 6  # capsules between those pressed into consecutive clips: 12 cm of cable for the clips' 10 cm
 # spacing (with the low carry and `pull_slack`, seeds 100-107: 5/8 against 4/8 at 7, whose 4 cm of slack crossed the
 # near wall at the slot's entry; `pick_capsule` still shifts the pinch onwards where the fingertips would land on a
@@ -57,7 +55,7 @@ STAGE_BACK = 0.03  # and this far back along the slot's axis towards the clip be
 # cable from the clip before's middle reach a stage beside the slot's middle only taut (3 cm along that slot to its
 # end, then 9.9 cm to the stage 10 cm on and 7 cm beside), and the carry pulled that clip's capsules out (seeds 116,
 # 119, 121, 129, 130: 3 -> 0-1 in the next clip's lay); 3 cm back it is 8.1 cm from that slot's end (chosen on
-# those seeds: 3 of 5 then succeed)
+# those seeds, with `FIRST_CAPSULE` 3: 3 of 5 then succeeded)
 OVER_WALL = 0.008  # then the capsule's bottom rises this far above the walls' top and moves over the slot
 LOW_STEPS = 10  # control steps of each rise
 OVER_SLOT_STEPS = 40  # control steps at most for the move from beside the slot over its centre
