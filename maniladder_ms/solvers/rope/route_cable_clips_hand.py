@@ -29,8 +29,7 @@ from maniladder_ms.solvers.driven import DrivenSolver
 from maniladder_ms.solvers.rope.clip_phases import (RELEASE_ABOVE_TOP, along_slot, lay_on_slot, lay_over_clip,
                                                     press_home, scissor_pinch)
 
-FIRST_CAPSULE = 2  # the capsule pressed into the first clip, counted from the cable's end beside that clip (at 3
-# the first clip's own lay left it empty on 10 of seeds 100-149, against 0-1 at 2)
+FIRST_CAPSULE = 2  # the capsule pressed into the first clip, counted from the cable's end beside that clip
 CAPSULE_STEP = 6  # capsules between those pressed into consecutive clips: 12 cm of cable for the clips' 10 cm
 # spacing (with the low carry and `pull_slack`, seeds 100-107: 5/8 against 4/8 at 7, whose 4 cm of slack crossed the
 # near wall at the slot's entry; `pick_capsule` still shifts the pinch onwards where the fingertips would land on a
@@ -51,11 +50,6 @@ SEAT_ROUNDS = 2  # presses again of a clip left short by its own press, before t
 LOW_LIFT = 0.005  # the pinched capsule's bottom this far above the table while it is carried beside the clip
 STAGE_OFFSET = 0.07  # where the low carry ends: this far beside the slot's axis, on the capsule's side (the pinch's
 # fingertips reach `TIP_REACH` across the slot: they stay clear of the near wall)
-STAGE_BACK = 0.03  # and this far back along the slot's axis towards the clip before: the `CAPSULE_STEP` 12 cm of
-# cable from the clip before's middle reach a stage beside the slot's middle only taut (3 cm along that slot to its
-# end, then 9.9 cm to the stage 10 cm on and 7 cm beside), and the carry pulled that clip's capsules out (seeds 116,
-# 119, 121, 129, 130: 3 -> 0-1 in the next clip's lay); 3 cm back it is 8.1 cm from that slot's end (chosen on
-# those seeds, with `FIRST_CAPSULE` 3: 3 of 5 then succeeded)
 OVER_WALL = 0.008  # then the capsule's bottom rises this far above the walls' top and moves over the slot
 LOW_STEPS = 10  # control steps of each rise
 OVER_SLOT_STEPS = 40  # control steps at most for the move from beside the slot over its centre
@@ -111,13 +105,13 @@ def first_end_direction(task) -> int:
 
 
 def lay_low_over_clip(s: DrivenSolver, task, clip, segment: int, previous_clip, direction: int, turn: float = 0.0):
-    """Scissor-pinch capsule `segment`, carry it `LOW_LIFT` over the table to `STAGE_OFFSET` beside the clip's slot and
-    `STAGE_BACK` back along it towards `previous_clip`, turned onto the slot's axis, rise until its bottom is
-    `OVER_WALL` above the walls, move over the slot's centre, servo, lower it until its bottom is `RELEASE_ABOVE_TOP`
-    above the walls, `pull_slack` and open the fingers: the cable behind it leaves `previous_clip`'s slot level (carried
-    3 cm over the walls, as `lay_over_clip` does, it rose 4 cm from that slot's exit to the carried capsule and pulled
-    that clip's capsules up out of it). The pinch and the lay over the slot are `lay_over_clip`'s (`scissor_pinch`,
-    `lay_on_slot`); the pinch takes the hand's other yaw where the wrist stalls at its joint limit above the capsule
+    """Scissor-pinch capsule `segment`, carry it `LOW_LIFT` over the table to `STAGE_OFFSET` beside the clip's
+    slot, turned onto the slot's axis, rise until its bottom is `OVER_WALL` above the walls, move over the slot's
+    centre, servo, lower it until its bottom is `RELEASE_ABOVE_TOP` above the walls, `pull_slack` and open the
+    fingers: the cable behind it leaves `previous_clip`'s slot level (carried 3 cm over the walls, as
+    `lay_over_clip` does, it rose 4 cm from that slot's exit to the carried capsule and pulled that clip's capsules
+    up out of it). The pinch and the lay over the slot are `lay_over_clip`'s (`scissor_pinch`, `lay_on_slot`); the
+    pinch takes the hand's other yaw where the wrist stalls at its joint limit above the capsule
     (`flip_stalled_wrist`: seed 108, last clip, the hand 1.3 rad short, its index tip landed on the cable).
     Returns the TCP target (p, q) where it let go, for the press."""
     radius = task.rope_config.radius
@@ -128,9 +122,7 @@ def lay_low_over_clip(s: DrivenSolver, task, clip, segment: int, previous_clip, 
     along = along_slot(yaw, clip, around)
     across = torch.stack([-torch.sin(axis), torch.cos(axis), torch.zeros_like(axis)], dim=1)
     side = torch.sign(((centre - clip.pose.p) * across).sum(dim=1, keepdim=True))
-    unit = torch.stack([torch.cos(axis), torch.sin(axis), torch.zeros_like(axis)], dim=1)
-    away = torch.sign(((clip.pose.p - previous_clip.pose.p) * unit).sum(dim=1, keepdim=True))
-    stage = clip.pose.p + side * STAGE_OFFSET * across - away * STAGE_BACK * unit
+    stage = clip.pose.p + side * STAGE_OFFSET * across
     stage[:, 2] = radius + LOW_LIFT
     s.move({"arm": DrivenSolver.scissor_pose(stage, along, around=along)}, max_steps=60, pos_tol=0.004, rot_tol=0.03)
     over = clip.top + OVER_WALL + radius
