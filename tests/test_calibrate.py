@@ -153,6 +153,16 @@ def test_calibrate_resumes_after_a_kill(tmp_path, monkeypatch):
         with pytest.raises(ValueError, match="other settings"):
             calibrate(["PickPlacePen"], work, out, demos_dir=REPO / "demos", config=config, protocol=protocol,
                       progress=False)
+    # the purpose picks only the evaluation's seed set and folder: a development run of the same version trains
+    # nothing new (training seed 0, features and demos are the final run's) and evaluates into seed_0/development
+    kept = kept_files()
+    dev = calibrate(["PickPlacePen"], work, tmp_path / "dev", demos_dir=REPO / "demos", config=TINY,
+                    protocol=dataclasses.replace(TINY_PROTOCOL, purpose="development"), progress=False)
+    assert kept_files() == kept and dev["n_tasks"] == 1
+    dev_result = json.loads((tmp_path / "dev" / "PickPlacePen.json").read_text())
+    assert dev_result["purpose"] == "development" and set(dev_result["per_training_seed"]) == {"0"}
+    assert (task_dir / "seed_0" / "development" / "episodes.jsonl").is_file()
+    assert not (task_dir / "seed_1" / "development").exists()
     # a re-run of the finished task leaves its result file as it was (no new time stamp to commit)
     finished = (out / "PickPlacePen.json").read_bytes()
     calibrate(["PickPlacePen"], work, out, demos_dir=REPO / "demos", config=TINY, protocol=TINY_PROTOCOL, progress=False)

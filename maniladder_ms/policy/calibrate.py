@@ -215,13 +215,19 @@ class TaskCalibration:
 
     def _check_settings(self):
         """A work folder belongs to one configuration, declared episode count included: resuming with another
-        one would mix them (or grow the evaluation after its results were seen)."""
+        one would mix them (or grow the evaluation after its results were seen). The purpose is not part of it: it
+        picks only the evaluation's seed set and folder (`seed_<k>/<purpose>/`), so a task version's final run
+        evaluates the demos, features and training seed 0 its development runs trained, and trains seeds 1-2."""
         settings = self.settings()
         path = self.dir / "settings.json"
         if path.is_file():
             old = json.loads(path.read_text())
-            if old != settings:
-                diff = sorted(k for k in set(old) | set(settings) if old.get(k) != settings.get(k))
+
+            def shared(s: dict) -> dict:
+                return dict(s, calibration={k: v for k, v in s.get("calibration", {}).items() if k != "purpose"})
+
+            if shared(old) != shared(settings):
+                diff = sorted(k for k in set(old) | set(settings) if shared(old).get(k) != shared(settings).get(k))
                 raise ValueError(f"{self.dir} holds a calibration with other settings ({', '.join(diff)} differ; "
                                  f"{path}); give another --work folder or delete that one")
         else:
